@@ -1,0 +1,76 @@
+//! The engine at the default study size: exact active selection and one console step.
+//!
+//! cargo bench --bench engine
+
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use handover::SeededRng;
+use handover::belief::{Belief, ComponentPrior, Prior};
+use handover::ergo::{ConfigSet, FeasibleSet, Observation};
+use handover::select::{Active, OutcomeModel, Problem, Selector};
+use rand::{RngExt, SeedableRng};
+
+const D: usize = 7;
+
+fn belief(n: usize, rng: &mut SeededRng) -> Belief {
+    let u = |min, max| ComponentPrior::Uniform { min, max };
+    let prior = Prior::new(vec![u(-1.5, 1.5); D], vec![u(0.05, 1.0); D]).unwrap();
+    Belief::from_prior(&prior, n, rng).unwrap()
+}
+
+fn menu(queries: usize, configs: usize, rng: &mut SeededRng) -> Vec<FeasibleSet> {
+    (0..queries)
+        .map(|_| {
+            let rows: Vec<Vec<f64>> =
+                (0..configs).map(|_| (0..D).map(|_| rng.random_range(-2.0..2.0)).collect()).collect();
+            FeasibleSet::new(ConfigSet::from_rows(&rows).unwrap())
+        })
+        .collect()
+}
+
+fn select_active(c: &mut Criterion) {
+    let mut g = c.benchmark_group("select_active");
+    g.sample_size(10);
+    for (n, m) in [(2000, 1000), (5000, 2000)] {
+        let mut rng = SeededRng::seed_from_u64(1);
+        let b = belief(n, &mut rng);
+        let menu = menu(8, m, &mut rng);
+        let problem = Problem { belief: &b, menu: &menu, alpha: 10.0, outcomes: OutcomeModel::Configuration };
+        g.throughput(Throughput::Elements((n * 8 * m) as u64));
+        for threads in [1, 2] {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            g.bench_function(BenchmarkId::new(format!("{n}x8x{m}"), format!("{threads}-threads")), |bench| {
+                bench.iter(|| pool.install(|| Active.select(&problem, &mut rng).index))
+            });
+        }
+    }
+    g.finish();
+}
+
+fn console_step(c: &mut Criterion) {
+    let mut g = c.benchmark_group("console_step_study_size");
+    g.sample_size(10);
+    let mut rng = SeededRng::seed_from_u64(2);
+    let b = belief(2000, &mut rng);
+    let menu = menu(8, 1000, &mut rng);
+    let jitter = vec![0.03; 2 * D];
+    for threads in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        g.bench_function(format!("update_resample_select/{threads}-threads"), |bench| {
+            bench.iter(|| {
+                pool.install(|| {
+                    let mut b = b.clone();
+                    let mut rng = SeededRng::seed_from_u64(3);
+                    b.update(&menu[0], 10.0, &Observation::Config(17)).unwrap();
+                    b.resample(&jitter, &mut rng);
+                    let problem =
+                        Problem { belief: &b, menu: &menu, alpha: 10.0, outcomes: OutcomeModel::Configuration };
+                    Active.select(&problem, &mut rng).index
+                })
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, select_active, console_step);
+criterion_main!(benches);

@@ -1,0 +1,144 @@
+use rand::SeedableRng;
+
+use super::*;
+use crate::SeededRng;
+use crate::ergo::ConfigSet;
+
+fn lam(q: &[f64], w: &[f64]) -> Lambda {
+    Lambda { q_star: q.to_vec(), w: w.to_vec() }
+}
+
+fn set(rows: &[&[f64]]) -> FeasibleSet {
+    FeasibleSet::new(ConfigSet::from_rows(rows).unwrap())
+}
+
+#[test]
+fn update_matches_bayes_rule_by_hand() {
+    let mut b = Belief::from_particles(&[lam(&[0.0], &[1.0]), lam(&[2.0], &[1.0])], &[1.0, 1.0]).unwrap();
+    b.update(&set(&[&[0.0], &[2.0]]), 1.0, &Observation::Config(0)).unwrap();
+    let a = 1.0 / (1.0 + (-4.0f64).exp());
+    assert!((b.weights()[0] - a).abs() < 1e-15);
+    assert!((b.weights()[1] - (1.0 - a)).abs() < 1e-15);
+}
+
+#[test]
+fn each_particle_has_its_own_normaliser() {
+    // eq. 5: same q*, different w; the set {0, 1}. With one global normaliser the
+    // posterior would be proportional to e^0 for both and stay uniform.
+    let mut b = Belief::from_particles(&[lam(&[0.0], &[1.0]), lam(&[0.0], &[2.0])], &[1.0, 1.0]).unwrap();
+    b.update(&set(&[&[0.0], &[1.0]]), 1.0, &Observation::Config(0)).unwrap();
+    let (la, lb) = (1.0 / (1.0 + (-1.0f64).exp()), 1.0 / (1.0 + (-2.0f64).exp()));
+    assert!((b.weights()[0] - la / (la + lb)).abs() < 1e-15);
+    assert!((b.weights()[1] - lb / (la + lb)).abs() < 1e-15);
+}
+
+#[test]
+fn update_survives_costs_of_a_million() {
+    let mut b = Belief::from_particles(&[lam(&[0.0], &[1.0]), lam(&[1000.0], &[1.0])], &[1.0, 1.0]).unwrap();
+    b.update(&set(&[&[0.0], &[1000.0]]), 1.0, &Observation::Config(1)).unwrap();
+    assert!(b.weights().iter().all(|w| w.is_finite()));
+    assert_eq!(b.weights()[1], 1.0);
+}
+
+#[test]
+fn ess_of_uniform_weights_is_n_and_of_a_point_mass_is_one() {
+    let b = Belief::from_particles(&[lam(&[0.0], &[1.0]), lam(&[1.0], &[1.0])], &[1.0, 1.0]).unwrap();
+    assert!((b.ess() - 2.0).abs() < 1e-12);
+    let b = Belief::from_particles(&[lam(&[0.0], &[1.0]), lam(&[1.0], &[1.0])], &[0.0, 3.0]).unwrap();
+    assert!((b.ess() - 1.0).abs() < 1e-12);
+}
+
+#[test]
+fn gridded_entropy_and_mode_by_hand() {
+    let ps = [lam(&[0.1], &[1.0]), lam(&[0.2], &[1.0]), lam(&[1.5], &[1.0])];
+    let b = Belief::from_particles(&ps, &[0.3, 0.3, 0.4]).unwrap();
+    let grid = Grid::new(vec![1.0, 1.0]).unwrap();
+    let h = b.entropy(&grid);
+    assert!((h - -(0.6f64 * 0.6f64.ln() + 0.4 * 0.4f64.ln())).abs() < 1e-15);
+    let mode = b.mode(&grid);
+    assert!((mode.q_star[0] - 0.15).abs() < 1e-15);
+    let mean = b.mean();
+    assert!((mean.q_star[0] - (0.03 + 0.06 + 0.6)).abs() < 1e-15);
+}
+
+#[test]
+fn entropy_of_one_cell_is_zero() {
+    let b = Belief::from_particles(&[lam(&[0.1], &[1.0]), lam(&[0.2], &[1.0])], &[0.0, 1.0]).unwrap();
+    assert_eq!(b.entropy(&Grid::new(vec![1.0, 1.0]).unwrap()), 0.0);
+}
+
+#[test]
+fn systematic_resampling_copies_the_heavy_particle() {
+    let ps = [lam(&[0.0], &[1.0]), lam(&[1.0], &[1.0]), lam(&[2.0], &[1.0])];
+    let mut b = Belief::from_particles(&ps, &[0.0, 1.0, 0.0]).unwrap();
+    b.resample(&[0.0, 0.0], &mut SeededRng::seed_from_u64(3));
+    for i in 0..3 {
+        assert_eq!(b.particle(i), &[1.0, 1.0]);
+    }
+    assert!(b.weights().iter().all(|&w| (w - 1.0 / 3.0).abs() < 1e-15));
+}
+
+#[test]
+fn jitter_stays_inside_the_prior_support() {
+    let prior =
+        Prior::new(vec![ComponentPrior::Uniform { min: 0.0, max: 0.1 }], vec![ComponentPrior::Fixed { value: 1.0 }])
+            .unwrap();
+    let mut rng = SeededRng::seed_from_u64(9);
+    let mut b = Belief::from_prior(&prior, 500, &mut rng).unwrap();
+    b.resample(&[1.0, 1.0], &mut rng);
+    for i in 0..b.len() {
+        let p = b.particle(i);
+        assert!((0.0..=0.1).contains(&p[0]), "{p:?}");
+        assert_eq!(p[1], 1.0, "a fixed component is never jittered");
+    }
+}
+
+#[test]
+fn ess_policy_resamples_only_below_threshold() {
+    let ps = [lam(&[0.0], &[1.0]), lam(&[1.0], &[1.0])];
+    let mut b = Belief::from_particles(&ps, &[1.0, 1.0]).unwrap();
+    let mut rng = SeededRng::seed_from_u64(1);
+    assert!(!b.maybe_resample(ResamplePolicy::EssBelow { fraction: 0.5 }, &[0.0, 0.0], &mut rng));
+    let mut b = Belief::from_particles(&ps, &[1.0, 0.0]).unwrap();
+    assert!(b.maybe_resample(ResamplePolicy::EssBelow { fraction: 0.9 }, &[0.0, 0.0], &mut rng));
+    assert_eq!(b.particle(1), &[0.0, 1.0]);
+}
+
+#[test]
+fn density_of_a_single_particle_at_itself() {
+    let b = Belief::from_particles(&[lam(&[0.5], &[1.0])], &[1.0]).unwrap();
+    // Both components are free for explicit particles: two unit-height Gaussians.
+    let h = [0.1, 0.2];
+    let want = 1.0 / (0.1 * 0.2 * 2.0 * std::f64::consts::PI);
+    assert!((b.density_at(&lam(&[0.5], &[1.0]), &h) - want).abs() < 1e-9);
+    assert!((b.distance(&lam(&[0.5], &[1.0]), &lam(&[0.5], &[3.0])) - 2.0).abs() < 1e-15);
+}
+
+#[test]
+fn test_metrics_by_hand() {
+    let s = set(&[&[0.0], &[1.0]]);
+    let truth = lam(&[0.0], &[1.0]);
+    // P = [1, e^-1] / (1 + e^-1); E[C] = e^-1 / (1 + e^-1).
+    let e = (-1.0f64).exp();
+    assert!((true_cost(&s, &truth, 1.0) - e / (1.0 + e)).abs() < 1e-15);
+    let tests = vec![TestExample { set: s.clone(), observation: Observation::Config(0) }];
+    let ll = test_log_likelihood(&truth, &tests, 1.0).unwrap();
+    assert!((ll - (1.0 / (1.0 + e)).ln()).abs() < 1e-15);
+    let b = Belief::from_particles(&[truth.clone(), lam(&[1.0], &[1.0])], &[1.0, 1.0]).unwrap();
+    let pp = posterior_predictive_log_likelihood(&b, &tests, 1.0).unwrap();
+    assert!((pp - (0.5f64).ln()).abs() < 1e-15, "mixture of a and 1 - a is 1/2: {pp}");
+}
+
+#[test]
+fn bad_particles_are_refused() {
+    assert_eq!(Belief::from_particles(&[], &[]), Err(BeliefError::NoParticles));
+    assert_eq!(
+        Belief::from_particles(&[lam(&[0.0], &[1.0])], &[-1.0]),
+        Err(BeliefError::BadWeight { index: 0, weight: -1.0 })
+    );
+    assert_eq!(Belief::from_particles(&[lam(&[0.0], &[1.0])], &[0.0]), Err(BeliefError::AllZeroWeights));
+    assert!(matches!(
+        Belief::from_particles(&[lam(&[0.0], &[1.0]), lam(&[0.0, 1.0], &[1.0, 1.0])], &[1.0, 1.0]),
+        Err(BeliefError::BadParticle { index: 1, .. })
+    ));
+}

@@ -1,0 +1,179 @@
+//! Feasible sets of arm configurations, stored joint-major for fast cost evaluation.
+
+use std::ops::Range;
+
+/// Why a set of configurations was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ConfigSetError {
+    #[error("a feasible set needs at least one configuration")]
+    Empty,
+    #[error("configuration {index} has {found} joints, expected {expected}")]
+    DimensionMismatch { index: usize, found: usize, expected: usize },
+    #[error("configuration {index} joint {joint} is {value}, expected a finite number")]
+    NonFinite { index: usize, joint: usize, value: f64 },
+    #[error("{found} region labels for {expected} configurations")]
+    LabelCount { found: usize, expected: usize },
+    #[error("configurations of region {region} are not contiguous (configuration {index})")]
+    RegionsNotContiguous { region: usize, index: usize },
+}
+
+/// A non-empty set of configurations of D joints.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ConfigSet {
+    dim: usize,
+    len: usize,
+    /// Joint-major: joint d of configuration j is `data[d * len + j]`.
+    data: Vec<f64>,
+}
+
+impl ConfigSet {
+    /// Builds a set from configurations given one per row.
+    pub fn from_rows<R: AsRef<[f64]>>(rows: &[R]) -> Result<Self, ConfigSetError> {
+        let first = rows.first().ok_or(ConfigSetError::Empty)?;
+        let dim = first.as_ref().len();
+        let len = rows.len();
+        let mut data = vec![0.0; dim * len];
+        for (j, row) in rows.iter().enumerate() {
+            let row = row.as_ref();
+            if row.len() != dim {
+                return Err(ConfigSetError::DimensionMismatch { index: j, found: row.len(), expected: dim });
+            }
+            for (d, &v) in row.iter().enumerate() {
+                if !v.is_finite() {
+                    return Err(ConfigSetError::NonFinite { index: j, joint: d, value: v });
+                }
+                data[d * len + j] = v;
+            }
+        }
+        Ok(Self { dim, len, data })
+    }
+
+    /// Number of joints D.
+    pub fn dim(&self) -> usize {
+        self.dim
+    }
+
+    /// Number of configurations (never zero).
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Always false: a set holds at least one configuration.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Joint d of every configuration.
+    pub fn joint(&self, d: usize) -> &[f64] {
+        &self.data[d * self.len..(d + 1) * self.len]
+    }
+
+    /// Configuration j as a vector of D joint angles.
+    pub fn config(&self, j: usize) -> Vec<f64> {
+        (0..self.dim).map(|d| self.data[d * self.len + j]).collect()
+    }
+}
+
+/// A query's feasible set: its configurations and, for each, the region (handle) it grasps.
+///
+/// Configurations of one region are contiguous, so a region is a range of indices.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FeasibleSet {
+    configs: ConfigSet,
+    regions: Vec<Range<usize>>,
+}
+
+impl FeasibleSet {
+    /// A set in which every configuration is its own outcome and all form one region.
+    pub fn new(configs: ConfigSet) -> Self {
+        let regions = std::iter::once(0..configs.len()).collect();
+        Self { configs, regions }
+    }
+
+    /// A set with region labels 0..R, one per configuration, grouped contiguously.
+    pub fn with_regions(configs: ConfigSet, labels: &[usize]) -> Result<Self, ConfigSetError> {
+        if labels.len() != configs.len() {
+            return Err(ConfigSetError::LabelCount { found: labels.len(), expected: configs.len() });
+        }
+        let count = labels.iter().copied().max().map_or(0, |m| m + 1);
+        let mut regions = vec![0..0; count];
+        let mut seen = vec![false; count];
+        let mut start = 0;
+        for j in 1..=labels.len() {
+            if j == labels.len() || labels[j] != labels[start] {
+                let r = labels[start];
+                if seen[r] {
+                    return Err(ConfigSetError::RegionsNotContiguous { region: r, index: start });
+                }
+                seen[r] = true;
+                regions[r] = start..j;
+                start = j;
+            }
+        }
+        Ok(Self { configs, regions })
+    }
+
+    pub fn configs(&self) -> &ConfigSet {
+        &self.configs
+    }
+
+    /// The index range of each region; a region with no configuration is an empty range.
+    pub fn regions(&self) -> &[Range<usize>] {
+        &self.regions
+    }
+
+    /// The region that configuration j belongs to.
+    pub fn region_of(&self, j: usize) -> usize {
+        self.regions.iter().position(|r| r.contains(&j)).unwrap_or(0)
+    }
+
+    pub fn len(&self) -> usize {
+        self.configs.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.configs.is_empty()
+    }
+
+    pub fn dim(&self) -> usize {
+        self.configs.dim()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rows_are_stored_and_read_back() {
+        let s = ConfigSet::from_rows(&[vec![1.0, 2.0], vec![3.0, 4.0], vec![5.0, 6.0]]).unwrap();
+        assert_eq!(s.joint(1), &[2.0, 4.0, 6.0]);
+        assert_eq!(s.config(2), vec![5.0, 6.0]);
+    }
+
+    #[test]
+    fn bad_sets_are_refused_with_their_facts() {
+        let empty: Vec<Vec<f64>> = vec![];
+        assert_eq!(ConfigSet::from_rows(&empty), Err(ConfigSetError::Empty));
+        assert_eq!(
+            ConfigSet::from_rows(&[vec![1.0, 2.0], vec![3.0]]),
+            Err(ConfigSetError::DimensionMismatch { index: 1, found: 1, expected: 2 })
+        );
+        assert!(matches!(
+            ConfigSet::from_rows(&[vec![f64::NAN]]),
+            Err(ConfigSetError::NonFinite { index: 0, joint: 0, .. })
+        ));
+    }
+
+    #[test]
+    fn regions_must_be_contiguous() {
+        let c = ConfigSet::from_rows(&[[0.0], [1.0], [2.0]]).unwrap();
+        let s = FeasibleSet::with_regions(c.clone(), &[0, 0, 1]).unwrap();
+        assert_eq!(s.regions(), &[0..2, 2..3]);
+        assert_eq!(s.region_of(2), 1);
+        assert!(matches!(
+            FeasibleSet::with_regions(c, &[0, 1, 0]),
+            Err(ConfigSetError::RegionsNotContiguous { region: 0, index: 2 })
+        ));
+    }
+}

@@ -1,0 +1,245 @@
+//! Cost and Boltzmann likelihood of a person's choice (eq. 1–3), and the per-particle pass
+//! over a feasible set that the belief update and the selectors share.
+
+use super::config_set::ConfigSet;
+use super::numeric::{LANES, exp_nonpositive, sum_lanes};
+use super::{FeasibleSet, Lambda};
+
+/// C(q; λ) = Σ_d w_d (q_d − q*_d)² (eq. 2 with W = diag(w)).
+pub fn cost(q: &[f64], q_star: &[f64], w: &[f64]) -> f64 {
+    let mut c = 0.0;
+    for d in 0..q.len() {
+        let t = q[d] - q_star[d];
+        c += w[d] * t * t;
+    }
+    c
+}
+
+/// What was observed of the person's choice.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Observation {
+    /// The configuration itself (an index into the feasible set).
+    Config(usize),
+    /// Only that the choice lies in this subset (the handle grabbed), as indices.
+    Region(Vec<usize>),
+}
+
+/// Why an observation does not fit its feasible set.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ObservationError {
+    #[error("configuration index {index} is out of range (the set has {len})")]
+    IndexOutOfRange { index: usize, len: usize },
+    #[error("a region observation needs at least one configuration")]
+    EmptyRegion,
+}
+
+impl Observation {
+    /// Checks the indices against a set of `len` configurations.
+    pub fn check(&self, len: usize) -> Result<(), ObservationError> {
+        match self {
+            Observation::Config(i) if *i >= len => Err(ObservationError::IndexOutOfRange { index: *i, len }),
+            Observation::Config(_) => Ok(()),
+            Observation::Region(r) if r.is_empty() => Err(ObservationError::EmptyRegion),
+            Observation::Region(r) => match r.iter().find(|&&i| i >= len) {
+                Some(&index) => Err(ObservationError::IndexOutOfRange { index, len }),
+                None => Ok(()),
+            },
+        }
+    }
+}
+
+/// Log-likelihood of an observation given λ: for a configuration,
+/// log P(q | Q, λ) = −αC(q) − logsumexp_{q̂∈Q}(−αC(q̂)) (eq. 1 and 3); for a region R ⊂ Q,
+/// log Σ_{q∈R} P(q | Q, λ). Finite whenever the true value is, for costs up to 1e6 and beyond.
+pub fn log_likelihood(
+    set: &FeasibleSet,
+    lambda: &Lambda,
+    alpha: f64,
+    obs: &Observation,
+) -> Result<f64, ObservationError> {
+    obs.check(set.len())?;
+    let mut scratch = SetPass::scratch(set.len());
+    let pass = SetPass::run(set.configs(), &lambda.q_star, &lambda.w, alpha, &mut scratch);
+    Ok(pass.log_likelihood(obs, alpha, &scratch))
+}
+
+/// Buffers reused across particles: the costs and the shifted exponentials of one pass.
+#[derive(Clone, Debug)]
+pub struct Scratch {
+    pub costs: Vec<f64>,
+    pub exps: Vec<f64>,
+}
+
+/// One particle evaluated on one feasible set.
+///
+/// After [`SetPass::run`], `scratch.costs[j]` = C(q_j; λ) and
+/// `scratch.exps[j]` = exp(−α (C(q_j) − min C)), so P(q_j | Q, λ) = exps[j] / sum.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SetPass {
+    /// min_q C(q; λ) over the set (eq. 10's inner minimum).
+    pub min_cost: f64,
+    /// The lowest index attaining it: the maximum-likelihood configuration.
+    pub argmin: usize,
+    /// Σ_j exps[j] (≥ 1).
+    pub sum: f64,
+    /// Σ_j exps[j] · (−α (C_j − min C)), for the entropy of the choice.
+    pub sum_exp_logit: f64,
+}
+
+impl SetPass {
+    pub fn scratch(len: usize) -> Scratch {
+        Scratch { costs: vec![0.0; len], exps: vec![0.0; len] }
+    }
+
+    /// Evaluates every configuration's cost and Boltzmann weight under (q*, w, α).
+    pub fn run(set: &ConfigSet, q_star: &[f64], w: &[f64], alpha: f64, scratch: &mut Scratch) -> SetPass {
+        scratch.costs.resize(set.len(), 0.0);
+        scratch.exps.resize(set.len(), 0.0);
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2, checked just above.
+                return unsafe { run_avx2(set, q_star, w, alpha, scratch) };
+            }
+        }
+        run_body(set, q_star, w, alpha, scratch)
+    }
+
+    /// log Σ_j exp(−α C_j): the particle's own normaliser (eq. 5).
+    pub fn log_norm(&self, alpha: f64) -> f64 {
+        -alpha * self.min_cost + self.sum.ln()
+    }
+
+    /// Entropy (nats) of the person's choice among the configurations.
+    pub fn config_entropy(&self) -> f64 {
+        (self.sum.ln() - self.sum_exp_logit / self.sum).max(0.0)
+    }
+
+    /// log P(observation | Q, λ) from this pass.
+    pub fn log_likelihood(&self, obs: &Observation, alpha: f64, scratch: &Scratch) -> f64 {
+        match obs {
+            Observation::Config(j) => -alpha * (scratch.costs[*j] - self.min_cost) - self.sum.ln(),
+            Observation::Region(idx) => {
+                // log Σ_{j∈R} exp(ℓ_j) − log S, with ℓ_j = −α (C_j − min C), taken from the
+                // costs so that it stays finite when every exps[j] of R underflows.
+                let max =
+                    idx.iter().map(|&j| -alpha * (scratch.costs[j] - self.min_cost)).fold(f64::NEG_INFINITY, f64::max);
+                let s: f64 =
+                    idx.iter().map(|&j| exp_nonpositive(-alpha * (scratch.costs[j] - self.min_cost) - max)).sum();
+                max + s.ln() - self.sum.ln()
+            }
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn run_avx2(set: &ConfigSet, q_star: &[f64], w: &[f64], alpha: f64, scratch: &mut Scratch) -> SetPass {
+    run_body(set, q_star, w, alpha, scratch)
+}
+
+#[inline(always)]
+fn run_body(set: &ConfigSet, q_star: &[f64], w: &[f64], alpha: f64, scratch: &mut Scratch) -> SetPass {
+    let costs = &mut scratch.costs[..];
+    let exps = &mut scratch.exps[..];
+    costs.fill(0.0);
+    for d in 0..set.dim() {
+        let (qs, wd) = (q_star[d], w[d]);
+        for (c, &q) in costs.iter_mut().zip(set.joint(d)) {
+            let t = q - qs;
+            *c += wd * t * t;
+        }
+    }
+    let mut mins = [f64::INFINITY; LANES];
+    let mut chunks = costs.chunks_exact(LANES);
+    for chunk in &mut chunks {
+        for k in 0..LANES {
+            mins[k] = mins[k].min(chunk[k]);
+        }
+    }
+    let mut min_cost = chunks.remainder().iter().copied().fold(f64::INFINITY, f64::min);
+    for m in mins {
+        min_cost = min_cost.min(m);
+    }
+    let argmin = costs.iter().position(|&c| c == min_cost).unwrap_or(0);
+
+    for (e, &c) in exps.iter_mut().zip(costs.iter()) {
+        *e = exp_nonpositive(-alpha * (c - min_cost));
+    }
+    let mut sums = [0.0; LANES];
+    let mut sums_el = [0.0; LANES];
+    let mut cc = costs.chunks_exact(LANES);
+    let mut ee = exps.chunks_exact(LANES);
+    for (c, e) in (&mut cc).zip(&mut ee) {
+        for k in 0..LANES {
+            sums[k] += e[k];
+            sums_el[k] += e[k] * (-alpha * (c[k] - min_cost));
+        }
+    }
+    for (k, (c, e)) in cc.remainder().iter().zip(ee.remainder()).enumerate() {
+        sums[k] += e;
+        sums_el[k] += e * (-alpha * (c - min_cost));
+    }
+    SetPass { min_cost, argmin, sum: sum_lanes(sums), sum_exp_logit: sum_lanes(sums_el) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn set(rows: &[&[f64]]) -> FeasibleSet {
+        FeasibleSet::new(ConfigSet::from_rows(rows).unwrap())
+    }
+
+    #[test]
+    fn cost_is_weighted_squared_distance() {
+        // (1-0)^2 * 2 + (3-1)^2 * 0.5 = 2 + 2 = 4
+        assert_eq!(cost(&[1.0, 3.0], &[0.0, 1.0], &[2.0, 0.5]), 4.0);
+    }
+
+    #[test]
+    fn likelihood_matches_hand_computed_boltzmann() {
+        // q* = 0, w = 1, α = 2; costs 0, 1, 4 → P ∝ e^0, e^-2, e^-8.
+        let s = set(&[&[0.0], &[1.0], &[2.0]]);
+        let l = Lambda { q_star: vec![0.0], w: vec![1.0] };
+        let z = 1.0 + (-2.0f64).exp() + (-8.0f64).exp();
+        let got = log_likelihood(&s, &l, 2.0, &Observation::Config(1)).unwrap();
+        assert!((got - ((-2.0f64).exp() / z).ln()).abs() < 1e-14);
+        let region = log_likelihood(&s, &l, 2.0, &Observation::Region(vec![1, 2])).unwrap();
+        assert!((region - (((-2.0f64).exp() + (-8.0f64).exp()) / z).ln()).abs() < 1e-14);
+    }
+
+    #[test]
+    fn likelihood_stays_finite_for_huge_costs() {
+        // Costs 0 and 1e6 with α = 1: log P of the far one is exactly −1e6 (to rounding).
+        let s = set(&[&[0.0], &[1000.0]]);
+        let l = Lambda { q_star: vec![0.0], w: vec![1.0] };
+        let far = log_likelihood(&s, &l, 1.0, &Observation::Config(1)).unwrap();
+        assert!((far + 1e6).abs() < 1e-6, "{far}");
+        let region = log_likelihood(&s, &l, 1.0, &Observation::Region(vec![1])).unwrap();
+        assert!((region + 1e6).abs() < 1e-6, "{region}");
+        let near = log_likelihood(&s, &l, 1.0, &Observation::Config(0)).unwrap();
+        assert_eq!(near, 0.0);
+    }
+
+    #[test]
+    fn pass_entropy_of_uniform_choice_is_log_n() {
+        let s = set(&[&[1.0], &[-1.0], &[1.0], &[-1.0]]);
+        let mut sc = SetPass::scratch(4);
+        let p = SetPass::run(s.configs(), &[0.0], &[1.0], 3.0, &mut sc);
+        assert!((p.config_entropy() - 4.0f64.ln()).abs() < 1e-14);
+        assert_eq!(p.argmin, 0);
+        assert_eq!(p.min_cost, 1.0);
+    }
+
+    #[test]
+    fn bad_observations_are_refused() {
+        let s = set(&[&[0.0]]);
+        let l = Lambda { q_star: vec![0.0], w: vec![1.0] };
+        assert_eq!(
+            log_likelihood(&s, &l, 1.0, &Observation::Config(3)),
+            Err(ObservationError::IndexOutOfRange { index: 3, len: 1 })
+        );
+        assert_eq!(log_likelihood(&s, &l, 1.0, &Observation::Region(vec![])), Err(ObservationError::EmptyRegion));
+    }
+}

@@ -1,0 +1,16 @@
+//! The ergonomic cost model of the paper's section III-B.
+//!
+//! λ = [q*, w] over D joints; the cost of a configuration q is
+//! C(q; λ) = Σ_d w_d (q_d − q*_d)² (eq. 2 with W = diag(w)), and a person chooses q from a
+//! feasible set with Boltzmann probability ∝ exp(−α C(q; λ)) (eq. 1; eq. 3 normalised over
+//! the set, with the α that the paper's eq. 3 drops).
+
+mod config_set;
+mod lambda;
+mod likelihood;
+mod numeric;
+
+pub use config_set::{ConfigSet, ConfigSetError, FeasibleSet};
+pub use lambda::{Lambda, LearnMask};
+pub use likelihood::{Observation, ObservationError, Scratch, SetPass, cost, log_likelihood};
+pub use numeric::{exp_nonpositive, log_sum_exp, xlogx};

@@ -1,0 +1,18 @@
+//! The `handover` command line: parse, dispatch, map errors to exit codes.
+
+mod cli;
+
+use std::process::ExitCode;
+
+use clap::Parser;
+
+fn main() -> ExitCode {
+    let args = cli::Cli::parse();
+    match cli::run(args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("handover: {err:#}");
+            if err.chain().any(|e| e.is::<cli::BadInput>()) { ExitCode::from(2) } else { ExitCode::from(1) }
+        }
+    }
+}

@@ -1,0 +1,198 @@
+//! Query selection (section III-D/E): which robot action to offer next.
+//!
+//! Five selectors behind one trait. All are deterministic given their RNG, and ties go to
+//! the earliest menu item.
+
+mod information;
+mod paper;
+
+use rand::RngExt;
+use serde::{Deserialize, Serialize};
+
+use crate::SeededRng;
+use crate::belief::{Belief, Grid};
+use crate::ergo::FeasibleSet;
+
+pub use information::{QueryValue, query_value};
+pub use paper::information_gain_paper;
+
+/// What the robot observes of the person's choice, and so what an outcome is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum OutcomeModel {
+    /// The configuration (measured, or mapped from the handle by a label model).
+    Configuration,
+    /// Only the region (handle) grabbed.
+    Region,
+}
+
+/// The belief, the menu and the choice model a selector decides from.
+#[derive(Clone, Copy)]
+pub struct Problem<'a> {
+    pub belief: &'a Belief,
+    pub menu: &'a [FeasibleSet],
+    pub alpha: f64,
+    pub outcomes: OutcomeModel,
+}
+
+/// A selector's choice and its criterion for every menu item (higher is better, except
+/// for `passive`, where it is the expected cost and lower is better).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Selection {
+    pub index: usize,
+    pub criterion: Vec<f64>,
+}
+
+/// A query-selection rule.
+pub trait Selector: Send + Sync {
+    /// Its name on the command line and in logs.
+    fn name(&self) -> &'static str;
+    /// Chooses a menu item.
+    fn select(&self, problem: &Problem, rng: &mut SeededRng) -> Selection;
+}
+
+/// Information gain and expected cost of every menu item.
+pub fn menu_values(problem: &Problem) -> Vec<QueryValue> {
+    problem.menu.iter().map(|set| query_value(problem.belief, set, problem.alpha, problem.outcomes)).collect()
+}
+
+/// Index of the largest value; the earliest on ties.
+pub fn argmax(values: &[f64]) -> usize {
+    let mut best = 0;
+    for (i, &v) in values.iter().enumerate() {
+        if v > values[best] {
+            best = i;
+        }
+    }
+    best
+}
+
+/// `active`: maximises the exact mutual information between λ and the choice.
+pub struct Active;
+
+impl Selector for Active {
+    fn name(&self) -> &'static str {
+        "active"
+    }
+    fn select(&self, problem: &Problem, _: &mut SeededRng) -> Selection {
+        let criterion: Vec<f64> = menu_values(problem).iter().map(|v| v.information_gain).collect();
+        Selection { index: argmax(&criterion), criterion }
+    }
+}
+
+/// `active-paper`: maximises eq. 8 (eq. 9).
+pub struct ActivePaper {
+    pub grid: Grid,
+}
+
+impl Selector for ActivePaper {
+    fn name(&self) -> &'static str {
+        "active-paper"
+    }
+    fn select(&self, problem: &Problem, _: &mut SeededRng) -> Selection {
+        let criterion: Vec<f64> = problem
+            .menu
+            .iter()
+            .map(|set| information_gain_paper(problem.belief, set, problem.alpha, problem.outcomes, &self.grid))
+            .collect();
+        Selection { index: argmax(&criterion), criterion }
+    }
+}
+
+/// `passive`: minimises the expected cost Σ_i ω_i min_q C(q; λ_i) (eq. 10–11).
+pub struct Passive;
+
+impl Selector for Passive {
+    fn name(&self) -> &'static str {
+        "passive"
+    }
+    fn select(&self, problem: &Problem, _: &mut SeededRng) -> Selection {
+        let criterion: Vec<f64> = menu_values(problem).iter().map(|v| v.expected_cost).collect();
+        let negated: Vec<f64> = criterion.iter().map(|c| -c).collect();
+        Selection { index: argmax(&negated), criterion }
+    }
+}
+
+/// `random`: a uniformly random menu item.
+pub struct Random;
+
+impl Selector for Random {
+    fn name(&self) -> &'static str {
+        "random"
+    }
+    fn select(&self, problem: &Problem, rng: &mut SeededRng) -> Selection {
+        let n = problem.menu.len();
+        Selection { index: rng.random_range(0..n), criterion: vec![1.0 / n as f64; n] }
+    }
+}
+
+/// `hybrid`: maximises I − β·E[cost], trading learning against comfort (the paper's
+/// footnote 1); β = 0 is `active`.
+pub struct Hybrid {
+    pub beta: f64,
+}
+
+impl Selector for Hybrid {
+    fn name(&self) -> &'static str {
+        "hybrid"
+    }
+    fn select(&self, problem: &Problem, _: &mut SeededRng) -> Selection {
+        let criterion: Vec<f64> =
+            menu_values(problem).iter().map(|v| v.information_gain - self.beta * v.expected_cost).collect();
+        Selection { index: argmax(&criterion), criterion }
+    }
+}
+
+/// The selectors by name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SelectorKind {
+    Active,
+    ActivePaper,
+    Passive,
+    Random,
+    Hybrid,
+}
+
+impl SelectorKind {
+    pub const ALL: [SelectorKind; 5] = [
+        SelectorKind::Active,
+        SelectorKind::ActivePaper,
+        SelectorKind::Passive,
+        SelectorKind::Random,
+        SelectorKind::Hybrid,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            SelectorKind::Active => "active",
+            SelectorKind::ActivePaper => "active-paper",
+            SelectorKind::Passive => "passive",
+            SelectorKind::Random => "random",
+            SelectorKind::Hybrid => "hybrid",
+        }
+    }
+
+    /// The selector, with the grid `active-paper` needs and the β of `hybrid`.
+    pub fn build(self, grid: &Grid, beta: f64) -> Box<dyn Selector> {
+        match self {
+            SelectorKind::Active => Box::new(Active),
+            SelectorKind::ActivePaper => Box::new(ActivePaper { grid: grid.clone() }),
+            SelectorKind::Passive => Box::new(Passive),
+            SelectorKind::Random => Box::new(Random),
+            SelectorKind::Hybrid => Box::new(Hybrid { beta }),
+        }
+    }
+}
+
+impl std::str::FromStr for SelectorKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL.into_iter().find(|k| k.name() == s).ok_or_else(|| {
+            format!("unknown selector '{s}': expected one of active, active-paper, passive, random, hybrid")
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests;
