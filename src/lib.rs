@@ -6,6 +6,9 @@
 
 pub mod belief;
 pub mod ergo;
+pub mod kinematics;
+pub mod plot;
+pub mod protocol;
 pub mod select;
 
 /// The one seeded generator type used for every random draw: reproducible across

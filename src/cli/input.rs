@@ -28,3 +28,11 @@ pub fn read_text(path: &Path) -> anyhow::Result<String> {
 pub fn parse_json<T: serde::de::DeserializeOwned>(text: &str, name: &str) -> anyhow::Result<T> {
     serde_json::from_str(text).map_err(|e| bad(format!("{name}: {e}")))
 }
+
+/// The protocol at `path`, or the embedded default; an invalid one is bad input.
+pub fn load_study(path: Option<&Path>) -> anyhow::Result<handover::protocol::Study> {
+    match path {
+        Some(p) => handover::protocol::Study::load(p).map_err(|e| bad(e.to_string())),
+        None => Ok(handover::protocol::Study::default_study()),
+    }
+}

@@ -3,6 +3,7 @@
 //!
 //! Exit codes: 0 success, 1 the work failed, 2 bad input or usage.
 
+mod feasible;
 mod input;
 mod score;
 
@@ -20,13 +21,17 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// The learning engine as a JSON tool: score a menu of queries, update a belief.
     Score(score::ScoreArgs),
+    /// The feasible arm configurations of a protocol's handover queries.
+    Feasible(feasible::FeasibleArgs),
 }
 
 /// Runs the chosen subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Score(args) => score::run(args),
+        Command::Feasible(args) => feasible::run(args),
     }
 }
 

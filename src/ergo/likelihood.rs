@@ -243,3 +243,38 @@ mod tests {
         assert_eq!(log_likelihood(&s, &l, 1.0, &Observation::Region(vec![])), Err(ObservationError::EmptyRegion));
     }
 }
+
+/// The label model of the user study (footnote 2): given the region the person grabbed,
+/// the most likely configuration in it under a stated λ, i.e. argmin of C(q; λ) over the
+/// region (the lowest index on ties). `None` for an empty region.
+pub fn most_likely_in_region(set: &FeasibleSet, region: usize, lambda: &Lambda) -> Option<usize> {
+    let range = set.regions().get(region)?.clone();
+    let configs = set.configs();
+    let mut best: Option<(usize, f64)> = None;
+    let mut q = vec![0.0; configs.dim()];
+    for j in range {
+        for (d, v) in q.iter_mut().enumerate() {
+            *v = configs.joint(d)[j];
+        }
+        let c = cost(&q, &lambda.q_star, &lambda.w);
+        if best.is_none_or(|(_, b)| c < b) {
+            best = Some((j, c));
+        }
+    }
+    best.map(|(j, _)| j)
+}
+
+#[cfg(test)]
+mod label_model_tests {
+    use super::*;
+
+    #[test]
+    fn label_model_picks_the_cheapest_configuration_of_the_grabbed_region() {
+        let configs = ConfigSet::from_rows(&[[0.0], [0.9], [0.2], [3.0], [1.1]]).unwrap();
+        let set = FeasibleSet::with_regions(configs, &[0, 0, 0, 1, 1]).unwrap();
+        let l = Lambda { q_star: vec![1.0], w: vec![1.0] };
+        assert_eq!(most_likely_in_region(&set, 0, &l), Some(1));
+        assert_eq!(most_likely_in_region(&set, 1, &l), Some(4));
+        assert_eq!(most_likely_in_region(&set, 2, &l), None);
+    }
+}

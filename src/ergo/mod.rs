@@ -12,5 +12,5 @@ mod numeric;
 
 pub use config_set::{ConfigSet, ConfigSetError, FeasibleSet};
 pub use lambda::{Lambda, LearnMask};
-pub use likelihood::{Observation, ObservationError, Scratch, SetPass, cost, log_likelihood};
+pub use likelihood::{Observation, ObservationError, Scratch, SetPass, cost, log_likelihood, most_likely_in_region};
 pub use numeric::{exp_nonpositive, log_sum_exp, xlogx};

@@ -1,0 +1,240 @@
+//! Analytic inverse kinematics of the 7-DoF arm by the swivel angle (Tolani et al. 2000).
+//!
+//! For a grasp frame: the wrist centre follows from the hand offset; the elbow flexion from
+//! the law of cosines; the elbow then lies on a circle about the shoulder–wrist axis,
+//! parameterised by the swivel angle φ (φ = 0: the elbow at its lowest, measured from the
+//! reference axis −z; if the shoulder–wrist axis is within 0.06° of −z the reference
+//! switches to +x). For each φ, the shoulder angles follow from the elbow and wrist
+//! positions and the wrist angles from the remaining orientation, each Euler decomposition
+//! with two branches: up to four solutions per φ, of which those inside the limits are kept.
+
+use nalgebra::{Isometry3, Matrix3, Vector3};
+
+use super::human_arm::{ArmConfig, HumanArm, ry, wrap_all};
+
+/// One IK solution and the swivel angle it was found at.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IkSolution {
+    pub q: ArmConfig,
+    pub swivel: f64,
+}
+
+/// Below this, a sine or cosine is treated as zero (a singular decomposition).
+const SINGULAR: f64 = 1e-12;
+
+/// The elbow circle for a wrist position.
+struct ElbowCircle {
+    centre: Vector3<f64>,
+    radius: f64,
+    u: Vector3<f64>,
+    v: Vector3<f64>,
+}
+
+impl ElbowCircle {
+    fn new(arm: &HumanArm, wrist: &Vector3<f64>) -> Option<Self> {
+        let (l1, l2) = (arm.upper_arm, arm.forearm);
+        let dist = wrist.norm();
+        if dist > l1 + l2 || dist < (l1 - l2).abs() || dist < 1e-9 {
+            return None;
+        }
+        let n = wrist / dist;
+        let cos_beta = ((l1 * l1 + dist * dist - l2 * l2) / (2.0 * l1 * dist)).clamp(-1.0, 1.0);
+        let sin_beta = (1.0 - cos_beta * cos_beta).max(0.0).sqrt();
+        let mut reference = Vector3::new(0.0, 0.0, -1.0);
+        let mut u = reference - reference.dot(&n) * n;
+        if u.norm() < 1e-3 {
+            reference = Vector3::new(1.0, 0.0, 0.0);
+            u = reference - reference.dot(&n) * n;
+        }
+        let u = u.normalize();
+        let v = n.cross(&u);
+        Some(Self { centre: n * (l1 * cos_beta), radius: l1 * sin_beta, u, v })
+    }
+}
+
+/// R = Ry(a) Rx(b) Rz(c): both branches of (a, b, c).
+fn decompose_yxz(r: &Matrix3<f64>) -> ([f64; 3], Option<[f64; 3]>) {
+    let sb = -r[(1, 2)];
+    let cb = r[(1, 0)].hypot(r[(1, 1)]);
+    if cb < SINGULAR {
+        return ([(-r[(2, 0)]).atan2(r[(0, 0)]), sb.atan2(0.0), 0.0], None);
+    }
+    let branch =
+        |cb: f64| [(r[(0, 2)] / cb).atan2(r[(2, 2)] / cb), sb.atan2(cb), (r[(1, 0)] / cb).atan2(r[(1, 1)] / cb)];
+    (branch(cb), Some(branch(-cb)))
+}
+
+/// R = Rz(c) Ry(a) Rx(b): both branches of (c, a, b).
+fn decompose_zyx(r: &Matrix3<f64>) -> ([f64; 3], Option<[f64; 3]>) {
+    let sa = -r[(2, 0)];
+    let ca = r[(2, 1)].hypot(r[(2, 2)]);
+    if ca < SINGULAR {
+        return ([(-r[(0, 1)]).atan2(r[(1, 1)]), sa.atan2(0.0), 0.0], None);
+    }
+    let branch =
+        |ca: f64| [(r[(1, 0)] / ca).atan2(r[(0, 0)] / ca), sa.atan2(ca), (r[(2, 1)] / ca).atan2(r[(2, 2)] / ca)];
+    (branch(ca), Some(branch(-ca)))
+}
+
+impl HumanArm {
+    /// The wrist centre for a grasp frame.
+    fn wrist_for(&self, grasp: &Isometry3<f64>) -> Vector3<f64> {
+        grasp.translation.vector + grasp.rotation * Vector3::new(0.0, 0.0, self.hand)
+    }
+
+    /// Every solution reaching `grasp` at the given swivel angles, inside the joint limits.
+    /// An unreachable grasp gives no solution.
+    pub fn inverse(&self, grasp: &Isometry3<f64>, swivels: &[f64]) -> Vec<IkSolution> {
+        let mut out = Vec::new();
+        let wrist = self.wrist_for(grasp);
+        let Some(circle) = ElbowCircle::new(self, &wrist) else {
+            return out;
+        };
+        let (l1, l2) = (self.upper_arm, self.forearm);
+        let cos_elbow = ((wrist.norm_squared() - l1 * l1 - l2 * l2) / (2.0 * l1 * l2)).clamp(-1.0, 1.0);
+        let elbow_flexion = cos_elbow.acos();
+        let r_hand: Matrix3<f64> = *grasp.rotation.to_rotation_matrix().matrix();
+        let mut elbows = vec![elbow_flexion];
+        if elbow_flexion > 0.0 && -elbow_flexion >= self.limits[3][0] {
+            elbows.push(-elbow_flexion);
+        }
+        for &phi in swivels {
+            let (s, c) = phi.sin_cos();
+            let radial = circle.u * c + circle.v * s;
+            let elbow = circle.centre + radial * circle.radius;
+            let d1 = elbow / l1;
+            let d2 = (wrist - elbow) / l2;
+            for &q3 in &elbows {
+                let (s3, c3) = q3.sin_cos();
+                // d2 = sin q3 · x_s + cos q3 · d1 (the forearm in the upper arm's x–z plane).
+                let x_s = if s3.abs() > 1e-9 { ((d2 - d1 * c3) / s3).normalize() } else { radial };
+                let z_s = -d1;
+                let y_s = z_s.cross(&x_s);
+                let r_shoulder = Matrix3::from_columns(&[x_s, y_s, z_s]);
+                let r_elbow = r_shoulder * ry(-q3);
+                let m = r_elbow.transpose() * r_hand;
+                let (s1, s2) = decompose_yxz(&r_shoulder);
+                let (w1, w2) = decompose_zyx(&m);
+                for sh in std::iter::once(s1).chain(s2) {
+                    for wr in std::iter::once(w1).chain(w2) {
+                        let q = wrap_all([-sh[0], -sh[1], sh[2], q3, wr[0], -wr[1], -wr[2]]);
+                        if self.within_limits(&q) {
+                            out.push(IkSolution { q, swivel: phi });
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Every solution over a swivel grid φ = 0, step, 2·step, … (one full turn, no repeated
+    /// endpoint).
+    pub fn inverse_grid(&self, grasp: &Isometry3<f64>, step: f64) -> Vec<IkSolution> {
+        self.inverse(grasp, &swivel_grid(step))
+    }
+
+    /// The swivel angle of a configuration (as [`HumanArm::inverse`] measures it).
+    pub fn swivel_angle(&self, q: &ArmConfig) -> Option<f64> {
+        let frames = self.forward(q);
+        let wrist = frames.wrist.translation.vector;
+        let elbow = frames.elbow.translation.vector;
+        let circle = ElbowCircle::new(self, &wrist)?;
+        let off = elbow - circle.centre;
+        Some(off.dot(&circle.v).atan2(off.dot(&circle.u)))
+    }
+}
+
+/// φ = 0, step, … below one full turn.
+pub fn swivel_grid(step: f64) -> Vec<f64> {
+    let n = (std::f64::consts::TAU / step).round().max(1.0) as usize;
+    (0..n).map(|k| k as f64 * std::f64::consts::TAU / n as f64).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::human_arm::JOINTS;
+    use proptest::prelude::*;
+
+    fn arm() -> HumanArm {
+        HumanArm::from_height(1.75).unwrap()
+    }
+
+    fn in_limits() -> impl Strategy<Value = ArmConfig> {
+        let a = arm();
+        let ranges: Vec<_> = a.limits.iter().map(|[lo, hi]| (lo + 1e-3)..(hi - 1e-3)).collect();
+        ranges.prop_map(|v| {
+            let mut q = [0.0; JOINTS];
+            q.copy_from_slice(&v);
+            q
+        })
+    }
+
+    fn pose_error(a: &Isometry3<f64>, b: &Isometry3<f64>) -> f64 {
+        let dp = (a.translation.vector - b.translation.vector).norm();
+        let dr = (a.rotation.to_rotation_matrix().matrix() - b.rotation.to_rotation_matrix().matrix()).abs().max();
+        dp.max(dr)
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(200))]
+
+        #[test]
+        fn every_solution_reproduces_the_grasp_and_respects_the_arm(q in in_limits()) {
+            let a = arm();
+            let grasp = a.forward(&q).hand;
+            let sols = a.inverse_grid(&grasp, 5f64.to_radians());
+            for s in &sols {
+                prop_assert!(pose_error(&a.forward(&s.q).hand, &grasp) < 1e-9, "{:?}", s);
+                prop_assert!(a.within_limits(&s.q));
+                let [sh, el, wr, _] = a.points(&s.q);
+                prop_assert!(((el - sh).norm() - a.upper_arm).abs() < 1e-12);
+                prop_assert!(((wr - el).norm() - a.forearm).abs() < 1e-12);
+            }
+        }
+
+        #[test]
+        fn a_configuration_is_found_again_at_its_own_swivel_angle(q in in_limits()) {
+            let a = arm();
+            prop_assume!(q[3] > 0.05); // a straight elbow leaves the swivel angle undefined
+            let phi = a.swivel_angle(&q).unwrap();
+            let sols = a.inverse(&a.forward(&q).hand, &[phi]);
+            let found = sols.iter().any(|s| s.q.iter().zip(&q).all(|(x, y)| (x - y).abs() < 1e-9));
+            prop_assert!(found, "{:?} not among {:?}", q, sols);
+        }
+    }
+
+    #[test]
+    fn unreachable_grasps_have_no_solution() {
+        let a = arm();
+        let far = Isometry3::translation(0.9, 0.0, 0.0);
+        assert!(a.inverse_grid(&far, 0.1).is_empty());
+    }
+
+    #[test]
+    fn no_nan_at_the_reference_singularity() {
+        // Wrist straight below the shoulder: the shoulder–wrist axis lies on the reference axis.
+        let a = arm();
+        let q = [0.0, 0.0, 0.0, 0.4, 0.0, 0.0, 0.0];
+        let grasp = a.forward(&q).hand;
+        let sols = a.inverse_grid(&grasp, 5f64.to_radians());
+        assert!(!sols.is_empty());
+        for s in &sols {
+            assert!(s.q.iter().all(|v| v.is_finite()));
+            assert!(pose_error(&a.forward(&s.q).hand, &grasp) < 1e-9);
+        }
+        // Fully stretched arm: the elbow circle has radius zero.
+        let straight = a.forward(&[0.3, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0]).hand;
+        for s in a.inverse_grid(&straight, 5f64.to_radians()) {
+            assert!(s.q.iter().all(|v| v.is_finite()));
+        }
+    }
+
+    #[test]
+    fn swivel_grid_has_no_repeated_endpoint() {
+        let g = swivel_grid(5f64.to_radians());
+        assert_eq!(g.len(), 72);
+        assert!(g[71] < std::f64::consts::TAU - 1e-9);
+    }
+}

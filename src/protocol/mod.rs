@@ -1,0 +1,137 @@
+//! Protocol files: the study as data (arm, objects, handover poses), parsed into typed
+//! values and validated with precise errors; the default protocol is embedded.
+
+mod validate;
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::kinematics::{ArmFeasibleSet, Discretisation, HumanArm, JOINTS, Object, Pose};
+
+pub use validate::{Problem, ProtocolError};
+
+/// The default study, embedded so that a bare `handover` runs.
+pub const DEFAULT_PROTOCOL: &str = include_str!("../../protocols/bike-handover.json");
+/// The name under which the embedded protocol is reported.
+pub const DEFAULT_PROTOCOL_NAME: &str = "protocols/bike-handover.json (embedded)";
+
+/// A protocol file as written.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Protocol {
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    pub arm: ArmSpec,
+    #[serde(default)]
+    pub discretisation: Discretisation,
+    pub objects: Vec<Object>,
+    /// The queries the robot may choose from during training.
+    pub training_menu: Vec<Query>,
+    /// The held-out queries of the test phase.
+    pub test_set: Vec<Query>,
+}
+
+/// The person's arm: from body height (Winter's fractions) or given directly.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ArmSpec {
+    #[serde(default)]
+    pub body_height_m: Option<f64>,
+    #[serde(default)]
+    pub upper_arm_m: Option<f64>,
+    #[serde(default)]
+    pub forearm_m: Option<f64>,
+    /// Wrist to grasp centre.
+    #[serde(default)]
+    pub hand_m: Option<f64>,
+    /// [min, max] per joint in degrees, in the documented joint order; default AAOS.
+    #[serde(default)]
+    pub limits_deg: Option<[[f64; 2]; JOINTS]>,
+}
+
+/// A robot query: an object at a handover pose in the person's shoulder frame, with the
+/// grip regions offered.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Query {
+    pub id: String,
+    pub object: String,
+    /// The pose's name, as the operator reads it.
+    #[serde(default)]
+    pub label: String,
+    /// The object's frame in the person's right-shoulder frame (x forward, y left, z up).
+    pub pose: Pose,
+    /// Offered grip regions by id; all of the object's when absent.
+    #[serde(default)]
+    pub regions: Option<Vec<String>>,
+}
+
+/// A validated protocol with everything derived from it.
+#[derive(Clone, Debug)]
+pub struct Study {
+    pub protocol: Protocol,
+    /// Where it was read from (for messages).
+    pub source_name: String,
+    pub arm: HumanArm,
+    pub training: Vec<ResolvedQuery>,
+    pub test: Vec<ResolvedQuery>,
+}
+
+/// A query with its object, offered regions and feasible set resolved.
+#[derive(Clone, Debug)]
+pub struct ResolvedQuery {
+    pub query: Query,
+    /// Index into the protocol's objects.
+    pub object: usize,
+    /// Indices into the object's regions, in the order offered.
+    pub regions: Vec<usize>,
+    pub feasible: ArmFeasibleSet,
+}
+
+impl Study {
+    /// Parses and validates protocol text; `name` is used in messages.
+    pub fn from_json(text: &str, name: &str) -> Result<Self, ProtocolError> {
+        let de = &mut serde_json::Deserializer::from_str(text);
+        let protocol: Protocol = serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            ProtocolError::new(
+                name,
+                vec![Problem {
+                    path: if path == "." { String::new() } else { path },
+                    message: e.into_inner().to_string(),
+                }],
+            )
+        })?;
+        validate::study(protocol, name)
+    }
+
+    /// Reads and validates a protocol file.
+    pub fn load(path: &Path) -> Result<Self, ProtocolError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            ProtocolError::new(&name, vec![Problem { path: String::new(), message: format!("cannot read: {e}") }])
+        })?;
+        Self::from_json(&text, &name)
+    }
+
+    /// The embedded default protocol.
+    pub fn default_study() -> Self {
+        Self::from_json(DEFAULT_PROTOCOL, DEFAULT_PROTOCOL_NAME).expect("the embedded protocol is valid (tested)")
+    }
+
+    /// Every query, training menu first.
+    pub fn all_queries(&self) -> impl Iterator<Item = &ResolvedQuery> {
+        self.training.iter().chain(&self.test)
+    }
+
+    /// A query by id.
+    pub fn query(&self, id: &str) -> Option<&ResolvedQuery> {
+        self.all_queries().find(|q| q.query.id == id)
+    }
+
+    pub fn object(&self, q: &ResolvedQuery) -> &Object {
+        &self.protocol.objects[q.object]
+    }
+}

@@ -1,0 +1,249 @@
+//! Validation of a parsed protocol: every problem with the field's path and what was expected.
+
+use std::collections::HashSet;
+use std::fmt;
+
+use super::{ArmSpec, Protocol, Query, ResolvedQuery, Study};
+use crate::kinematics::{HumanArm, JOINT_NAMES, Object, feasible_set};
+
+/// One problem in a protocol: where, and what was expected.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Problem {
+    /// JSON path of the field (e.g. `objects[1].regions[0].id`); empty for the whole file.
+    pub path: String,
+    pub message: String,
+}
+
+/// A protocol that cannot be used, with every problem found.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub struct ProtocolError {
+    pub file: String,
+    pub problems: Vec<Problem>,
+}
+
+impl ProtocolError {
+    pub fn new(file: &str, problems: Vec<Problem>) -> Self {
+        Self { file: file.to_string(), problems }
+    }
+}
+
+impl fmt::Display for ProtocolError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let n = self.problems.len();
+        write!(f, "{}: invalid protocol ({n} problem{})", self.file, if n == 1 { "" } else { "s" })?;
+        for p in &self.problems {
+            if p.path.is_empty() {
+                write!(f, "\n  - {}", p.message)?;
+            } else {
+                write!(f, "\n  - {}: {}", p.path, p.message)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+#[derive(Default)]
+struct Problems(Vec<Problem>);
+
+impl Problems {
+    fn add(&mut self, path: impl Into<String>, message: impl Into<String>) {
+        self.0.push(Problem { path: path.into(), message: message.into() });
+    }
+
+    fn finite(&mut self, path: &str, v: &[f64]) {
+        if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+            self.add(format!("{path}[{i}]"), format!("is {}, expected a finite number", v[i]));
+        }
+    }
+}
+
+fn arm(spec: &ArmSpec, p: &mut Problems) -> Option<HumanArm> {
+    let mut arm = match (spec.body_height_m, spec.upper_arm_m, spec.forearm_m, spec.hand_m) {
+        (Some(h), ..) => match HumanArm::from_height(h) {
+            Ok(a) => a,
+            Err(e) => {
+                p.add("arm.body_height_m", e.to_string());
+                return None;
+            }
+        },
+        (None, Some(u), Some(f), Some(h)) => HumanArm::with_lengths(u, f, h),
+        _ => {
+            p.add("arm", "expected body_height_m, or all of upper_arm_m, forearm_m and hand_m");
+            return None;
+        }
+    };
+    // Lengths given beside a body height override Winter's fractions.
+    arm.upper_arm = spec.upper_arm_m.unwrap_or(arm.upper_arm);
+    arm.forearm = spec.forearm_m.unwrap_or(arm.forearm);
+    arm.hand = spec.hand_m.unwrap_or(arm.hand);
+    if let Some(limits) = spec.limits_deg {
+        for (d, [lo, hi]) in limits.iter().copied().enumerate() {
+            if !(lo.is_finite() && hi.is_finite()) || lo > hi {
+                p.add(
+                    format!("arm.limits_deg[{d}]"),
+                    format!("{} limits are [{lo}, {hi}], expected finite min ≤ max", JOINT_NAMES[d]),
+                );
+            }
+        }
+        arm.limits = limits.map(|[a, b]| [a.to_radians(), b.to_radians()]);
+    }
+    match arm.validate() {
+        Ok(()) => Some(arm),
+        Err(e) => {
+            p.add("arm", e.to_string());
+            None
+        }
+    }
+}
+
+fn objects(objects: &[Object], p: &mut Problems) {
+    if objects.is_empty() {
+        p.add("objects", "is empty, expected at least one object");
+    }
+    let mut ids = HashSet::new();
+    for (i, o) in objects.iter().enumerate() {
+        let path = format!("objects[{i}]");
+        if !ids.insert(o.id.as_str()) {
+            p.add(format!("{path}.id"), format!("duplicate id '{}', expected unique object ids", o.id));
+        }
+        if o.regions.is_empty() {
+            p.add(format!("{path}.regions"), "is empty, expected at least one grip region");
+        }
+        let mut rids = HashSet::new();
+        for (k, r) in o.regions.iter().enumerate() {
+            let rpath = format!("{path}.regions[{k}]");
+            if !rids.insert(r.id.as_str()) {
+                p.add(format!("{rpath}.id"), format!("duplicate id '{}', expected unique region ids", r.id));
+            }
+            for (row, [lo, hi]) in r.tsr.bw.iter().copied().enumerate() {
+                if !(lo.is_finite() && hi.is_finite()) || lo > hi {
+                    p.add(format!("{rpath}.tsr.Bw[{row}]"), format!("is [{lo}, {hi}], expected finite min ≤ max"));
+                }
+            }
+            p.finite(&format!("{rpath}.tsr.T0_w.position"), &r.tsr.t0_w.position);
+            p.finite(&format!("{rpath}.tsr.T0_w.rpy_deg"), &r.tsr.t0_w.rpy_deg);
+            p.finite(&format!("{rpath}.tsr.Tw_e.position"), &r.tsr.tw_e.position);
+            p.finite(&format!("{rpath}.tsr.Tw_e.rpy_deg"), &r.tsr.tw_e.rpy_deg);
+        }
+    }
+}
+
+fn resolve(
+    list: &str,
+    queries: &[Query],
+    protocol: &Protocol,
+    arm: Option<&HumanArm>,
+    ids: &mut HashSet<String>,
+    p: &mut Problems,
+) -> Vec<ResolvedQuery> {
+    if queries.is_empty() {
+        p.add(list, "is empty, expected at least one query");
+    }
+    let mut out = Vec::new();
+    for (i, q) in queries.iter().enumerate() {
+        let path = format!("{list}[{i}]");
+        if !ids.insert(q.id.clone()) {
+            p.add(
+                format!("{path}.id"),
+                format!("duplicate id '{}', expected ids unique across training_menu and test_set", q.id),
+            );
+        }
+        p.finite(&format!("{path}.pose.position"), &q.pose.position);
+        p.finite(&format!("{path}.pose.rpy_deg"), &q.pose.rpy_deg);
+        let Some(oi) = protocol.objects.iter().position(|o| o.id == q.object) else {
+            let known: Vec<_> = protocol.objects.iter().map(|o| o.id.as_str()).collect();
+            p.add(
+                format!("{path}.object"),
+                format!("unknown object '{}', expected one of: {}", q.object, known.join(", ")),
+            );
+            continue;
+        };
+        let object = &protocol.objects[oi];
+        let regions: Vec<usize> = match &q.regions {
+            None => (0..object.regions.len()).collect(),
+            Some(names) => {
+                if names.is_empty() {
+                    p.add(format!("{path}.regions"), "is empty, expected at least one offered region");
+                }
+                let mut seen = HashSet::new();
+                let mut v = Vec::new();
+                for (k, n) in names.iter().enumerate() {
+                    match object.region(n) {
+                        Some(r) if seen.insert(r) => v.push(r),
+                        Some(_) => p.add(format!("{path}.regions[{k}]"), format!("region '{n}' is offered twice")),
+                        None => {
+                            let known: Vec<_> = object.regions.iter().map(|r| r.id.as_str()).collect();
+                            p.add(
+                                format!("{path}.regions[{k}]"),
+                                format!(
+                                    "unknown region '{n}' of object '{}', expected one of: {}",
+                                    object.id,
+                                    known.join(", ")
+                                ),
+                            )
+                        }
+                    }
+                }
+                v
+            }
+        };
+        let (Some(arm), true) = (arm, q.pose.position.iter().chain(&q.pose.rpy_deg).all(|v| v.is_finite())) else {
+            continue;
+        };
+        let feasible = feasible_set(arm, object, &q.pose.to_isometry(), &regions, &protocol.discretisation);
+        for (k, &n) in feasible.per_region.iter().enumerate() {
+            if n == 0 {
+                p.add(
+                    format!("{path}.pose"),
+                    format!(
+                        "region '{}' of '{}' has no feasible arm configuration at this pose, expected at least one",
+                        object.regions[regions[k]].id, object.id
+                    ),
+                );
+            }
+        }
+        out.push(ResolvedQuery { query: q.clone(), object: oi, regions, feasible });
+    }
+    out
+}
+
+/// Validates a parsed protocol and derives the study from it.
+pub(super) fn study(protocol: Protocol, name: &str) -> Result<Study, ProtocolError> {
+    let mut p = Problems::default();
+    if protocol.name.trim().is_empty() {
+        p.add("name", "is empty, expected the protocol's name");
+    }
+    let arm = arm(&protocol.arm, &mut p);
+    let d = &protocol.discretisation;
+    if !(d.resolution.translation_m.is_finite() && d.resolution.translation_m > 0.0) {
+        p.add(
+            "discretisation.resolution.translation_m",
+            format!("is {}, expected a positive length", d.resolution.translation_m),
+        );
+    }
+    if !(d.resolution.rotation_deg.is_finite() && d.resolution.rotation_deg > 0.0) {
+        p.add(
+            "discretisation.resolution.rotation_deg",
+            format!("is {}, expected a positive angle", d.resolution.rotation_deg),
+        );
+    }
+    if !(d.swivel_step_deg.is_finite() && d.swivel_step_deg > 0.0 && d.swivel_step_deg <= 360.0) {
+        p.add("discretisation.swivel_step_deg", format!("is {}, expected an angle in (0, 360]", d.swivel_step_deg));
+    }
+    if !(d.duplicate_tolerance_rad.is_finite() && d.duplicate_tolerance_rad > 0.0) {
+        p.add(
+            "discretisation.duplicate_tolerance_rad",
+            format!("is {}, expected a positive angle", d.duplicate_tolerance_rad),
+        );
+    }
+    objects(&protocol.objects, &mut p);
+    // Feasible sets are computed only for a discretisation that makes sense.
+    let arm = if p.0.is_empty() { arm } else { None };
+    let mut ids = HashSet::new();
+    let training = resolve("training_menu", &protocol.training_menu, &protocol, arm.as_ref(), &mut ids, &mut p);
+    let test = resolve("test_set", &protocol.test_set, &protocol, arm.as_ref(), &mut ids, &mut p);
+    match (p.0.is_empty(), arm) {
+        (true, Some(arm)) => Ok(Study { protocol, source_name: name.to_string(), arm, training, test }),
+        _ => Err(ProtocolError::new(name, p.0)),
+    }
+}

@@ -1,0 +1,128 @@
+//! Protocol files: the default is valid and complete; every kind of bad input is reported
+//! with the field's path and what was expected.
+
+use handover::protocol::{DEFAULT_PROTOCOL, Study};
+use serde_json::{Value, json};
+
+fn default_json() -> Value {
+    serde_json::from_str(DEFAULT_PROTOCOL).unwrap()
+}
+
+fn problems(v: &Value) -> String {
+    match Study::from_json(&v.to_string(), "test.json") {
+        Ok(_) => panic!("accepted: {v}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn default_protocol_is_the_paper_study() {
+    let s = Study::default_study();
+    assert!((s.arm.upper_arm - 0.186 * 1.75).abs() < 1e-12);
+    let count =
+        |list: &[handover::protocol::ResolvedQuery], obj: &str| list.iter().filter(|q| q.query.object == obj).count();
+    assert_eq!((count(&s.training, "handlebars"), count(&s.training, "u-lock")), (4, 4));
+    assert_eq!((count(&s.test, "handlebars"), count(&s.test, "u-lock")), (8, 8));
+    for q in s.all_queries() {
+        assert_eq!(q.regions.len(), 2, "{}", q.query.id);
+        assert!(q.feasible.per_region.iter().all(|&n| n > 0), "{}: {:?}", q.query.id, q.feasible.per_region);
+        // Plausible handover positions: in front of the person, below the shoulder, within reach.
+        let [x, y, z] = q.query.pose.position;
+        assert!((0.25..=0.5).contains(&x) && (-0.2..=0.2).contains(&y) && (-0.45..=0.0).contains(&z), "{}", q.query.id);
+    }
+    // Varied in height, distance and orientation.
+    let distinct = |f: &dyn Fn(&handover::protocol::ResolvedQuery) -> i64| {
+        let mut v: Vec<i64> = s.all_queries().map(f).collect();
+        v.sort();
+        v.dedup();
+        v.len()
+    };
+    assert!(distinct(&|q| (q.query.pose.position[2] * 100.0) as i64) >= 4);
+    assert!(distinct(&|q| (q.query.pose.position[0] * 100.0) as i64) >= 3);
+    assert!(distinct(&|q| (q.query.pose.rpy_deg.iter().sum::<f64>()) as i64) >= 5);
+}
+
+#[test]
+fn handlebars_spread_wider_than_the_lock() {
+    // The handlebars' grips are far apart: their regions lie far apart in configuration
+    // space; the lock's two grips are close together.
+    let s = Study::default_study();
+    let gap = |id: &str| {
+        let q = s.query(id).unwrap();
+        let mean = |r: usize| {
+            let cs: Vec<_> = q.feasible.configs.iter().filter(|c| c.region == r).collect();
+            (0..7).map(|d| cs.iter().map(|c| c.q[d]).sum::<f64>() / cs.len() as f64).collect::<Vec<_>>()
+        };
+        let (a, b) = (mean(0), mean(1));
+        a.iter().zip(&b).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt()
+    };
+    for (bars, lock) in [("bars-low-level", "lock-low-upright"), ("bars-waist-tilted", "lock-chest-tilted")] {
+        assert!(gap(bars) > 2.0 * gap(lock), "{bars} {} vs {lock} {}", gap(bars), gap(lock));
+    }
+}
+
+#[test]
+fn every_bad_input_names_its_field() {
+    type Edit = Box<dyn Fn(&mut Value)>;
+    let cases: Vec<(Edit, &str)> = vec![
+        (Box::new(|v| v.as_object_mut().unwrap().remove("name").map(|_| ()).unwrap()), "missing field `name`"),
+        (Box::new(|v| v["training_menu"][0]["pose"]["position"] = json!("here")), "training_menu[0].pose.position"),
+        (
+            Box::new(|v| v["training_menu"][1]["object"] = json!("bicycle")),
+            "training_menu[1].object: unknown object 'bicycle'",
+        ),
+        (
+            Box::new(|v| v["training_menu"][0]["regions"] = json!(["saddle"])),
+            "training_menu[0].regions[0]: unknown region 'saddle'",
+        ),
+        (Box::new(|v| v["training_menu"][0]["regions"] = json!([])), "training_menu[0].regions: is empty"),
+        (
+            Box::new(|v| v["test_set"][3]["id"] = json!("bars-low-level")),
+            "test_set[3].id: duplicate id 'bars-low-level'",
+        ),
+        (Box::new(|v| v["objects"][1]["id"] = json!("handlebars")), "objects[1].id: duplicate id"),
+        (
+            Box::new(|v| v["objects"][0]["regions"][1]["id"] = json!("left-grip")),
+            "objects[0].regions[1].id: duplicate id",
+        ),
+        (
+            Box::new(|v| v["objects"][0]["regions"][0]["tsr"]["Bw"][2] = json!([0.1, -0.1])),
+            "objects[0].regions[0].tsr.Bw[2]",
+        ),
+        (
+            Box::new(|v| v["arm"]["limits_deg"] = json!([[0, 1], [0, 1], [0, 1], [150, 0], [0, 1], [0, 1], [0, 1]])),
+            "arm.limits_deg[3]",
+        ),
+        (Box::new(|v| v["arm"]["body_height_m"] = json!(7.0)), "arm.body_height_m"),
+        (Box::new(|v| v["arm"] = json!({})), "arm: expected body_height_m"),
+        (
+            Box::new(|v| v["training_menu"][0]["pose"]["position"] = json!([2.0, 0.0, 0.0])),
+            "training_menu[0].pose: region 'left-grip'",
+        ),
+        (Box::new(|v| v["discretisation"]["swivel_step_deg"] = json!(-5)), "discretisation.swivel_step_deg"),
+        (Box::new(|v| v["training_menu"] = json!([])), "training_menu: is empty"),
+        (Box::new(|v| v["objects"][0]["colour"] = json!("red")), "unknown field `colour`"),
+    ];
+    for (edit, needle) in cases {
+        let mut v = default_json();
+        edit(&mut v);
+        let msg = problems(&v);
+        assert!(msg.contains(needle), "expected '{needle}' in:\n{msg}");
+        assert!(msg.starts_with("test.json: invalid protocol"), "{msg}");
+    }
+}
+
+#[test]
+fn all_problems_are_reported_at_once() {
+    let mut v = default_json();
+    v["training_menu"][1]["object"] = json!("bicycle");
+    v["test_set"][0]["regions"] = json!(["saddle"]);
+    let msg = problems(&v);
+    assert!(msg.contains("(2 problems)"), "{msg}");
+}
+
+#[test]
+fn text_that_is_not_json_is_refused() {
+    let e = Study::from_json("{ not json", "x.json").unwrap_err().to_string();
+    assert!(e.starts_with("x.json: invalid protocol"), "{e}");
+}
