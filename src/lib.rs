@@ -6,7 +6,9 @@
 
 pub mod belief;
 pub mod ergo;
+pub mod experiment;
 pub mod kinematics;
+pub mod participant;
 pub mod plot;
 pub mod protocol;
 pub mod select;

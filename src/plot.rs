@@ -76,3 +76,63 @@ pub fn scatter_grid(path: &Path, title: &str, panels: &[ScatterPanel], cols: usi
     root.present().map_err(|e| err(&e))?;
     Ok(())
 }
+
+/// One line of a line plot: (x, mean, standard error) points.
+pub struct Series<'a> {
+    pub name: &'a str,
+    pub points: Vec<(f64, f64, f64)>,
+}
+
+/// Mean ± standard error against x, one line and shaded band per series (as the paper's
+/// Fig. 2, 8 and 10).
+pub fn mean_se_plot(path: &Path, title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Result<(), String> {
+    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let root = SVGBackend::new(path, (720, 480)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let x_min = series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).fold(f64::INFINITY, f64::min);
+    let x_max = series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).fold(f64::NEG_INFINITY, f64::max);
+    let xs = if x_min.is_finite() { (x_min - 0.2)..(x_max + 0.2) } else { 0.0..1.0 };
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for p in series.iter().flat_map(|s| &s.points).filter(|p| p.1.is_finite()) {
+        lo = lo.min(p.1 - p.2);
+        hi = hi.max(p.1 + p.2);
+    }
+    if !lo.is_finite() {
+        (lo, hi) = (0.0, 1.0);
+    }
+    let pad = ((hi - lo) * 0.08).max(1e-9);
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(xs, (lo - pad)..(hi + pad))
+        .map_err(|e| err(&e))?;
+    chart.configure_mesh().x_desc(x_label).y_desc(y_label).draw().map_err(|e| err(&e))?;
+    for (k, s) in series.iter().enumerate() {
+        let colour = PALETTE[k % PALETTE.len()];
+        let pts: Vec<_> = s.points.iter().filter(|p| p.1.is_finite()).copied().collect();
+        let mut band: Vec<(f64, f64)> = pts.iter().map(|p| (p.0, p.1 + p.2)).collect();
+        band.extend(pts.iter().rev().map(|p| (p.0, p.1 - p.2)));
+        chart.draw_series(std::iter::once(Polygon::new(band, colour.mix(0.15).filled()))).map_err(|e| err(&e))?;
+        chart
+            .draw_series(LineSeries::new(pts.iter().map(|p| (p.0, p.1)), colour.stroke_width(2)))
+            .map_err(|e| err(&e))?
+            .label(s.name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2)));
+        chart.draw_series(pts.iter().map(|p| Circle::new((p.0, p.1), 3, colour.filled()))).map_err(|e| err(&e))?;
+    }
+    // Keep the legend away from where the lines end.
+    let ends_high = series.iter().filter_map(|s| s.points.last()).map(|p| p.1).sum::<f64>()
+        / series.len().max(1) as f64
+        > (lo + hi) / 2.0;
+    chart
+        .configure_series_labels()
+        .position(if ends_high { SeriesLabelPosition::LowerRight } else { SeriesLabelPosition::UpperRight })
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| err(&e))?;
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}

@@ -6,6 +6,7 @@
 mod feasible;
 mod input;
 mod score;
+mod simulate;
 
 use clap::{Parser, Subcommand};
 
@@ -25,6 +26,8 @@ enum Command {
     Score(score::ScoreArgs),
     /// The feasible arm configurations of a protocol's handover queries.
     Feasible(feasible::FeasibleArgs),
+    /// Reproduce the paper's simulation studies (planar 2-DoF, 7-DoF arm, two sets).
+    Simulate(simulate::SimulateArgs),
 }
 
 /// Runs the chosen subcommand.
@@ -32,6 +35,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Score(args) => score::run(args),
         Command::Feasible(args) => feasible::run(args),
+        Command::Simulate(args) => simulate::run(args),
     }
 }
 

@@ -57,6 +57,16 @@ impl LearnMask {
     }
 }
 
+impl std::fmt::Display for LearnMask {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::QStar => "q-star",
+            Self::Weights => "weights",
+            Self::Both => "both",
+        })
+    }
+}
+
 impl std::str::FromStr for LearnMask {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {

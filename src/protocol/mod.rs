@@ -7,7 +7,10 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::belief::{ComponentPrior, Prior, PriorError, ResamplePolicy};
+use crate::ergo::{Lambda, LearnMask};
 use crate::kinematics::{ArmFeasibleSet, Discretisation, HumanArm, JOINTS, Object, Pose};
+use crate::select::OutcomeModel;
 
 pub use validate::{Problem, ProtocolError};
 
@@ -27,6 +30,8 @@ pub struct Protocol {
     #[serde(default)]
     pub discretisation: Discretisation,
     pub objects: Vec<Object>,
+    /// How the robot learns: particles, α, what is learned, the prior.
+    pub learning: LearningSpec,
     /// The queries the robot may choose from during training.
     pub training_menu: Vec<Query>,
     /// The held-out queries of the test phase.
@@ -49,6 +54,100 @@ pub struct ArmSpec {
     /// [min, max] per joint in degrees, in the documented joint order; default AAOS.
     #[serde(default)]
     pub limits_deg: Option<[[f64; 2]; JOINTS]>,
+}
+
+/// The learning settings of a study. Angles of q* are in degrees here (radians inside).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LearningSpec {
+    /// Number of particles N.
+    pub particles: usize,
+    /// Rationality α of the Boltzmann choice model.
+    pub alpha: f64,
+    /// Which parts of λ are learned.
+    pub learn: LearnMask,
+    /// Prior per joint of q* (degrees) and of w; only the learned parts are used.
+    pub prior: PriorSpec,
+    /// The values of the parts that are not learned.
+    pub known: LambdaSpec,
+    /// When to resample after an update.
+    pub resampling: ResamplePolicy,
+    /// Standard deviation of the jitter after resampling: degrees for q*, units of w for w.
+    pub jitter: JitterSpec,
+    /// Cells per prior range for the gridded entropy and the mode.
+    pub grid_boxes: usize,
+    /// What the robot learns from: `configuration` (the handle mapped to its most likely
+    /// configuration by the label model, as in the paper) or `region` (the handle itself).
+    pub observation: OutcomeModel,
+    /// The stated cost model that maps a grabbed handle to a configuration.
+    pub label_model: LambdaSpec,
+    /// β of the `hybrid` selector (I − β·E[cost]).
+    #[serde(default = "default_beta")]
+    pub hybrid_beta: f64,
+}
+
+fn default_beta() -> f64 {
+    crate::select::DEFAULT_HYBRID_BETA
+}
+
+/// Per-joint priors: q* in degrees, w as is.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PriorSpec {
+    pub q_star_deg: Vec<ComponentPrior>,
+    pub w: Vec<ComponentPrior>,
+}
+
+/// A λ written by hand: q* in degrees, w as is.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LambdaSpec {
+    pub q_star_deg: Vec<f64>,
+    pub w: Vec<f64>,
+}
+
+impl LambdaSpec {
+    pub fn to_lambda(&self) -> Lambda {
+        Lambda { q_star: self.q_star_deg.iter().map(|d| d.to_radians()).collect(), w: self.w.clone() }
+    }
+}
+
+/// Jitter after resampling: q* in degrees, w as is.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JitterSpec {
+    pub q_star_deg: f64,
+    pub w: f64,
+}
+
+fn prior_to_radians(p: &ComponentPrior) -> ComponentPrior {
+    match *p {
+        ComponentPrior::Fixed { value } => ComponentPrior::Fixed { value: value.to_radians() },
+        ComponentPrior::Uniform { min, max } => {
+            ComponentPrior::Uniform { min: min.to_radians(), max: max.to_radians() }
+        }
+        ComponentPrior::Gaussian { mean, sd, min, max } => ComponentPrior::Gaussian {
+            mean: mean.to_radians(),
+            sd: sd.to_radians(),
+            min: min.to_radians(),
+            max: max.to_radians(),
+        },
+    }
+}
+
+impl LearningSpec {
+    /// The prior over λ = [q*, w] in radians, with the unlearned parts fixed to `known`.
+    pub fn prior(&self) -> Result<Prior, PriorError> {
+        let q = self.prior.q_star_deg.iter().map(prior_to_radians).collect();
+        Prior::with_mask(self.learn, q, self.prior.w.clone(), &self.known.to_lambda())
+    }
+
+    /// Jitter standard deviations per component of [q*, w].
+    pub fn jitter(&self, dim: usize) -> Vec<f64> {
+        let mut j = vec![self.jitter.q_star_deg.to_radians(); dim];
+        j.extend(std::iter::repeat_n(self.jitter.w, dim));
+        j
+    }
 }
 
 /// A robot query: an object at a handover pose in the person's shoulder frame, with the

@@ -3,8 +3,9 @@
 use std::collections::HashSet;
 use std::fmt;
 
-use super::{ArmSpec, Protocol, Query, ResolvedQuery, Study};
-use crate::kinematics::{HumanArm, JOINT_NAMES, Object, feasible_set};
+use super::{ArmSpec, LambdaSpec, LearningSpec, Protocol, Query, ResolvedQuery, Study};
+use crate::belief::{Prior, ResamplePolicy};
+use crate::kinematics::{HumanArm, JOINT_NAMES, JOINTS, Object, feasible_set};
 
 /// One problem in a protocol: where, and what was expected.
 #[derive(Clone, Debug, PartialEq)]
@@ -128,6 +129,67 @@ fn objects(objects: &[Object], p: &mut Problems) {
     }
 }
 
+fn lambda_spec(path: &str, l: &LambdaSpec, p: &mut Problems) {
+    for (field, v) in [("q_star_deg", &l.q_star_deg), ("w", &l.w)] {
+        if v.len() != JOINTS {
+            p.add(format!("{path}.{field}"), format!("has {} values, expected {JOINTS} (one per joint)", v.len()));
+        }
+        p.finite(&format!("{path}.{field}"), v);
+    }
+    if let Some(i) = l.w.iter().position(|w| *w < 0.0) {
+        p.add(format!("{path}.w[{i}]"), format!("is {}, expected a non-negative weight", l.w[i]));
+    }
+}
+
+fn learning(l: &LearningSpec, p: &mut Problems) {
+    if l.particles == 0 || l.particles > 1_000_000 {
+        p.add("learning.particles", format!("is {}, expected a count from 1 to 1000000", l.particles));
+    }
+    if !(l.alpha.is_finite() && l.alpha > 0.0) {
+        p.add("learning.alpha", format!("is {}, expected a positive number", l.alpha));
+    }
+    for (field, v) in [("q_star_deg", &l.prior.q_star_deg), ("w", &l.prior.w)] {
+        if v.len() != JOINTS {
+            p.add(
+                format!("learning.prior.{field}"),
+                format!("has {} entries, expected {JOINTS} (one per joint)", v.len()),
+            );
+        }
+    }
+    lambda_spec("learning.known", &l.known, p);
+    lambda_spec("learning.label_model", &l.label_model, p);
+    let lengths_ok = [l.prior.q_star_deg.len(), l.prior.w.len(), l.known.q_star_deg.len(), l.known.w.len()]
+        .iter()
+        .all(|&n| n == JOINTS);
+    // Checked as written (degrees), so that messages quote the file's numbers.
+    if lengths_ok && let Err(e) = Prior::new(l.prior.q_star_deg.clone(), l.prior.w.clone()) {
+        // The prior names its component as q_star[d] or w[d].
+        let msg = e.to_string();
+        let (component, rest) = msg.split_once(": ").unwrap_or(("", &msg));
+        let path = match component.strip_prefix("q_star") {
+            Some(idx) => format!("learning.prior.q_star_deg{idx}"),
+            None => format!("learning.prior.{component}"),
+        };
+        p.add(path, rest.to_string());
+    }
+    if let ResamplePolicy::EssBelow { fraction } = l.resampling
+        && !(fraction > 0.0 && fraction <= 1.0)
+    {
+        p.add("learning.resampling.fraction", format!("is {fraction}, expected a fraction in (0, 1]"));
+    }
+    for (field, v) in [("q_star_deg", l.jitter.q_star_deg), ("w", l.jitter.w)] {
+        if !(v.is_finite() && v >= 0.0) {
+            p.add(format!("learning.jitter.{field}"), format!("is {v}, expected a non-negative number"));
+        }
+    }
+    if l.grid_boxes == 0 {
+        p.add("learning.grid_boxes", "is 0, expected at least 1 cell per prior range");
+    }
+    if !(l.hybrid_beta.is_finite() && l.hybrid_beta >= 0.0) {
+        p.add("learning.hybrid_beta", format!("is {}, expected a non-negative number", l.hybrid_beta));
+    }
+}
+
 fn resolve(
     list: &str,
     queries: &[Query],
@@ -237,6 +299,7 @@ pub(super) fn study(protocol: Protocol, name: &str) -> Result<Study, ProtocolErr
         );
     }
     objects(&protocol.objects, &mut p);
+    learning(&protocol.learning, &mut p);
     // Feasible sets are computed only for a discretisation that makes sense.
     let arm = if p.0.is_empty() { arm } else { None };
     let mut ids = HashSet::new();

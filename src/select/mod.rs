@@ -126,6 +126,9 @@ impl Selector for Random {
     }
 }
 
+/// The default β of `hybrid` (nats of information per unit of expected cost).
+pub const DEFAULT_HYBRID_BETA: f64 = 0.1;
+
 /// `hybrid`: maximises I − β·E[cost], trading learning against comfort (the paper's
 /// footnote 1); β = 0 is `active`.
 pub struct Hybrid {

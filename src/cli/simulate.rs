@@ -1,0 +1,295 @@
+//! `handover simulate`: the paper's simulation studies (sections V and VI, Fig. 2–4 and 8).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use clap::{Args, ValueEnum};
+use handover::ergo::LearnMask;
+use handover::experiment::{self, Arm7, Planar2, Scenario, Settings, SummaryRow, summarise};
+use handover::plot::{Series, mean_se_plot};
+use handover::select::{DEFAULT_HYBRID_BETA, SelectorKind};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use super::input::bad;
+
+/// Reproduce the paper's simulation studies: a simulated person with a ground truth drawn
+/// from the prior answers every algorithm's queries; each algorithm is measured after every
+/// iteration (0 = the prior) on density at the truth, distance of the mode to the truth,
+/// test-set log-likelihood of the mode and the true cost of the chosen query.
+///
+/// Writes DIR/metrics.csv (one row per algorithm × trial × iteration), DIR/summary.csv (mean
+/// and standard error), one SVG per measure, and a table on stdout. `two-sets` runs the
+/// Fig. 3/4 experiment instead: which of two synthetic feasible sets the active selector
+/// offers at each iteration.
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    /// planar2 (section V), arm7 (section VI) or two-sets (Fig. 3/4).
+    #[arg(value_enum)]
+    scenario: ScenarioName,
+    /// What is learned: q-star (w known), weights (q* known) or both.
+    #[arg(long, default_value = "q-star", value_parser = parse_learn)]
+    learn: LearnMask,
+    /// Number of trials (each with its own ground truth, menu and test set).
+    #[arg(long, default_value_t = 50)]
+    trials: usize,
+    /// Number of queries on each trial's menu.
+    #[arg(long, default_value_t = 8)]
+    menu: usize,
+    /// Queries per algorithm and trial [default: planar2 5, arm7 10, two-sets 8].
+    #[arg(long)]
+    iterations: Option<usize>,
+    /// Number of random test queries answered by the simulated person per trial.
+    #[arg(long, default_value_t = 300)]
+    test_size: usize,
+    /// Number of particles in the belief.
+    #[arg(long, default_value_t = 1000)]
+    particles: usize,
+    /// Rationality α of the simulated person and of the model [default: planar2 10;
+    /// arm7 the protocol's α (40) for q-star, 10 for weights; two-sets 2].
+    #[arg(long)]
+    alpha: Option<f64>,
+    /// Comma-separated algorithms to compare.
+    #[arg(long, value_delimiter = ',', value_parser = parse_selector,
+          default_value = "active,active-paper,passive,random,hybrid")]
+    algorithms: Vec<SelectorKind>,
+    /// β of `hybrid` (maximises information gain − β · expected cost).
+    #[arg(long, default_value_t = DEFAULT_HYBRID_BETA)]
+    beta: f64,
+    /// Seed of every random draw; the same seed gives byte-identical CSV for any --threads.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Worker threads [default: all cores].
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Output directory for CSV and SVG (created if missing); without it only the table is printed.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq)]
+enum ScenarioName {
+    Planar2,
+    Arm7,
+    TwoSets,
+}
+
+fn parse_learn(s: &str) -> Result<LearnMask, String> {
+    s.parse()
+}
+
+fn parse_selector(s: &str) -> Result<SelectorKind, String> {
+    s.parse()
+}
+
+/// Measures plotted, with their axis labels.
+const PLOTTED: [(&str, &str); 5] = [
+    ("density_at_truth", "P(λ*) (kernel density of the belief at the truth)"),
+    ("log_density_at_truth", "log P(λ*)"),
+    ("distance_to_truth", "‖mode − λ*‖"),
+    ("test_log_likelihood", "test-set log-likelihood of the mode"),
+    ("true_cost", "true cost of the chosen query"),
+];
+
+struct Checked {
+    scenario: Box<dyn Scenario>,
+    settings: Settings,
+}
+
+fn check(a: &SimulateArgs) -> Result<Checked> {
+    let scenario: Box<dyn Scenario> = match a.scenario {
+        ScenarioName::Planar2 => Box::new(Planar2::default()),
+        _ => Box::new(Arm7::default()),
+    };
+    for (name, v) in
+        [("--trials", a.trials), ("--menu", a.menu), ("--test-size", a.test_size), ("--particles", a.particles)]
+    {
+        if v == 0 {
+            return Err(bad(format!("{name} is 0, expected a positive count")));
+        }
+    }
+    if a.algorithms.is_empty() {
+        return Err(bad(
+            "--algorithms is empty, expected at least one of active, active-paper, passive, random, hybrid",
+        ));
+    }
+    let alpha = a.alpha.unwrap_or_else(|| scenario.default_alpha(a.learn));
+    if !(alpha.is_finite() && alpha > 0.0) {
+        return Err(bad(format!("--alpha is {alpha}, expected a positive number")));
+    }
+    if !(a.beta.is_finite() && a.beta >= 0.0) {
+        return Err(bad(format!("--beta is {}, expected a non-negative number", a.beta)));
+    }
+    if a.threads == Some(0) {
+        return Err(bad("--threads is 0, expected at least 1"));
+    }
+    let mut algorithms = a.algorithms.clone();
+    algorithms.dedup();
+    let settings = Settings {
+        learn: a.learn,
+        trials: a.trials,
+        menu: a.menu,
+        iterations: a.iterations.unwrap_or_else(|| scenario.default_iterations()),
+        test_size: a.test_size,
+        particles: a.particles,
+        alpha,
+        algorithms,
+        seed: a.seed,
+        beta: a.beta,
+        grid_boxes: 10,
+        jitter_fraction: 0.01,
+        bandwidth_fraction: 0.05,
+    };
+    Ok(Checked { scenario, settings })
+}
+
+pub fn run(args: SimulateArgs) -> Result<()> {
+    let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start worker threads")?;
+    if args.scenario == ScenarioName::TwoSets {
+        return pool.install(|| run_two_sets(&args));
+    }
+    let Checked { scenario, settings } = check(&args)?;
+    if let Some(dir) = &args.out {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    let bar = ProgressBar::new(settings.trials as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{prefix} [{bar:40}] {pos}/{len} trials, {elapsed} elapsed, ETA {eta}")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_prefix(format!("{} {}", scenario.name(), settings.learn));
+    let started = Instant::now();
+    let rows = pool.install(|| experiment::simulate(scenario.as_ref(), &settings, &|| bar.inc(1)));
+    bar.finish_and_clear();
+    let elapsed = started.elapsed();
+    let summary = summarise(&rows);
+    print_table(scenario.name(), &settings, &summary, elapsed.as_secs_f64(), threads);
+    if let Some(dir) = &args.out {
+        write_csv(&dir.join("metrics.csv"), &rows)?;
+        write_csv(&dir.join("summary.csv"), &summary)?;
+        for (measure, label) in PLOTTED {
+            let series: Vec<Series> = settings
+                .algorithms
+                .iter()
+                .map(|k| Series {
+                    name: k.name(),
+                    points: summary
+                        .iter()
+                        .filter(|r| r.algorithm == k.name() && r.measure == measure)
+                        .map(|r| (r.iteration as f64, r.mean, r.se))
+                        .collect(),
+                })
+                .collect();
+            let title = format!("{} — learning {}, {} trials", scenario.name(), settings.learn, settings.trials);
+            mean_se_plot(&dir.join(format!("{measure}.svg")), &title, "iteration", label, &series)
+                .map_err(anyhow::Error::msg)?;
+        }
+        eprintln!("wrote {}/{{metrics,summary}}.csv and one SVG per measure", dir.display());
+    }
+    Ok(())
+}
+
+fn write_csv<T: serde::Serialize>(path: &Path, rows: &[T]) -> Result<()> {
+    let mut w = csv::Writer::from_path(path).with_context(|| format!("cannot write {}", path.display()))?;
+    for r in rows {
+        w.serialize(r)?;
+    }
+    w.flush()?;
+    Ok(())
+}
+
+fn print_table(name: &str, s: &Settings, summary: &[SummaryRow], seconds: f64, threads: usize) {
+    println!(
+        "{name}: learning {}, {} trials × {} iterations, {} particles, menu {}, test set {}, α = {}, seed {} ({seconds:.1} s on {threads} threads)",
+        s.learn, s.trials, s.iterations, s.particles, s.menu, s.test_size, s.alpha, s.seed
+    );
+    let get = |alg: &str, it: usize, m: &str| {
+        summary.iter().find(|r| r.algorithm == alg && r.iteration == it && r.measure == m)
+    };
+    let cell = |r: Option<&SummaryRow>| r.map_or("—".to_string(), |r| format!("{:.3} ± {:.3}", r.mean, r.se));
+    println!(
+        "{:<13} {:>20} {:>20} {:>22} {:>20} {:>22}",
+        "algorithm",
+        "distance (it 0)",
+        "distance (last)",
+        "test log-lik (last)",
+        "true cost (mean)",
+        "log P(λ*) (last)"
+    );
+    for k in &s.algorithms {
+        let alg = k.name();
+        let costs: Vec<&SummaryRow> =
+            summary.iter().filter(|r| r.algorithm == alg && r.measure == "true_cost").collect();
+        let mean_cost = if costs.is_empty() {
+            "—".to_string()
+        } else {
+            format!("{:.3}", costs.iter().map(|r| r.mean).sum::<f64>() / costs.len() as f64)
+        };
+        println!(
+            "{:<13} {:>20} {:>20} {:>22} {:>20} {:>22}",
+            alg,
+            cell(get(alg, 0, "distance_to_truth")),
+            cell(get(alg, s.iterations, "distance_to_truth")),
+            cell(get(alg, s.iterations, "test_log_likelihood")),
+            mean_cost,
+            cell(get(alg, s.iterations, "log_density_at_truth")),
+        );
+    }
+}
+
+fn run_two_sets(args: &SimulateArgs) -> Result<()> {
+    let alpha = args.alpha.unwrap_or(2.0);
+    if !(alpha.is_finite() && alpha > 0.0) {
+        return Err(bad(format!("--alpha is {alpha}, expected a positive number")));
+    }
+    let steps = experiment::two_sets(args.seed, args.iterations.unwrap_or(8), args.particles, alpha);
+    println!("two-sets: set A spreads along joint 1, set B along joint 2; the active selector's choice per iteration");
+    println!(
+        "{:>9} {:>8} {:>8} {:>6} {:>18} {:>18} {:>8}",
+        "iteration", "I(A)", "I(B)", "chosen", "response", "mean q*", "entropy"
+    );
+    for s in &steps {
+        println!(
+            "{:>9} {:>8.4} {:>8.4} {:>6} {:>18} {:>18} {:>8.3}",
+            s.iteration,
+            s.information_gain_a,
+            s.information_gain_b,
+            s.chosen,
+            format!("({:.2}, {:.2})", s.response[0], s.response[1]),
+            format!("({:.2}, {:.2})", s.mean_q_star[0], s.mean_q_star[1]),
+            s.entropy
+        );
+    }
+    if let Some(dir) = &args.out {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        let mut w = csv::Writer::from_path(dir.join("two_sets.csv"))?;
+        w.write_record([
+            "iteration",
+            "information_gain_a",
+            "information_gain_b",
+            "chosen",
+            "response_1",
+            "response_2",
+            "mean_q_star_1",
+            "mean_q_star_2",
+            "entropy",
+        ])?;
+        for s in &steps {
+            w.write_record([
+                s.iteration.to_string(),
+                s.information_gain_a.to_string(),
+                s.information_gain_b.to_string(),
+                s.chosen.to_string(),
+                s.response[0].to_string(),
+                s.response[1].to_string(),
+                s.mean_q_star[0].to_string(),
+                s.mean_q_star[1].to_string(),
+                s.entropy.to_string(),
+            ])?;
+        }
+        w.flush()?;
+    }
+    Ok(())
+}

@@ -1,0 +1,192 @@
+//! The paper's simulation studies (sections V and VI): ground truth drawn from the prior,
+//! a random menu, a simulated person, every algorithm from the same prior, measured after
+//! every iteration on the four measures of section IV.
+
+mod arm7;
+mod planar2;
+mod summary;
+mod two_sets;
+
+use rand::SeedableRng;
+use rayon::prelude::*;
+
+use crate::SeededRng;
+use crate::belief::{Belief, Grid, Prior, ResamplePolicy, TestExample, true_cost};
+use crate::ergo::{FeasibleSet, Lambda, LearnMask, Observation};
+use crate::participant::SimulatedPerson;
+use crate::select::{OutcomeModel, Problem, SelectorKind};
+
+pub use arm7::Arm7;
+pub use planar2::Planar2;
+pub use summary::{MEASURES, SummaryRow, summarise};
+pub use two_sets::{TwoSetsStep, two_sets};
+
+/// A simulated setting: an arm, a prior and a source of random queries.
+pub trait Scenario: Sync {
+    fn name(&self) -> &'static str;
+    /// The prior over λ for a learn-mask (the unlearned part fixed).
+    fn prior(&self, learn: LearnMask) -> Prior;
+    /// The default rationality α.
+    fn default_alpha(&self, learn: LearnMask) -> f64;
+    /// The default number of iterations.
+    fn default_iterations(&self) -> usize;
+    /// One random query's feasible set.
+    fn random_query(&self, rng: &mut SeededRng) -> FeasibleSet;
+}
+
+/// Settings of one simulation run.
+#[derive(Clone, Debug)]
+pub struct Settings {
+    pub learn: LearnMask,
+    pub trials: usize,
+    pub menu: usize,
+    pub iterations: usize,
+    pub test_size: usize,
+    pub particles: usize,
+    pub alpha: f64,
+    pub algorithms: Vec<SelectorKind>,
+    pub seed: u64,
+    pub beta: f64,
+    /// Cells per prior range for the gridded entropy and the mode.
+    pub grid_boxes: usize,
+    /// Jitter after resampling, as a fraction of each learned component's prior range.
+    pub jitter_fraction: f64,
+    /// Kernel bandwidth of the density at λ*, as a fraction of each prior range.
+    pub bandwidth_fraction: f64,
+}
+
+/// The measures of one algorithm in one trial after one iteration (0 = the prior).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct MetricRow {
+    pub algorithm: &'static str,
+    pub trial: usize,
+    pub iteration: usize,
+    pub density_at_truth: f64,
+    pub log_density_at_truth: f64,
+    pub distance_to_truth: f64,
+    pub test_log_likelihood: f64,
+    /// Expected cost under λ* of the configuration the person picks in the query chosen at
+    /// this iteration (none at iteration 0).
+    pub true_cost: Option<f64>,
+    /// Menu index of the query chosen at this iteration.
+    pub query: Option<usize>,
+    /// Gridded entropy of the belief (eq. 6).
+    pub entropy: f64,
+}
+
+/// A seed for one purpose of one trial (splitmix64 of the run seed, trial and purpose).
+pub fn derive_seed(seed: u64, trial: u64, purpose: u64) -> u64 {
+    let mut z = seed ^ trial.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ purpose.wrapping_mul(0xD1B5_4A32_D192_ED69);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+mod purpose {
+    pub const TRUTH: u64 = 1;
+    pub const MENU: u64 = 2;
+    pub const TEST: u64 = 3;
+    pub const PARTICLES: u64 = 4;
+    pub const PERSON: u64 = 5;
+    pub const RESAMPLE: u64 = 6;
+    pub const SELECT: u64 = 7;
+}
+
+fn rng(seed: u64, trial: usize, purpose: u64) -> SeededRng {
+    SeededRng::seed_from_u64(derive_seed(seed, trial as u64, purpose))
+}
+
+/// What every algorithm of a trial shares.
+struct Trial {
+    truth: Lambda,
+    menu: Vec<FeasibleSet>,
+    tests: Vec<TestExample>,
+    start: Belief,
+}
+
+fn supports(prior: &Prior) -> Vec<(f64, f64)> {
+    prior.components().iter().map(|c| c.support()).collect()
+}
+
+fn setup(scenario: &dyn Scenario, s: &Settings, prior: &Prior, trial: usize) -> Trial {
+    let truth = Lambda::from_slice(&prior.sample(&mut rng(s.seed, trial, purpose::TRUTH)));
+    let mut menu_rng = rng(s.seed, trial, purpose::MENU);
+    let menu = (0..s.menu).map(|_| scenario.random_query(&mut menu_rng)).collect();
+    let person = SimulatedPerson { truth: truth.clone(), alpha: s.alpha };
+    let mut test_rng = rng(s.seed, trial, purpose::TEST);
+    let tests = (0..s.test_size)
+        .map(|_| {
+            let set = scenario.random_query(&mut test_rng);
+            let choice = person.choose(&set, &mut test_rng);
+            TestExample { set, observation: Observation::Config(choice) }
+        })
+        .collect();
+    let start =
+        Belief::from_prior(prior, s.particles, &mut rng(s.seed, trial, purpose::PARTICLES)).expect("particles > 0");
+    Trial { truth, menu, tests, start }
+}
+
+/// Runs one trial of every algorithm; rows in algorithm order, then iteration.
+fn run_trial(scenario: &dyn Scenario, s: &Settings, prior: &Prior, trial: usize) -> Vec<MetricRow> {
+    let t = setup(scenario, s, prior, trial);
+    let sup = supports(prior);
+    let grid = Grid::over_supports(&sup, s.grid_boxes);
+    let jitter: Vec<f64> =
+        sup.iter().map(|(lo, hi)| if hi > lo { (hi - lo) * s.jitter_fraction } else { 0.0 }).collect();
+    let bandwidth: Vec<f64> =
+        sup.iter().map(|(lo, hi)| if hi > lo { (hi - lo) * s.bandwidth_fraction } else { 1.0 }).collect();
+    let person = SimulatedPerson { truth: t.truth.clone(), alpha: s.alpha };
+    let mut rows = Vec::with_capacity(s.algorithms.len() * (s.iterations + 1));
+    for &kind in &s.algorithms {
+        let selector = kind.build(&grid, s.beta);
+        let mut belief = t.start.clone();
+        let mut person_rng = rng(s.seed, trial, purpose::PERSON);
+        let mut resample_rng = rng(s.seed, trial, purpose::RESAMPLE);
+        let mut select_rng = rng(s.seed, trial, purpose::SELECT);
+        let measure = |belief: &Belief, iteration: usize, query: Option<usize>, cost: Option<f64>| {
+            let mode = belief.mode(&grid);
+            let log_density = belief.log_density_at(&t.truth, &bandwidth);
+            MetricRow {
+                algorithm: kind.name(),
+                trial,
+                iteration,
+                density_at_truth: log_density.exp(),
+                log_density_at_truth: log_density,
+                distance_to_truth: belief.distance(&mode, &t.truth),
+                test_log_likelihood: crate::belief::test_log_likelihood(&mode, &t.tests, s.alpha)
+                    .expect("test observations index their own sets"),
+                true_cost: cost,
+                query,
+                entropy: belief.entropy(&grid),
+            }
+        };
+        rows.push(measure(&belief, 0, None, None));
+        for iteration in 1..=s.iterations {
+            let problem =
+                Problem { belief: &belief, menu: &t.menu, alpha: s.alpha, outcomes: OutcomeModel::Configuration };
+            let chosen = selector.select(&problem, &mut select_rng).index;
+            let set = &t.menu[chosen];
+            let cost = true_cost(set, &t.truth, s.alpha);
+            let choice = person.choose(set, &mut person_rng);
+            belief.update(set, s.alpha, &Observation::Config(choice)).expect("a drawn choice has positive likelihood");
+            belief.maybe_resample(ResamplePolicy::EveryUpdate, &jitter, &mut resample_rng);
+            rows.push(measure(&belief, iteration, Some(chosen), Some(cost)));
+        }
+    }
+    rows
+}
+
+/// Runs every trial (in parallel; the result does not depend on the number of threads),
+/// calling `progress` after each trial.
+pub fn simulate(scenario: &dyn Scenario, s: &Settings, progress: &(dyn Fn() + Sync)) -> Vec<MetricRow> {
+    let prior = scenario.prior(s.learn);
+    let per_trial: Vec<Vec<MetricRow>> = (0..s.trials)
+        .into_par_iter()
+        .map(|trial| {
+            let rows = run_trial(scenario, s, &prior, trial);
+            progress();
+            rows
+        })
+        .collect();
+    per_trial.into_iter().flatten().collect()
+}
