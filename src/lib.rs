@@ -4,15 +4,28 @@
 //! The math (`ergo`, `belief`, `select`) does no I/O; the command-line tool lives in the
 //! binary.
 
+pub mod analysis;
 pub mod belief;
+pub mod dryrun;
 pub mod ergo;
 pub mod experiment;
 pub mod kinematics;
 pub mod participant;
 pub mod plot;
 pub mod protocol;
+pub mod record;
 pub mod select;
+pub mod session;
 
 /// The one seeded generator type used for every random draw: reproducible across
 /// platforms and versions of this crate's dependencies (pinned in `Cargo.lock`).
 pub type SeededRng = rand_chacha::ChaCha8Rng;
+
+/// A seed for one purpose of one unit of work (a trial, a run), mixed from a run's seed by
+/// splitmix64, so that every random stream is independent and reproducible.
+pub fn derive_seed(seed: u64, unit: u64, purpose: u64) -> u64 {
+    let mut z = seed ^ unit.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ purpose.wrapping_mul(0xD1B5_4A32_D192_ED69);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}

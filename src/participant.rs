@@ -59,3 +59,194 @@ mod tests {
         }
     }
 }
+
+/// Why a participant id was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("participant id '{id}' is invalid: expected 1 to 32 characters from A–Z, a–z, 0–9 and '-'")]
+pub struct BadId {
+    pub id: String,
+}
+
+/// Checks an id against `[A-Za-z0-9-]{1,32}` (no paths, dots or spaces).
+pub fn validate_id(id: &str) -> Result<(), BadId> {
+    let ok = (1..=32).contains(&id.len()) && id.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-');
+    if ok { Ok(()) } else { Err(BadId { id: id.to_string() }) }
+}
+
+/// Letters and digits that cannot be mistaken for one another when read aloud or written.
+const ID_ALPHABET: &[u8] = b"abcdefghjkmnpqrstuvwxyz23456789";
+
+/// A random, uninformative pseudonymous id such as `p-k3m9x2qa` (8 characters, ≈ 40 bits).
+pub fn new_id<R: rand::Rng + ?Sized>(rng: &mut R) -> String {
+    let tail: String = (0..8).map(|_| ID_ALPHABET[rng.random_range(0..ID_ALPHABET.len())] as char).collect();
+    format!("p-{tail}")
+}
+
+/// Which hand the participant prefers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Handedness {
+    Left,
+    Right,
+}
+
+/// `participants/<id>.json`: only what the study needs; never a name.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParticipantRecord {
+    pub id: String,
+    /// Counterbalancing slot: 0 runs the protocol's conditions in order, 1 reversed.
+    pub slot: usize,
+    /// Creation time, RFC 3339 UTC.
+    pub created_at: String,
+    /// Body height (m), for the arm model.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub body_height_m: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub handedness: Option<Handedness>,
+}
+
+/// Why a participant record could not be read or written.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordFileError {
+    #[error(transparent)]
+    BadId(#[from] BadId),
+    #[error("{path}: {source}")]
+    Io { path: std::path::PathBuf, source: std::io::Error },
+    #[error("{path}: {message}")]
+    Invalid { path: std::path::PathBuf, message: String },
+}
+
+impl ParticipantRecord {
+    /// The record's file in a participants directory.
+    pub fn path(dir: &std::path::Path, id: &str) -> Result<std::path::PathBuf, BadId> {
+        validate_id(id)?;
+        Ok(dir.join(format!("{id}.json")))
+    }
+
+    /// Writes a new record (owner-readable only); fails if one exists.
+    pub fn create(&self, dir: &std::path::Path) -> Result<std::path::PathBuf, RecordFileError> {
+        let path = Self::path(dir, &self.id)?;
+        let err = |source| RecordFileError::Io { path: path.clone(), source };
+        std::fs::create_dir_all(dir).map_err(err)?;
+        let mut o = std::fs::OpenOptions::new();
+        o.write(true).create_new(true);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::OpenOptionsExt;
+            o.mode(0o600);
+        }
+        let mut f = o.open(&path).map_err(err)?;
+        use std::io::Write;
+        let text = serde_json::to_string_pretty(self).expect("serialisable");
+        f.write_all(text.as_bytes()).and_then(|_| f.write_all(b"\n")).and_then(|_| f.sync_all()).map_err(err)?;
+        Ok(path)
+    }
+
+    /// Reads a participant's record.
+    pub fn load(dir: &std::path::Path, id: &str) -> Result<Self, RecordFileError> {
+        let path = Self::path(dir, id)?;
+        let text =
+            std::fs::read_to_string(&path).map_err(|source| RecordFileError::Io { path: path.clone(), source })?;
+        let rec: Self = serde_json::from_str(&text)
+            .map_err(|e| RecordFileError::Invalid { path: path.clone(), message: e.to_string() })?;
+        if rec.id != id {
+            return Err(RecordFileError::Invalid { path, message: format!("id is '{}', expected '{id}'", rec.id) });
+        }
+        Ok(rec)
+    }
+}
+
+#[cfg(test)]
+mod id_tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn ids_are_checked() {
+        for ok in ["p-k3m9x2qa", "P01", "a", &"x".repeat(32)] {
+            assert!(validate_id(ok).is_ok(), "{ok}");
+        }
+        for bad in ["", "../etc", "a b", "p.1", "p/1", "é", &"x".repeat(33)] {
+            assert!(validate_id(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn new_ids_are_valid_and_differ() {
+        let mut rng = SeededRng::seed_from_u64(1);
+        let a = new_id(&mut rng);
+        let b = new_id(&mut rng);
+        assert!(validate_id(&a).is_ok() && a != b && a.len() == 10);
+    }
+}
+
+/// A simulated participant for dry runs and rehearsals: answers every prompt of a session,
+/// reproducibly from the session seed and the number of events so far (so a resumed dry
+/// run answers exactly as an uninterrupted one).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScriptedParticipant {
+    pub person: SimulatedPerson,
+}
+
+/// Purpose tag of the per-event RNG.
+const RESPOND: u64 = 201;
+
+impl ScriptedParticipant {
+    /// The event that answers the session's prompt (the robot operator's part included);
+    /// `None` when the session is over.
+    pub fn respond(&self, session: &crate::session::Session) -> Option<crate::session::Event> {
+        use crate::session::{Event, Prompt};
+        use rand::SeedableRng;
+        let mut rng =
+            SeededRng::seed_from_u64(crate::derive_seed(session.start().seed, session.event_count() as u64, RESPOND));
+        Some(match session.prompt() {
+            Prompt::Present(view) => Event::QueryPresented { query: session.query(view.query).query.id.clone() },
+            Prompt::Grasp(view) => {
+                let set = session.set(view.query);
+                let r = self.person.choose_region(set, &mut rng);
+                let q = session.query(view.query);
+                Event::GraspRecorded { region: session.study().object(q).regions[q.regions[r]].id.clone() }
+            }
+            Prompt::Likert { program, item, .. } => {
+                let scale = &session.study().protocol.questionnaire.scale;
+                let base = if self.preferred(session) == program { scale.len() * 3 / 4 } else { scale.len() / 2 };
+                let k = (base as i64 + rng.random_range(-1..=1)).clamp(0, scale.len() as i64 - 1) as usize;
+                Event::LikertAnswered {
+                    program,
+                    item: session.study().protocol.questionnaire.items[item].id.clone(),
+                    value: scale[k].value,
+                }
+            }
+            Prompt::ForcedChoice => {
+                let p = self.preferred(session);
+                let program = if rng.random::<f64>() < 0.8 { p } else { 1 - p.min(1) };
+                Event::ForcedChoice { program }
+            }
+            Prompt::Finish => Event::Ended,
+            Prompt::Paused => Event::Resumed,
+            Prompt::Done { .. } => return None,
+        })
+    }
+
+    /// The program whose training handovers cost this person less on average.
+    fn preferred(&self, session: &crate::session::Session) -> usize {
+        let mut best = (0, f64::INFINITY);
+        for run in 0..session.learners().len() {
+            let costs: Vec<f64> = session
+                .trials()
+                .iter()
+                .filter(|t| t.run == Some(run))
+                .map(|t| {
+                    let q = session.set(t.query).configs().config(t.config);
+                    crate::ergo::cost(&q, &self.person.truth.q_star, &self.person.truth.w)
+                })
+                .collect();
+            let mean = costs.iter().sum::<f64>() / costs.len().max(1) as f64;
+            if mean < best.1 {
+                best = (run, mean);
+            }
+        }
+        best.0
+    }
+}

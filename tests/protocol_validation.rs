@@ -105,11 +105,17 @@ fn every_bad_input_names_its_field() {
         (Box::new(|v| v["learning"]["particles"] = json!(-5)), "learning.particles"),
         (Box::new(|v| v["learning"]["particles"] = json!(0)), "learning.particles: is 0"),
         (Box::new(|v| v["learning"]["alpha"] = json!(0)), "learning.alpha"),
-        (Box::new(|v| v["learning"]["prior"]["q_star_deg"][2] = json!({"kind": "uniform", "min": 5, "max": -5})), "learning.prior.q_star_deg[2]: min 5 must be below max -5"),
+        (
+            Box::new(|v| v["learning"]["prior"]["q_star_deg"][2] = json!({"kind": "uniform", "min": 5, "max": -5})),
+            "learning.prior.q_star_deg[2]: min 5 must be below max -5",
+        ),
         (Box::new(|v| v["learning"]["prior"]["w"] = json!([])), "learning.prior.w: has 0 entries, expected 7"),
         (Box::new(|v| v["learning"]["learn"] = json!("elbows")), "learning.learn"),
         (Box::new(|v| v["learning"]["label_model"]["w"][0] = json!(-1)), "learning.label_model.w[0]"),
-        (Box::new(|v| v["learning"]["resampling"] = json!({"kind": "ess-below", "fraction": 2})), "learning.resampling.fraction"),
+        (
+            Box::new(|v| v["learning"]["resampling"] = json!({"kind": "ess-below", "fraction": 2})),
+            "learning.resampling.fraction",
+        ),
     ];
     for (edit, needle) in cases {
         let mut v = default_json();

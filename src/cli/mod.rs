@@ -3,8 +3,13 @@
 //!
 //! Exit codes: 0 success, 1 the work failed, 2 bad input or usage.
 
+mod console;
+mod dry_run;
 mod feasible;
 mod input;
+mod participant;
+mod protocol;
+mod resume;
 mod score;
 mod simulate;
 
@@ -28,6 +33,14 @@ enum Command {
     Feasible(feasible::FeasibleArgs),
     /// Reproduce the paper's simulation studies (planar 2-DoF, 7-DoF arm, two sets).
     Simulate(simulate::SimulateArgs),
+    /// Validate a protocol file.
+    Protocol(protocol::ProtocolArgs),
+    /// Create pseudonymous participants.
+    Participant(participant::ParticipantArgs),
+    /// Run whole sessions with simulated participants (pilot logs).
+    DryRun(dry_run::DryRunArgs),
+    /// Continue an interrupted session from its log.
+    Resume(resume::ResumeArgs),
 }
 
 /// Runs the chosen subcommand.
@@ -36,6 +49,10 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Score(args) => score::run(args),
         Command::Feasible(args) => feasible::run(args),
         Command::Simulate(args) => simulate::run(args),
+        Command::Protocol(args) => protocol::run(args),
+        Command::Participant(args) => participant::run(args),
+        Command::DryRun(args) => dry_run::run(args),
+        Command::Resume(args) => resume::run(args),
     }
 }
 

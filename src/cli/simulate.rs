@@ -46,7 +46,7 @@ pub struct SimulateArgs {
     #[arg(long, default_value_t = 1000)]
     particles: usize,
     /// Rationality α of the simulated person and of the model [default: planar2 10;
-    /// arm7 the protocol's α (40) for q-star, 10 for weights; two-sets 2].
+    /// arm7 40 for q-star, 10 for weights and both; two-sets 2].
     #[arg(long)]
     alpha: Option<f64>,
     /// Comma-separated algorithms to compare.

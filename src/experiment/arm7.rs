@@ -39,10 +39,11 @@ impl Scenario for Arm7 {
         self.learning(learn).prior().expect("a validated protocol's prior")
     }
 
+    /// The original simulation code's values (docs/HUMAN-ARM facts): α = 40 for learning
+    /// q*, 10 for learning w.
     fn default_alpha(&self, learn: LearnMask) -> f64 {
         match learn {
-            LearnMask::QStar => self.study.protocol.learning.alpha,
-            // The original weight study used α = 10 (HUMAN-ARM.md).
+            LearnMask::QStar => 40.0,
             _ => 10.0,
         }
     }

@@ -10,11 +10,11 @@ mod two_sets;
 use rand::SeedableRng;
 use rayon::prelude::*;
 
-use crate::SeededRng;
 use crate::belief::{Belief, Grid, Prior, ResamplePolicy, TestExample, true_cost};
 use crate::ergo::{FeasibleSet, Lambda, LearnMask, Observation};
 use crate::participant::SimulatedPerson;
 use crate::select::{OutcomeModel, Problem, SelectorKind};
+use crate::{SeededRng, derive_seed};
 
 pub use arm7::Arm7;
 pub use planar2::Planar2;
@@ -72,14 +72,6 @@ pub struct MetricRow {
     pub query: Option<usize>,
     /// Gridded entropy of the belief (eq. 6).
     pub entropy: f64,
-}
-
-/// A seed for one purpose of one trial (splitmix64 of the run seed, trial and purpose).
-pub fn derive_seed(seed: u64, trial: u64, purpose: u64) -> u64 {
-    let mut z = seed ^ trial.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ purpose.wrapping_mul(0xD1B5_4A32_D192_ED69);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
 }
 
 mod purpose {

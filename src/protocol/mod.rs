@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 use crate::belief::{ComponentPrior, Prior, PriorError, ResamplePolicy};
 use crate::ergo::{Lambda, LearnMask};
 use crate::kinematics::{ArmFeasibleSet, Discretisation, HumanArm, JOINTS, Object, Pose};
-use crate::select::OutcomeModel;
+use crate::select::{OutcomeModel, SelectorKind};
 
 pub use validate::{Problem, ProtocolError};
 
@@ -36,6 +36,51 @@ pub struct Protocol {
     pub training_menu: Vec<Query>,
     /// The held-out queries of the test phase.
     pub test_set: Vec<Query>,
+    /// Phases, counterbalancing and blinding.
+    pub session: SessionSpec,
+    /// The post-study questionnaire (the paper's Table I).
+    pub questionnaire: QuestionnaireSpec,
+}
+
+/// The phases of a session.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SessionSpec {
+    /// The training conditions (query selectors), in the first counterbalancing order; the
+    /// second order reverses them.
+    pub conditions: Vec<SelectorKind>,
+    /// Training trials per condition, each over the whole training menu.
+    pub trials_per_condition: usize,
+    /// What the participant is told each training run is called, in the order run.
+    pub program_labels: Vec<String>,
+    /// Whether the test set is presented in an order shuffled per participant.
+    pub shuffle_test: bool,
+}
+
+/// A Likert questionnaire asked about each program, then a forced choice.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct QuestionnaireSpec {
+    /// The scale's points, in increasing order of value.
+    pub scale: Vec<ScalePoint>,
+    /// Statements; `{program}` is replaced by the program's label.
+    pub items: Vec<LikertItem>,
+    /// The forced-choice question.
+    pub forced_choice: String,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScalePoint {
+    pub value: i64,
+    pub label: String,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LikertItem {
+    pub id: String,
+    pub statement: String,
 }
 
 /// The person's arm: from body height (Winter's fractions) or given directly.
@@ -173,6 +218,8 @@ pub struct Study {
     pub protocol: Protocol,
     /// Where it was read from (for messages).
     pub source_name: String,
+    /// SHA-256 (hex) of the protocol text.
+    pub sha256: String,
     pub arm: HumanArm,
     pub training: Vec<ResolvedQuery>,
     pub test: Vec<ResolvedQuery>,
@@ -203,7 +250,7 @@ impl Study {
                 }],
             )
         })?;
-        validate::study(protocol, name)
+        validate::study(protocol, name, sha256_hex(text.as_bytes()))
     }
 
     /// Reads and validates a protocol file.
@@ -233,4 +280,10 @@ impl Study {
     pub fn object(&self, q: &ResolvedQuery) -> &Object {
         &self.protocol.objects[q.object]
     }
+}
+
+/// SHA-256 of bytes as lowercase hex.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::Digest;
+    sha2::Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
 }

@@ -3,7 +3,7 @@
 use std::collections::HashSet;
 use std::fmt;
 
-use super::{ArmSpec, LambdaSpec, LearningSpec, Protocol, Query, ResolvedQuery, Study};
+use super::{ArmSpec, LambdaSpec, LearningSpec, Protocol, Query, QuestionnaireSpec, ResolvedQuery, SessionSpec, Study};
 use crate::belief::{Prior, ResamplePolicy};
 use crate::kinematics::{HumanArm, JOINT_NAMES, JOINTS, Object, feasible_set};
 
@@ -270,7 +270,64 @@ fn resolve(
 }
 
 /// Validates a parsed protocol and derives the study from it.
-pub(super) fn study(protocol: Protocol, name: &str) -> Result<Study, ProtocolError> {
+fn session(s: &SessionSpec, q: &QuestionnaireSpec, p: &mut Problems) {
+    if s.conditions.len() != 2 {
+        p.add(
+            "session.conditions",
+            format!("has {} conditions, expected 2 (counterbalanced AB / BA)", s.conditions.len()),
+        );
+    } else if s.conditions[0] == s.conditions[1] {
+        p.add("session.conditions", "names the same condition twice, expected two different selectors");
+    }
+    if s.trials_per_condition == 0 {
+        p.add("session.trials_per_condition", "is 0, expected a positive count");
+    }
+    if s.program_labels.len() != s.conditions.len() {
+        p.add(
+            "session.program_labels",
+            format!("has {} labels, expected {} (one per condition)", s.program_labels.len(), s.conditions.len()),
+        );
+    }
+    let mut seen = HashSet::new();
+    for (i, l) in s.program_labels.iter().enumerate() {
+        if l.trim().is_empty() || !seen.insert(l.as_str()) {
+            p.add(format!("session.program_labels[{i}]"), format!("'{l}' must be non-empty and unique"));
+        }
+    }
+    if q.scale.len() < 2 {
+        p.add("questionnaire.scale", format!("has {} points, expected at least 2", q.scale.len()));
+    }
+    for (i, w) in q.scale.windows(2).enumerate() {
+        if w[1].value <= w[0].value {
+            p.add(
+                format!("questionnaire.scale[{}].value", i + 1),
+                format!("is {} after {}, expected strictly increasing values", w[1].value, w[0].value),
+            );
+        }
+    }
+    for (i, pt) in q.scale.iter().enumerate() {
+        if pt.label.trim().is_empty() {
+            p.add(format!("questionnaire.scale[{i}].label"), "is empty, expected a label on every point");
+        }
+    }
+    if q.items.is_empty() {
+        p.add("questionnaire.items", "is empty, expected at least one statement");
+    }
+    let mut ids = HashSet::new();
+    for (i, it) in q.items.iter().enumerate() {
+        if !ids.insert(it.id.as_str()) {
+            p.add(format!("questionnaire.items[{i}].id"), format!("duplicate id '{}'", it.id));
+        }
+        if it.statement.trim().is_empty() {
+            p.add(format!("questionnaire.items[{i}].statement"), "is empty, expected a statement");
+        }
+    }
+    if q.forced_choice.trim().is_empty() {
+        p.add("questionnaire.forced_choice", "is empty, expected the question");
+    }
+}
+
+pub(super) fn study(protocol: Protocol, name: &str, sha256: String) -> Result<Study, ProtocolError> {
     let mut p = Problems::default();
     if protocol.name.trim().is_empty() {
         p.add("name", "is empty, expected the protocol's name");
@@ -300,13 +357,14 @@ pub(super) fn study(protocol: Protocol, name: &str) -> Result<Study, ProtocolErr
     }
     objects(&protocol.objects, &mut p);
     learning(&protocol.learning, &mut p);
+    session(&protocol.session, &protocol.questionnaire, &mut p);
     // Feasible sets are computed only for a discretisation that makes sense.
     let arm = if p.0.is_empty() { arm } else { None };
     let mut ids = HashSet::new();
     let training = resolve("training_menu", &protocol.training_menu, &protocol, arm.as_ref(), &mut ids, &mut p);
     let test = resolve("test_set", &protocol.test_set, &protocol, arm.as_ref(), &mut ids, &mut p);
     match (p.0.is_empty(), arm) {
-        (true, Some(arm)) => Ok(Study { protocol, source_name: name.to_string(), arm, training, test }),
+        (true, Some(arm)) => Ok(Study { protocol, source_name: name.to_string(), sha256, arm, training, test }),
         _ => Err(ProtocolError::new(name, p.0)),
     }
 }

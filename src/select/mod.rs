@@ -56,6 +56,18 @@ pub fn menu_values(problem: &Problem) -> Vec<QueryValue> {
     problem.menu.iter().map(|set| query_value(problem.belief, set, problem.alpha, problem.outcomes)).collect()
 }
 
+/// The choice of a selector that decides from information gain and expected cost alone
+/// (`active`, `passive`, `hybrid`); `None` for those that need more (`random`, `active-paper`).
+pub fn choose_from_values(kind: SelectorKind, values: &[QueryValue], beta: f64) -> Option<usize> {
+    let v: Vec<f64> = match kind {
+        SelectorKind::Active => values.iter().map(|v| v.information_gain).collect(),
+        SelectorKind::Passive => values.iter().map(|v| -v.expected_cost).collect(),
+        SelectorKind::Hybrid => values.iter().map(|v| v.information_gain - beta * v.expected_cost).collect(),
+        SelectorKind::Random | SelectorKind::ActivePaper => return None,
+    };
+    Some(argmax(&v))
+}
+
 /// Index of the largest value; the earliest on ties.
 pub fn argmax(values: &[f64]) -> usize {
     let mut best = 0;

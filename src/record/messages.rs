@@ -1,0 +1,230 @@
+//! The messages each event is logged as, and the event each event message is read back as.
+
+use nalgebra::UnitQuaternion;
+use serde_json::{Value, json};
+
+use crate::kinematics::ArmConfig;
+use crate::session::{Applied, BeliefSummary, Event, Session, Stamped, TrialView, VoidReason, program_letter};
+
+/// The topic an event is logged on.
+pub fn topic_of(e: &Event) -> &'static str {
+    match e {
+        Event::QueryPresented { .. } => "/trial/query",
+        Event::GraspRecorded { .. } => "/trial/response",
+        Event::TrialVoided { .. } => "/trial/void",
+        Event::GraspUndone => "/trial/undo",
+        Event::Note { .. } => "/notes",
+        Event::Paused => "/session/pause",
+        Event::Resumed => "/session/resume",
+        Event::LikertAnswered { .. } => "/questionnaire/likert",
+        Event::ForcedChoice { .. } => "/questionnaire/choice",
+        Event::Ended | Event::Aborted { .. } => "/session/end",
+    }
+}
+
+fn foxglove_time(ns: u64) -> Value {
+    json!({"sec": ns / 1_000_000_000, "nsec": ns % 1_000_000_000})
+}
+
+fn trial_fields(index: usize, view: &TrialView, session: &Session) -> Value {
+    let q = session.query(view.query);
+    let mut v = json!({
+        "event_index": index,
+        "phase": view.phase.name(),
+        "trial": view.trial,
+        "query": q.query.id,
+        "object": q.query.object,
+    });
+    if let Some(c) = view.condition {
+        v["condition"] = json!(c.name());
+    }
+    if let Some(p) = view.program {
+        v["program"] = json!(program_letter(p));
+    }
+    v
+}
+
+fn belief_message(index: usize, run: usize, b: &BeliefSummary, session: &Session) -> Value {
+    json!({
+        "event_index": index,
+        "condition": session.learners()[run].condition.name(),
+        "program": program_letter(run),
+        "iteration": b.iteration,
+        "mode": {"q_star": b.mode.q_star, "w": b.mode.w},
+        "mean": {"q_star": b.mean.q_star, "w": b.mean.w},
+        "entropy": b.entropy,
+        "ess": b.ess,
+    })
+}
+
+/// The `/belief` messages of both conditions' priors, logged with the start.
+pub fn initial_beliefs(session: &Session) -> Vec<(&'static str, Value)> {
+    (0..session.learners().len())
+        .map(|run| ("/belief", belief_message(0, run, &session.learners()[run].summary(session.context()), session)))
+        .collect()
+}
+
+fn arm_message(time_ns: u64, session: &Session, q: &ArmConfig) -> Value {
+    let pts: Vec<Value> = session.study().arm.points(q).iter().map(|p| json!({"x": p.x, "y": p.y, "z": p.z})).collect();
+    let identity =
+        json!({"position": {"x": 0.0, "y": 0.0, "z": 0.0}, "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}});
+    json!({
+        "deletions": [],
+        "entities": [{
+            "timestamp": foxglove_time(time_ns),
+            "frame_id": "shoulder",
+            "id": "human_arm",
+            "lifetime": {"sec": 0, "nsec": 0},
+            "frame_locked": false,
+            "metadata": [],
+            "arrows": [], "cubes": [], "spheres": [], "cylinders": [],
+            "lines": [{
+                "type": 0,
+                "pose": identity,
+                "thickness": 0.03,
+                "scale_invariant": false,
+                "points": pts,
+                "color": {"r": 0.9, "g": 0.6, "b": 0.2, "a": 1.0},
+                "colors": [],
+                "indices": []
+            }],
+            "triangles": [], "texts": [], "models": []
+        }]
+    })
+}
+
+/// Every message of one applied event.
+pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Session) -> Vec<(&'static str, Value)> {
+    let mut out = Vec::new();
+    match (&s.event, applied) {
+        (Event::QueryPresented { .. }, Applied::Presented { view, scores }) => {
+            let q = session.query(view.query);
+            let object = session.study().object(q);
+            let mut v = trial_fields(index, view, session);
+            v["label"] = json!(q.query.label);
+            v["robot_pose"] =
+                json!({"frame": "shoulder", "position": q.query.pose.position, "rpy_deg": q.query.pose.rpy_deg});
+            v["regions"] = json!(q.regions.iter().map(|&r| object.regions[r].id.clone()).collect::<Vec<_>>());
+            v["scores"] = json!(
+                scores
+                    .iter()
+                    .zip(&session.study().training)
+                    .map(|(s, m)| json!({"query": m.query.id, "information_gain": s.information_gain, "expected_cost": s.expected_cost}))
+                    .collect::<Vec<_>>()
+            );
+            out.push(("/trial/query", v));
+            let [r, p, y] = q.query.pose.rpy_deg.map(f64::to_radians);
+            let o = UnitQuaternion::from_euler_angles(r, p, y);
+            let [x, yy, z] = q.query.pose.position;
+            out.push((
+                "/robot/handover_pose",
+                json!({
+                    "timestamp": foxglove_time(s.time_ns),
+                    "frame_id": "shoulder",
+                    "pose": {"position": {"x": x, "y": yy, "z": z},
+                             "orientation": {"x": o.i, "y": o.j, "z": o.k, "w": o.w}}
+                }),
+            ));
+        }
+        (Event::GraspRecorded { region }, Applied::Responded { view, record, belief }) => {
+            let q: ArmConfig = session.set(view.query).configs().config(record.config).try_into().expect("7 joints");
+            let mut v = trial_fields(index, view, session);
+            v["region"] = json!(region);
+            v["config_index"] = json!(record.config);
+            v["configuration"] = json!(q);
+            out.push(("/trial/response", v));
+            out.push(("/human/arm", arm_message(s.time_ns, session, &q)));
+            if let (Some(b), Some(run)) = (belief, view.program) {
+                out.push(("/belief", belief_message(index, run, b, session)));
+            }
+        }
+        (Event::TrialVoided { reason, detail }, Applied::Voided { view, retracted }) => {
+            let mut v = trial_fields(index, view, session);
+            v["reason"] = serde_json::to_value(reason).expect("serialisable");
+            v["detail"] = json!(detail);
+            v["retracted"] = json!(retracted);
+            out.push(("/trial/void", v));
+        }
+        (Event::GraspUndone, Applied::Undone { view, belief }) => {
+            out.push(("/trial/undo", trial_fields(index, view, session)));
+            if let (Some(b), Some(run)) = (belief, view.program) {
+                out.push(("/belief", belief_message(index, run, b, session)));
+            }
+        }
+        (Event::Note { text }, _) => out.push((
+            "/notes",
+            json!({"timestamp": foxglove_time(s.time_ns), "level": 2, "message": text, "name": "operator",
+                   "file": "", "line": 0, "event_index": index}),
+        )),
+        (Event::Paused, _) => out.push(("/session/pause", json!({"event_index": index}))),
+        (Event::Resumed, _) => out.push(("/session/resume", json!({"event_index": index}))),
+        (Event::LikertAnswered { program, item, value }, _) => {
+            let qn = &session.study().protocol.questionnaire;
+            let it = qn.items.iter().find(|i| i.id == *item).expect("applied: a known item");
+            let label = &session.start().program_labels[*program];
+            out.push((
+                "/questionnaire/likert",
+                json!({
+                    "event_index": index,
+                    "program": program_letter(*program),
+                    "program_label": label,
+                    "condition": session.learners()[*program].condition.name(),
+                    "item": item,
+                    "statement": it.statement.replace("{program}", label),
+                    "value": value,
+                    "label": qn.scale.iter().find(|p| p.value == *value).map(|p| p.label.clone()).unwrap_or_default(),
+                }),
+            ));
+        }
+        (Event::ForcedChoice { program }, _) => out.push((
+            "/questionnaire/choice",
+            json!({
+                "event_index": index,
+                "program": program_letter(*program),
+                "program_label": session.start().program_labels[*program],
+                "condition": session.learners()[*program].condition.name(),
+                "question": session.study().protocol.questionnaire.forced_choice,
+            }),
+        )),
+        (Event::Ended, _) => out.push(("/session/end", json!({"event_index": index, "status": "completed"}))),
+        (Event::Aborted { reason }, _) => {
+            out.push(("/session/end", json!({"event_index": index, "status": "aborted", "reason": reason})))
+        }
+        (e, a) => unreachable!("event {e:?} applied as {a:?}"),
+    }
+    out
+}
+
+fn program_index(v: &Value) -> Option<usize> {
+    let s = v.as_str()?;
+    let c = s.bytes().next()?;
+    (s.len() == 1 && c.is_ascii_uppercase()).then(|| (c - b'A') as usize)
+}
+
+/// The event an event message records (None if it is malformed).
+pub fn event_from_message(topic: &str, v: &Value) -> Option<Event> {
+    let s = |k: &str| v.get(k).and_then(Value::as_str).map(String::from);
+    Some(match topic {
+        "/trial/query" => Event::QueryPresented { query: s("query")? },
+        "/trial/response" => Event::GraspRecorded { region: s("region")? },
+        "/trial/void" => Event::TrialVoided {
+            reason: serde_json::from_value::<VoidReason>(v.get("reason")?.clone()).ok()?,
+            detail: s("detail").unwrap_or_default(),
+        },
+        "/trial/undo" => Event::GraspUndone,
+        "/notes" => Event::Note { text: s("message")? },
+        "/session/pause" => Event::Paused,
+        "/session/resume" => Event::Resumed,
+        "/questionnaire/likert" => Event::LikertAnswered {
+            program: program_index(v.get("program")?)?,
+            item: s("item")?,
+            value: v.get("value")?.as_i64()?,
+        },
+        "/questionnaire/choice" => Event::ForcedChoice { program: program_index(v.get("program")?)? },
+        "/session/end" => match s("status")?.as_str() {
+            "completed" => Event::Ended,
+            _ => Event::Aborted { reason: s("reason").unwrap_or_default() },
+        },
+        _ => return None,
+    })
+}

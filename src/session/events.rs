@@ -1,0 +1,116 @@
+//! What happens in a session: the start record and the events folded over it.
+
+use serde::{Deserialize, Serialize};
+
+use crate::select::SelectorKind;
+
+/// Everything fixed when a session starts (the log's `/session/start`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SessionStart {
+    /// Random id of this session (one per session, kept across resumes).
+    pub session_id: String,
+    pub participant: String,
+    pub protocol_name: String,
+    pub protocol_sha256: String,
+    pub seed: u64,
+    /// The training conditions in the order run: Program A first.
+    pub condition_order: Vec<SelectorKind>,
+    /// The labels the participant sees for the runs, in the order run.
+    pub program_labels: Vec<String>,
+    pub software_version: String,
+    /// A rehearsal or dry run, never mixed with real data.
+    pub pilot: bool,
+    /// Counterbalancing slot (index into the orders AB, BA).
+    pub slot: usize,
+    /// Start time, RFC 3339 UTC.
+    pub started_at: String,
+    /// The simulated participant's ground truth, in dry runs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub simulated_truth: Option<crate::ergo::Lambda>,
+    /// The log this one continues after a crash or a quit (its file name).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resumed_from: Option<String>,
+}
+
+/// Why a trial was voided.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum VoidReason {
+    /// The object was dropped.
+    Dropped,
+    /// The robot did not reach or hold the pose.
+    RobotFault,
+    /// The participant was not ready or misunderstood.
+    ParticipantNotReady,
+    /// Anything else (see the detail).
+    Other,
+}
+
+impl VoidReason {
+    pub const ALL: [VoidReason; 4] =
+        [VoidReason::Dropped, VoidReason::RobotFault, VoidReason::ParticipantNotReady, VoidReason::Other];
+
+    pub fn label(self) -> &'static str {
+        match self {
+            VoidReason::Dropped => "object dropped",
+            VoidReason::RobotFault => "robot fault",
+            VoidReason::ParticipantNotReady => "participant not ready",
+            VoidReason::Other => "other",
+        }
+    }
+}
+
+/// One thing that happened, as the operator (or a simulated participant) reports it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "kebab-case")]
+pub enum Event {
+    /// The robot holds the suggested query's object at its pose.
+    QueryPresented {
+        query: String,
+    },
+    /// The participant took the object by this grip region.
+    GraspRecorded {
+        region: String,
+    },
+    /// The current trial does not count and is repeated; a grasp just recorded is retracted.
+    TrialVoided {
+        reason: VoidReason,
+        detail: String,
+    },
+    /// The last recorded grasp is taken back (until the next query is presented).
+    GraspUndone,
+    Note {
+        text: String,
+    },
+    Paused,
+    Resumed,
+    /// An answer to a Likert item about a program (0 = Program A).
+    LikertAnswered {
+        program: usize,
+        item: String,
+        value: i64,
+    },
+    /// The program preferred in the forced choice.
+    ForcedChoice {
+        program: usize,
+    },
+    /// The session is complete.
+    Ended,
+    /// The session stops early.
+    Aborted {
+        reason: String,
+    },
+}
+
+/// An event with the time it happened (ns since the Unix epoch), stamped by the shell.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Stamped {
+    pub time_ns: u64,
+    pub event: Event,
+}
+
+/// A program's letter: 0 → "A".
+pub fn program_letter(program: usize) -> String {
+    char::from(b'A' + program as u8).to_string()
+}

@@ -1,0 +1,591 @@
+//! The study session as a pure state machine: `Session::apply(event)` folds one event into
+//! the state, `Session::prompt()` says what the operator must do next. No terminal, file or
+//! clock in here: the shells (console, dry run, replay) do the I/O.
+
+mod events;
+mod learner;
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use rand::SeedableRng;
+use rand::seq::SliceRandom;
+
+use crate::belief::{Belief, Grid};
+use crate::ergo::{ConfigSet, FeasibleSet, Observation, most_likely_in_region};
+use crate::protocol::{ResolvedQuery, Study};
+use crate::select::{OutcomeModel, QueryValue, SelectorKind};
+use crate::{SeededRng, derive_seed};
+
+pub use events::{Event, SessionStart, Stamped, VoidReason, program_letter};
+pub use learner::{BeliefSummary, Learner, LearningContext};
+
+/// The counterbalancing orders: slot 0 runs the protocol's conditions as listed, slot 1 reversed.
+pub fn condition_order(study: &Study, slot: usize) -> Vec<SelectorKind> {
+    let mut c = study.protocol.session.conditions.clone();
+    if slot % 2 == 1 {
+        c.reverse();
+    }
+    c
+}
+
+/// The ergo feasible set of a resolved query, configurations grouped by offered region.
+pub fn choice_set(q: &ResolvedQuery) -> FeasibleSet {
+    let configs = ConfigSet::from_rows(&q.feasible.rows()).expect("validated protocols have feasible configurations");
+    FeasibleSet::with_regions(configs, &q.feasible.labels()).expect("feasible sets are grouped by region")
+}
+
+/// Why an event does not fit the session's state.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SessionError {
+    #[error("{event} is not possible now: {why}")]
+    NotNow { event: &'static str, why: String },
+    #[error("query '{found}' presented, expected '{expected}'")]
+    WrongQuery { found: String, expected: String },
+    #[error("region '{region}' is not offered at query '{query}' (offered: {offered})")]
+    UnknownRegion { region: String, query: String, offered: String },
+    #[error("Likert item '{item}' of program {program} does not exist")]
+    UnknownItem { item: String, program: usize },
+    #[error("Likert value {value} is not on the scale {min}..{max}")]
+    OffScale { value: i64, min: i64, max: i64 },
+    #[error("program {0} does not exist")]
+    UnknownProgram(usize),
+    #[error("the session start does not fit the protocol: {0}")]
+    BadStart(String),
+}
+
+/// The two phases with trials.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Phase {
+    Training,
+    Test,
+}
+
+impl Phase {
+    pub fn name(self) -> &'static str {
+        match self {
+            Phase::Training => "training",
+            Phase::Test => "test",
+        }
+    }
+}
+
+/// Where a trial's query comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum QueryRef {
+    /// Index into the training menu.
+    Training(usize),
+    /// Index into the test set.
+    Test(usize),
+}
+
+/// One trial as the operator sees it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrialView {
+    pub phase: Phase,
+    /// The training condition (never shown to the participant).
+    pub condition: Option<SelectorKind>,
+    /// Index of the program (0 = A) in training.
+    pub program: Option<usize>,
+    /// 1-based trial number within the phase (within the run for training).
+    pub trial: usize,
+    pub of: usize,
+    pub query: QueryRef,
+}
+
+/// What the operator must do next.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Prompt {
+    /// Command the robot to the query's pose and confirm it is presented.
+    Present(TrialView),
+    /// Record which region the participant grabbed.
+    Grasp(TrialView),
+    /// Ask a Likert item about a program.
+    Likert { program: usize, item: usize, index: usize, total: usize },
+    /// Ask the forced choice.
+    ForcedChoice,
+    /// Everything is answered: end the session.
+    Finish,
+    /// The session is paused.
+    Paused,
+    /// The session is over.
+    Done { completed: bool },
+}
+
+/// One recorded trial.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrialRecord {
+    pub phase: Phase,
+    pub run: Option<usize>,
+    pub trial: usize,
+    pub query: QueryRef,
+    /// Index into the query's offered regions.
+    pub region: usize,
+    /// Index of the mapped configuration in the query's feasible set (label model).
+    pub config: usize,
+}
+
+/// What applying an event derived, for the recorder.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Applied {
+    Presented { view: TrialView, scores: Vec<QueryValue> },
+    Responded { view: TrialView, record: TrialRecord, belief: Option<BeliefSummary> },
+    Voided { view: TrialView, retracted: bool },
+    Undone { view: TrialView, belief: Option<BeliefSummary> },
+    Ended { completed: bool },
+    Other,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+enum Stage {
+    Training { run: usize, trial: usize, presented: bool },
+    Test { trial: usize, presented: bool },
+    Questionnaire,
+    Done { completed: bool },
+}
+
+/// The state before the last grasp, kept so that it can be undone.
+#[derive(Clone, Debug)]
+struct UndoPoint {
+    stage: Stage,
+    learner: Option<(usize, Learner)>,
+}
+
+/// A session: the fold of the protocol, the start record and the events.
+#[derive(Clone, Debug)]
+pub struct Session {
+    study: Arc<Study>,
+    start: SessionStart,
+    menu: Arc<Vec<FeasibleSet>>,
+    tests: Arc<Vec<FeasibleSet>>,
+    ctx: LearningContext,
+    learners: Vec<Learner>,
+    test_order: Vec<usize>,
+    stage: Stage,
+    paused: bool,
+    undo: Option<Box<UndoPoint>>,
+    trials: Vec<TrialRecord>,
+    likert: BTreeMap<(usize, usize), i64>,
+    choice: Option<usize>,
+    notes: Vec<String>,
+    events: usize,
+}
+
+mod purpose {
+    pub const PARTICLES: u64 = 101;
+    pub const LEARNER: u64 = 102;
+    pub const TEST_ORDER: u64 = 103;
+}
+
+impl Session {
+    /// A new session at its first prompt.
+    pub fn new(study: Arc<Study>, start: SessionStart) -> Result<Self, SessionError> {
+        let spec = &study.protocol.session;
+        if start.condition_order.len() != spec.conditions.len()
+            || spec.conditions.iter().any(|c| !start.condition_order.contains(c))
+        {
+            return Err(SessionError::BadStart(format!(
+                "condition order {:?} is not an order of the protocol's conditions {:?}",
+                start.condition_order, spec.conditions
+            )));
+        }
+        let learning = &study.protocol.learning;
+        let prior = learning.prior().map_err(|e| SessionError::BadStart(e.to_string()))?;
+        let supports: Vec<(f64, f64)> = prior.components().iter().map(|c| c.support()).collect();
+        let ctx = LearningContext {
+            alpha: learning.alpha,
+            observation: learning.observation,
+            grid: Grid::over_supports(&supports, learning.grid_boxes),
+            jitter: learning.jitter(prior.dim()),
+            policy: learning.resampling,
+            beta: learning.hybrid_beta,
+            label_model: learning.label_model.to_lambda(),
+        };
+        let menu: Arc<Vec<FeasibleSet>> = Arc::new(study.training.iter().map(choice_set).collect());
+        let tests: Arc<Vec<FeasibleSet>> = Arc::new(study.test.iter().map(choice_set).collect());
+        // Both conditions start from the same draw of the prior.
+        let mut particle_rng = SeededRng::seed_from_u64(derive_seed(start.seed, 0, purpose::PARTICLES));
+        let belief = Belief::from_prior(&prior, learning.particles, &mut particle_rng)
+            .map_err(|e| SessionError::BadStart(e.to_string()))?;
+        let learners = start
+            .condition_order
+            .iter()
+            .enumerate()
+            .map(|(run, &c)| {
+                let rng = SeededRng::seed_from_u64(derive_seed(start.seed, run as u64, purpose::LEARNER));
+                Learner::new(c, belief.clone(), rng, &menu, &ctx)
+            })
+            .collect();
+        let mut test_order: Vec<usize> = (0..study.test.len()).collect();
+        if spec.shuffle_test {
+            test_order.shuffle(&mut SeededRng::seed_from_u64(derive_seed(start.seed, 0, purpose::TEST_ORDER)));
+        }
+        Ok(Self {
+            study,
+            start,
+            menu,
+            tests,
+            ctx,
+            learners,
+            test_order,
+            stage: Stage::Training { run: 0, trial: 0, presented: false },
+            paused: false,
+            undo: None,
+            trials: Vec::new(),
+            likert: BTreeMap::new(),
+            choice: None,
+            notes: Vec::new(),
+            events: 0,
+        })
+    }
+
+    pub fn study(&self) -> &Study {
+        &self.study
+    }
+
+    pub fn start(&self) -> &SessionStart {
+        &self.start
+    }
+
+    pub fn learners(&self) -> &[Learner] {
+        &self.learners
+    }
+
+    pub fn context(&self) -> &LearningContext {
+        &self.ctx
+    }
+
+    pub fn trials(&self) -> &[TrialRecord] {
+        &self.trials
+    }
+
+    pub fn notes(&self) -> &[String] {
+        &self.notes
+    }
+
+    pub fn likert_answers(&self) -> &BTreeMap<(usize, usize), i64> {
+        &self.likert
+    }
+
+    pub fn forced_choice(&self) -> Option<usize> {
+        self.choice
+    }
+
+    pub fn is_paused(&self) -> bool {
+        self.paused
+    }
+
+    /// Number of events applied.
+    pub fn event_count(&self) -> usize {
+        self.events
+    }
+
+    /// Whether `GraspUndone` is possible now.
+    pub fn can_undo(&self) -> bool {
+        self.undo.is_some() && !self.paused
+    }
+
+    /// The feasible set of a query.
+    pub fn set(&self, q: QueryRef) -> &FeasibleSet {
+        match q {
+            QueryRef::Training(i) => &self.menu[i],
+            QueryRef::Test(i) => &self.tests[i],
+        }
+    }
+
+    /// The protocol's query.
+    pub fn query(&self, q: QueryRef) -> &ResolvedQuery {
+        match q {
+            QueryRef::Training(i) => &self.study.training[i],
+            QueryRef::Test(i) => &self.study.test[i],
+        }
+    }
+
+    fn trials_per_run(&self) -> usize {
+        self.study.protocol.session.trials_per_condition
+    }
+
+    fn view(&self, stage: &Stage) -> Option<TrialView> {
+        match *stage {
+            Stage::Training { run, trial, .. } => Some(TrialView {
+                phase: Phase::Training,
+                condition: Some(self.learners[run].condition),
+                program: Some(run),
+                trial: trial + 1,
+                of: self.trials_per_run(),
+                query: QueryRef::Training(self.learners[run].suggestion),
+            }),
+            Stage::Test { trial, .. } => Some(TrialView {
+                phase: Phase::Test,
+                condition: None,
+                program: None,
+                trial: trial + 1,
+                of: self.test_order.len(),
+                query: QueryRef::Test(self.test_order[trial]),
+            }),
+            _ => None,
+        }
+    }
+
+    /// The questionnaire's items in the order asked: every item about Program A, then B.
+    pub fn likert_order(&self) -> Vec<(usize, usize)> {
+        let items = self.study.protocol.questionnaire.items.len();
+        (0..self.learners.len()).flat_map(|p| (0..items).map(move |i| (p, i))).collect()
+    }
+
+    /// What the operator must do next.
+    pub fn prompt(&self) -> Prompt {
+        if let Stage::Done { completed } = self.stage {
+            return Prompt::Done { completed };
+        }
+        if self.paused {
+            return Prompt::Paused;
+        }
+        match &self.stage {
+            Stage::Training { presented, .. } | Stage::Test { presented, .. } => {
+                let view = self.view(&self.stage).expect("a trial stage");
+                if *presented { Prompt::Grasp(view) } else { Prompt::Present(view) }
+            }
+            Stage::Questionnaire => {
+                let order = self.likert_order();
+                match order.iter().position(|k| !self.likert.contains_key(k)) {
+                    Some(index) => {
+                        let (program, item) = order[index];
+                        Prompt::Likert { program, item, index, total: order.len() }
+                    }
+                    None if self.choice.is_none() => Prompt::ForcedChoice,
+                    None => Prompt::Finish,
+                }
+            }
+            Stage::Done { .. } => unreachable!("handled above"),
+        }
+    }
+
+    fn not_now(&self, event: &'static str, why: impl Into<String>) -> SessionError {
+        SessionError::NotNow { event, why: why.into() }
+    }
+
+    /// The stage after a trial of `stage` is complete.
+    fn next_stage(&self, stage: &Stage) -> Stage {
+        match *stage {
+            Stage::Training { run, trial, .. } if trial + 1 < self.trials_per_run() => {
+                Stage::Training { run, trial: trial + 1, presented: false }
+            }
+            Stage::Training { run, .. } if run + 1 < self.learners.len() => {
+                Stage::Training { run: run + 1, trial: 0, presented: false }
+            }
+            Stage::Training { .. } => Stage::Test { trial: 0, presented: false },
+            Stage::Test { trial, .. } if trial + 1 < self.test_order.len() => {
+                Stage::Test { trial: trial + 1, presented: false }
+            }
+            _ => Stage::Questionnaire,
+        }
+    }
+
+    /// Folds one event into the state; on error the state is unchanged.
+    pub fn apply(&mut self, event: &Event) -> Result<Applied, SessionError> {
+        let name = event_name(event);
+        if let Stage::Done { .. } = self.stage {
+            return Err(self.not_now(name, "the session is over"));
+        }
+        if self.paused && !matches!(event, Event::Resumed | Event::Note { .. } | Event::Aborted { .. }) {
+            return Err(self.not_now(name, "the session is paused"));
+        }
+        let applied = match event {
+            Event::QueryPresented { query } => {
+                let (view, presented) = match &self.stage {
+                    Stage::Training { presented, .. } | Stage::Test { presented, .. } => {
+                        (self.view(&self.stage).expect("a trial stage"), *presented)
+                    }
+                    _ => return Err(self.not_now(name, "no trial is waiting for a query")),
+                };
+                if presented {
+                    return Err(
+                        self.not_now(name, "the query is already presented; record the grasp or void the trial")
+                    );
+                }
+                let expected = &self.query(view.query).query.id;
+                if query != expected {
+                    return Err(SessionError::WrongQuery { found: query.clone(), expected: expected.clone() });
+                }
+                match &mut self.stage {
+                    Stage::Training { presented, .. } | Stage::Test { presented, .. } => *presented = true,
+                    _ => unreachable!(),
+                }
+                self.undo = None;
+                let scores = match view.program {
+                    Some(run) => self.learners[run].scores.clone(),
+                    None => Vec::new(),
+                };
+                Applied::Presented { view, scores }
+            }
+            Event::GraspRecorded { region } => {
+                let view = match &self.stage {
+                    Stage::Training { presented: true, .. } | Stage::Test { presented: true, .. } => {
+                        self.view(&self.stage).expect("a trial stage")
+                    }
+                    _ => return Err(self.not_now(name, "no query is presented")),
+                };
+                let q = self.query(view.query);
+                let object = self.study.object(q);
+                let Some(r) = q.regions.iter().position(|&ri| object.regions[ri].id == *region) else {
+                    let offered: Vec<_> = q.regions.iter().map(|&ri| object.regions[ri].id.clone()).collect();
+                    return Err(SessionError::UnknownRegion {
+                        region: region.clone(),
+                        query: q.query.id.clone(),
+                        offered: offered.join(", "),
+                    });
+                };
+                let set = self.set(view.query).clone();
+                let config =
+                    most_likely_in_region(&set, r, &self.ctx.label_model).expect("validated: every region is feasible");
+                let record = TrialRecord {
+                    phase: view.phase,
+                    run: view.program,
+                    trial: view.trial,
+                    query: view.query,
+                    region: r,
+                    config,
+                };
+                let mut undo = UndoPoint { stage: self.stage.clone(), learner: None };
+                let belief = match view.program {
+                    Some(run) => {
+                        undo.learner = Some((run, self.learners[run].clone()));
+                        let obs = match self.ctx.observation {
+                            OutcomeModel::Configuration => Observation::Config(config),
+                            OutcomeModel::Region => Observation::Region(set.regions()[r].clone().collect()),
+                        };
+                        let menu = Arc::clone(&self.menu);
+                        let ctx = self.ctx.clone();
+                        self.learners[run].learn(&set, &obs, &menu, &ctx);
+                        Some(self.learners[run].summary(&ctx))
+                    }
+                    None => None,
+                };
+                self.trials.push(record.clone());
+                self.stage = self.next_stage(&self.stage);
+                self.undo = Some(Box::new(undo));
+                Applied::Responded { view, record, belief }
+            }
+            Event::GraspUndone => {
+                let Some(undo) = self.undo.take() else {
+                    return Err(self.not_now(name, "there is no grasp to undo since the last query was presented"));
+                };
+                let belief = self.restore(*undo);
+                let view = self.view(&self.stage).expect("restored to a trial stage");
+                Applied::Undone { view, belief }
+            }
+            Event::TrialVoided { .. } => {
+                let retracted = match (&self.stage, self.undo.take()) {
+                    (_, Some(undo)) => {
+                        self.restore(*undo);
+                        true
+                    }
+                    (Stage::Training { presented: true, .. } | Stage::Test { presented: true, .. }, None) => false,
+                    _ => return Err(self.not_now(name, "no trial is in progress")),
+                };
+                let view = self.view(&self.stage).expect("a trial stage");
+                match &mut self.stage {
+                    Stage::Training { presented, .. } | Stage::Test { presented, .. } => *presented = false,
+                    _ => unreachable!(),
+                }
+                Applied::Voided { view, retracted }
+            }
+            Event::Note { text } => {
+                self.notes.push(text.clone());
+                Applied::Other
+            }
+            Event::Paused => {
+                self.paused = true;
+                Applied::Other
+            }
+            Event::Resumed => {
+                if !self.paused {
+                    return Err(self.not_now(name, "the session is not paused"));
+                }
+                self.paused = false;
+                Applied::Other
+            }
+            Event::LikertAnswered { program, item, value } => {
+                if self.stage != Stage::Questionnaire {
+                    return Err(self.not_now(name, "the questionnaire has not started"));
+                }
+                let items = &self.study.protocol.questionnaire.items;
+                let Some(i) = items.iter().position(|it| it.id == *item) else {
+                    return Err(SessionError::UnknownItem { item: item.clone(), program: *program });
+                };
+                if *program >= self.learners.len() {
+                    return Err(SessionError::UnknownProgram(*program));
+                }
+                let scale = &self.study.protocol.questionnaire.scale;
+                if !scale.iter().any(|p| p.value == *value) {
+                    return Err(SessionError::OffScale {
+                        value: *value,
+                        min: scale.first().map_or(0, |p| p.value),
+                        max: scale.last().map_or(0, |p| p.value),
+                    });
+                }
+                self.likert.insert((*program, i), *value);
+                Applied::Other
+            }
+            Event::ForcedChoice { program } => {
+                if self.stage != Stage::Questionnaire {
+                    return Err(self.not_now(name, "the questionnaire has not started"));
+                }
+                if *program >= self.learners.len() {
+                    return Err(SessionError::UnknownProgram(*program));
+                }
+                self.choice = Some(*program);
+                Applied::Other
+            }
+            Event::Ended => {
+                if self.prompt() != Prompt::Finish {
+                    return Err(self.not_now(name, "the questionnaire is not complete"));
+                }
+                self.stage = Stage::Done { completed: true };
+                Applied::Ended { completed: true }
+            }
+            Event::Aborted { .. } => {
+                self.stage = Stage::Done { completed: false };
+                self.paused = false;
+                Applied::Ended { completed: false }
+            }
+        };
+        self.events += 1;
+        Ok(applied)
+    }
+
+    fn restore(&mut self, undo: UndoPoint) -> Option<BeliefSummary> {
+        self.trials.pop();
+        self.stage = undo.stage;
+        match &mut self.stage {
+            Stage::Training { presented, .. } | Stage::Test { presented, .. } => *presented = true,
+            _ => {}
+        }
+        undo.learner.map(|(run, l)| {
+            self.learners[run] = l;
+            self.learners[run].summary(&self.ctx)
+        })
+    }
+}
+
+/// The event's name, for messages.
+pub fn event_name(e: &Event) -> &'static str {
+    match e {
+        Event::QueryPresented { .. } => "query presented",
+        Event::GraspRecorded { .. } => "grasp recorded",
+        Event::TrialVoided { .. } => "trial voided",
+        Event::GraspUndone => "undo",
+        Event::Note { .. } => "note",
+        Event::Paused => "pause",
+        Event::Resumed => "resume",
+        Event::LikertAnswered { .. } => "Likert answer",
+        Event::ForcedChoice { .. } => "forced choice",
+        Event::Ended => "end",
+        Event::Aborted { .. } => "abort",
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,204 @@
+use std::sync::Arc;
+
+use super::*;
+use crate::protocol::Study;
+
+/// The default study with fewer particles, for speed.
+fn study() -> Arc<Study> {
+    let mut s = Study::default_study();
+    s.protocol.learning.particles = 300;
+    Arc::new(s)
+}
+
+fn start(study: &Study, slot: usize, seed: u64) -> SessionStart {
+    SessionStart {
+        session_id: "test".into(),
+        participant: "p-test".into(),
+        protocol_name: study.protocol.name.clone(),
+        protocol_sha256: study.sha256.clone(),
+        seed,
+        condition_order: condition_order(study, slot),
+        program_labels: study.protocol.session.program_labels.clone(),
+        software_version: "test".into(),
+        pilot: true,
+        slot,
+        started_at: "2026-11-22T00:00:00Z".into(),
+        simulated_truth: None,
+        resumed_from: None,
+    }
+}
+
+fn session() -> Session {
+    let s = study();
+    let st = start(&s, 0, 7);
+    Session::new(s, st).unwrap()
+}
+
+fn present(s: &mut Session) -> TrialView {
+    let Prompt::Present(view) = s.prompt() else { panic!("expected a query to present, got {:?}", s.prompt()) };
+    let id = s.query(view.query).query.id.clone();
+    s.apply(&Event::QueryPresented { query: id }).unwrap();
+    view
+}
+
+fn first_region(s: &Session, view: &TrialView) -> String {
+    let q = s.query(view.query);
+    s.study().object(q).regions[q.regions[0]].id.clone()
+}
+
+fn grasp_first(s: &mut Session) {
+    let view = present(s);
+    let r = first_region(s, &view);
+    s.apply(&Event::GraspRecorded { region: r }).unwrap();
+}
+
+#[test]
+fn a_whole_session_runs_from_training_to_the_end() {
+    let mut s = session();
+    for _ in 0..26 {
+        grasp_first(&mut s);
+    }
+    assert_eq!(s.trials().len(), 26);
+    assert_eq!(s.trials().iter().filter(|t| t.phase == Phase::Training).count(), 10);
+    let order = s.likert_order();
+    assert_eq!(order.len(), 8);
+    for (k, &(program, item)) in order.iter().enumerate() {
+        assert_eq!(s.prompt(), Prompt::Likert { program, item, index: k, total: 8 });
+        let id = s.study().protocol.questionnaire.items[item].id.clone();
+        s.apply(&Event::LikertAnswered { program, item: id, value: 4 }).unwrap();
+    }
+    assert_eq!(s.prompt(), Prompt::ForcedChoice);
+    assert!(s.apply(&Event::Ended).is_err(), "the forced choice is still open");
+    s.apply(&Event::ForcedChoice { program: 1 }).unwrap();
+    assert_eq!(s.prompt(), Prompt::Finish);
+    s.apply(&Event::Ended).unwrap();
+    assert_eq!(s.prompt(), Prompt::Done { completed: true });
+    assert!(s.apply(&Event::Note { text: "late".into() }).is_err());
+}
+
+#[test]
+fn training_runs_follow_the_counterbalanced_order_and_test_is_shuffled() {
+    let st = study();
+    let a = Session::new(Arc::clone(&st), start(&st, 0, 1)).unwrap();
+    let b = Session::new(Arc::clone(&st), start(&st, 1, 1)).unwrap();
+    assert_eq!(a.learners()[0].condition, SelectorKind::Active);
+    assert_eq!(b.learners()[0].condition, SelectorKind::Passive);
+    let test_order = |seed| {
+        let mut s = Session::new(Arc::clone(&st), start(&st, 0, seed)).unwrap();
+        for _ in 0..10 {
+            grasp_first(&mut s);
+        }
+        (0..16)
+            .map(|_| {
+                let v = present(&mut s);
+                let r = first_region(&s, &v);
+                s.apply(&Event::GraspRecorded { region: r }).unwrap();
+                match v.query {
+                    QueryRef::Test(i) => i,
+                    _ => panic!("a test query"),
+                }
+            })
+            .collect::<Vec<_>>()
+    };
+    let (x, y) = (test_order(1), test_order(2));
+    let mut sorted = x.clone();
+    sorted.sort();
+    assert_eq!(sorted, (0..16).collect::<Vec<_>>(), "every test query once");
+    assert_ne!(x, y, "the order is shuffled per session seed");
+    assert_eq!(x, test_order(1), "and reproducible");
+}
+
+#[test]
+fn undo_restores_previous_belief() {
+    let mut s = session();
+    grasp_first(&mut s);
+    let before = s.learners()[0].clone();
+    let view = present(&mut s);
+    assert!(!s.can_undo(), "presenting a query closes the undo window");
+    let r = first_region(&s, &view);
+    s.apply(&Event::GraspRecorded { region: r }).unwrap();
+    assert!(s.can_undo());
+    s.apply(&Event::GraspUndone).unwrap();
+    assert_eq!(s.learners()[0].belief, before.belief);
+    assert_eq!(s.learners()[0].iteration, 1);
+    assert_eq!(s.trials().len(), 1);
+    assert!(matches!(s.prompt(), Prompt::Grasp(v) if v.trial == 2), "the same trial awaits its grasp again");
+    assert!(s.apply(&Event::GraspUndone).is_err(), "only the last grasp");
+}
+
+#[test]
+fn a_voided_trial_is_repeated_and_not_learned_from() {
+    let mut s = session();
+    let before = s.learners()[0].clone();
+    let view = present(&mut s);
+    s.apply(&Event::TrialVoided { reason: VoidReason::Dropped, detail: String::new() }).unwrap();
+    assert_eq!(s.prompt(), Prompt::Present(view.clone()), "the same trial again");
+    assert_eq!(s.learners()[0].belief, before.belief);
+    // Voiding right after a grasp retracts it.
+    let v = present(&mut s);
+    let r = first_region(&s, &v);
+    s.apply(&Event::GraspRecorded { region: r }).unwrap();
+    let applied = s.apply(&Event::TrialVoided { reason: VoidReason::RobotFault, detail: "slipped".into() }).unwrap();
+    assert!(matches!(applied, Applied::Voided { retracted: true, .. }));
+    assert_eq!(s.trials().len(), 0);
+    assert_eq!(s.learners()[0].belief, before.belief);
+    assert_eq!(s.prompt(), Prompt::Present(view));
+}
+
+#[test]
+fn wrong_input_is_refused_and_changes_nothing() {
+    let mut s = session();
+    assert!(matches!(s.apply(&Event::QueryPresented { query: "nope".into() }), Err(SessionError::WrongQuery { .. })));
+    assert!(s.apply(&Event::GraspRecorded { region: "left-grip".into() }).is_err(), "nothing presented yet");
+    let view = present(&mut s);
+    assert!(matches!(
+        s.apply(&Event::GraspRecorded { region: "saddle".into() }),
+        Err(SessionError::UnknownRegion { .. })
+    ));
+    assert!(s.apply(&Event::LikertAnswered { program: 0, item: "prefer".into(), value: 3 }).is_err());
+    assert!(s.apply(&Event::Resumed).is_err(), "not paused");
+    assert_eq!(s.prompt(), Prompt::Grasp(view));
+}
+
+#[test]
+fn pause_blocks_everything_but_notes_resume_and_abort() {
+    let mut s = session();
+    s.apply(&Event::Paused).unwrap();
+    assert_eq!(s.prompt(), Prompt::Paused);
+    let Prompt::Paused = s.prompt() else { unreachable!() };
+    assert!(s.apply(&Event::QueryPresented { query: "bars-low-level".into() }).is_err());
+    s.apply(&Event::Note { text: "participant needs water".into() }).unwrap();
+    s.apply(&Event::Resumed).unwrap();
+    assert!(matches!(s.prompt(), Prompt::Present(_)));
+    s.apply(&Event::Aborted { reason: "fire alarm".into() }).unwrap();
+    assert_eq!(s.prompt(), Prompt::Done { completed: false });
+}
+
+#[test]
+fn the_same_events_give_the_same_state() {
+    let run = || {
+        let mut s = session();
+        for _ in 0..6 {
+            grasp_first(&mut s);
+        }
+        (s.learners()[0].belief.clone(), s.learners()[1].suggestion, s.trials().to_vec())
+    };
+    assert_eq!(run(), run());
+}
+
+#[test]
+fn likert_values_must_be_on_the_scale() {
+    let mut s = session();
+    for _ in 0..26 {
+        grasp_first(&mut s);
+    }
+    assert!(matches!(
+        s.apply(&Event::LikertAnswered { program: 0, item: "prefer".into(), value: 9 }),
+        Err(SessionError::OffScale { value: 9, min: 1, max: 5 })
+    ));
+    assert!(matches!(
+        s.apply(&Event::LikertAnswered { program: 0, item: "nope".into(), value: 3 }),
+        Err(SessionError::UnknownItem { .. })
+    ));
+    assert!(matches!(s.apply(&Event::ForcedChoice { program: 2 }), Err(SessionError::UnknownProgram(2))));
+}
