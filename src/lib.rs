@@ -16,6 +16,7 @@ pub mod protocol;
 pub mod record;
 pub mod select;
 pub mod session;
+pub mod tui;
 
 /// The one seeded generator type used for every random draw: reproducible across
 /// platforms and versions of this crate's dependencies (pinned in `Cargo.lock`).

@@ -1,13 +1,123 @@
-//! The operator console (placeholder until the console lands).
+//! `handover run` (and a bare `handover`) and `handover resume LOG`: the operator console.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
 
 use anyhow::Result;
-use handover::record::LogContents;
+use clap::Args;
+use handover::participant::validate_id;
+use handover::protocol::DEFAULT_PROTOCOL;
+use handover::record::{LogContents, study_of};
+use handover::tui::{App, AppConfig, run_terminal};
 
-use super::input::bad;
+use super::input::{bad, load_study, read_text};
 
-pub fn resume(old: LogContents) -> Result<()> {
-    Err(bad(format!(
-        "{}: resuming in the console is not available yet; use --dry-run for dry runs",
-        old.path.display()
-    )))
+/// Open the operator console and run a study session: setup, the training runs (blinded
+/// as Program A / B), the test phase, the questionnaire and a summary. Every event is on
+/// disk before the screen shows its consequence; `q` leaves a resumable session.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// Protocol (default: the embedded protocols/bike-handover.json).
+    #[arg(long, value_name = "FILE")]
+    protocol: Option<PathBuf>,
+    /// An existing participant's id, or `new` for a new pseudonymous one.
+    #[arg(long, value_name = "ID|new", default_value = "new")]
+    participant: String,
+    /// Where session logs are written.
+    #[arg(long, value_name = "DIR", default_value = "logs")]
+    logs: PathBuf,
+    /// Where participant records live.
+    #[arg(long, value_name = "DIR", default_value = "participants")]
+    participants: PathBuf,
+    /// Let a simulated participant answer (a rehearsal; the log is flagged pilot).
+    #[arg(long)]
+    simulate: bool,
+    /// Milliseconds between the simulated participant's actions.
+    #[arg(long, value_name = "MS", default_value_t = 800)]
+    pace: u64,
+    /// The session seed (random by default; recorded in the log).
+    #[arg(long)]
+    seed: Option<u64>,
+}
+
+impl RunArgs {
+    /// The defaults of `handover run`, for a bare `handover`.
+    pub fn default_for_bare() -> Self {
+        Self {
+            protocol: None,
+            participant: "new".into(),
+            logs: PathBuf::from("logs"),
+            participants: PathBuf::from("participants"),
+            simulate: false,
+            pace: 800,
+            seed: None,
+        }
+    }
+}
+
+fn require_terminal() -> Result<()> {
+    use std::io::IsTerminal;
+    if !std::io::stdout().is_terminal() || !std::io::stdin().is_terminal() {
+        return Err(bad("the console needs an interactive terminal (for scripted sessions use `handover dry-run`)"));
+    }
+    Ok(())
+}
+
+fn finish(result: Result<Option<String>, String>) -> Result<()> {
+    match result {
+        Ok(Some(msg)) => {
+            eprintln!("{msg}");
+            Ok(())
+        }
+        Ok(None) => Ok(()),
+        Err(e) => Err(anyhow::anyhow!("console: {e}")),
+    }
+}
+
+pub fn run(args: RunArgs) -> Result<()> {
+    let RunArgs { protocol, participant, logs, participants, simulate, pace, seed } = args;
+    if participant != "new" {
+        validate_id(&participant).map_err(|e| bad(format!("--participant: {e}")))?;
+    }
+    let study = Arc::new(load_study(protocol.as_deref())?);
+    let protocol_text = match &protocol {
+        Some(p) => read_text(p)?,
+        None => DEFAULT_PROTOCOL.to_string(),
+    };
+    let config = AppConfig {
+        study,
+        protocol_text,
+        logs,
+        participants,
+        participant,
+        simulate,
+        pace: Duration::from_millis(pace),
+        seed,
+    };
+    let app = App::new(config);
+    if let Some(e) = app.plan.as_ref().and_then(|p| p.error.clone()) {
+        return Err(bad(format!("--participant: {e}")));
+    }
+    require_terminal()?;
+    finish(run_terminal(app))
+}
+
+/// The console on an interrupted session's log.
+pub fn resume(old: LogContents, simulate: bool, pace: u64) -> Result<()> {
+    let study = Arc::new(study_of(&old).map_err(|e| bad(e.to_string()))?);
+    let logs = old.path.parent().and_then(|d| d.parent()).map(PathBuf::from).unwrap_or_else(|| PathBuf::from("."));
+    let config = AppConfig {
+        study,
+        protocol_text: old.protocol_text.clone(),
+        logs,
+        participants: PathBuf::from("participants"),
+        participant: old.start.participant.clone(),
+        simulate,
+        pace: Duration::from_millis(pace),
+        seed: Some(old.start.seed),
+    };
+    require_terminal()?;
+    let app = App::resume(config, &old).map_err(anyhow::Error::msg)?;
+    finish(run_terminal(app))
 }

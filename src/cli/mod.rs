@@ -21,12 +21,15 @@ pub use input::BadInput;
 #[derive(Debug, Parser)]
 #[command(name = "handover", version, about, long_about = None)]
 pub struct Cli {
+    /// Without a command, the operator console opens on the embedded default protocol.
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
 }
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Open the operator console and run a study session.
+    Run(console::RunArgs),
     /// The learning engine as a JSON tool: score a menu of queries, update a belief.
     Score(score::ScoreArgs),
     /// The feasible arm configurations of a protocol's handover queries.
@@ -45,7 +48,11 @@ enum Command {
 
 /// Runs the chosen subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
-    match cli.command {
+    let Some(command) = cli.command else {
+        return console::run(console::RunArgs::default_for_bare());
+    };
+    match command {
+        Command::Run(args) => console::run(args),
         Command::Score(args) => score::run(args),
         Command::Feasible(args) => feasible::run(args),
         Command::Simulate(args) => simulate::run(args),

@@ -13,7 +13,8 @@ use super::input::bad;
 
 /// Continue an interrupted session (a crash or a quit) from its log, a truncated file
 /// included. The old file is kept; a new log holds all of its events and the rest of the
-/// session. With --dry-run a simulated participant continues a dry run headless.
+/// session. Without options it reopens the operator console where the session stopped;
+/// with --dry-run a simulated participant continues a dry run headless.
 #[derive(Debug, Args)]
 pub struct ResumeArgs {
     /// The session log (.mcap) to continue.
@@ -21,7 +22,10 @@ pub struct ResumeArgs {
     /// Continue a dry run with its simulated participant, without the console.
     #[arg(long)]
     dry_run: bool,
-    /// Milliseconds to wait between simulated actions (with --dry-run).
+    /// In the console, let the simulated participant of a dry run or rehearsal continue.
+    #[arg(long, conflicts_with = "dry_run")]
+    simulate: bool,
+    /// Milliseconds to wait between simulated actions.
     #[arg(long, value_name = "MS", default_value_t = 0)]
     pace: u64,
 }
@@ -29,7 +33,7 @@ pub struct ResumeArgs {
 pub fn run(args: ResumeArgs) -> Result<()> {
     let old = read_log(&args.log).map_err(|e| bad(e.to_string()))?;
     if !args.dry_run {
-        return super::console::resume(old);
+        return super::console::resume(old, args.simulate, args.pace);
     }
     let Some(truth) = old.start.simulated_truth.clone() else {
         return Err(bad(format!(

@@ -1,0 +1,567 @@
+//! The console's state and its update: intents in, events to the session out. Every event
+//! goes through the recorder (durable on disk) before its consequence is shown; that work
+//! runs on a worker thread, and keys pressed meanwhile wait in order.
+
+use std::collections::VecDeque;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, TryRecvError, channel};
+use std::time::Duration;
+
+use rand::RngExt;
+use ratatui::crossterm::event::KeyEvent;
+
+use super::keys::{Action, Mode, action_for};
+use crate::analysis::{SessionAnalysis, analyse};
+use crate::dryrun::{now_ns, plan};
+use crate::participant::{ParticipantRecord, ScriptedParticipant, SimulatedPerson, new_id, validate_id};
+use crate::protocol::Study;
+use crate::record::{LogContents, RecordedSession, least_filled_slot, new_log_path, read_log};
+use crate::session::{Event, Prompt, Session, SessionStart, Stamped, VoidReason, condition_order};
+
+/// How the console was started.
+#[derive(Clone, Debug)]
+pub struct AppConfig {
+    pub study: Arc<Study>,
+    pub protocol_text: String,
+    pub logs: PathBuf,
+    pub participants: PathBuf,
+    /// "new" or an existing participant's id.
+    pub participant: String,
+    /// A simulated participant answers (a rehearsal; the log is flagged pilot).
+    pub simulate: bool,
+    /// Wait between simulated actions.
+    pub pace: Duration,
+    /// The session seed (random when absent).
+    pub seed: Option<u64>,
+}
+
+/// Which screen is shown.
+#[derive(Debug)]
+pub enum Screen {
+    Setup,
+    Session,
+    Summary(Box<SummaryView>),
+}
+
+/// What the summary screen shows.
+#[derive(Debug)]
+pub struct SummaryView {
+    pub log_path: PathBuf,
+    pub completed: bool,
+    pub analysis: Option<SessionAnalysis>,
+    pub error: Option<String>,
+}
+
+/// A dialog over the screen.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Overlay {
+    Help,
+    ConfirmQuit,
+    VoidReason,
+    Note(String),
+    ParticipantId(String),
+}
+
+/// What a new session will be (shown on the setup screen).
+#[derive(Clone, Debug)]
+pub struct Plan {
+    pub start: SessionStart,
+    /// A participant record to create when the session starts ("new").
+    pub new_record: Option<ParticipantRecord>,
+    pub simulated: Option<ScriptedParticipant>,
+    pub log_path: PathBuf,
+    pub error: Option<String>,
+}
+
+enum WorkDone {
+    Submitted(Box<RecordedSession>, Result<(), String>),
+    Finished(Box<SummaryView>),
+}
+
+/// The console.
+pub struct App {
+    pub config: AppConfig,
+    pub screen: Screen,
+    pub overlay: Option<Overlay>,
+    pub plan: Option<Plan>,
+    live: Option<RecordedSession>,
+    /// A copy of the session as last shown (kept while the worker has the live one).
+    shown: Option<Session>,
+    worker: Option<Receiver<WorkDone>>,
+    pending: VecDeque<KeyEvent>,
+    /// The last message for the operator.
+    pub status: String,
+    /// Which pair of joints the particle view shows.
+    pub joint_pair: usize,
+    /// Position in the questionnaire: items, then the forced choice, then finish.
+    pub cursor: usize,
+    /// The clock, set by the loop (ns since the Unix epoch).
+    pub now_ns: u64,
+    /// When the session screen was first shown.
+    pub session_started_ns: Option<u64>,
+    last_simulated_ns: u64,
+    pub quit: bool,
+    /// Printed after the terminal is restored.
+    pub exit_message: Option<String>,
+}
+
+impl App {
+    /// The setup screen for a new session.
+    pub fn new(config: AppConfig) -> Self {
+        let mut app = Self::empty(config);
+        app.plan = Some(app.make_plan());
+        app
+    }
+
+    /// Continues an interrupted session in a new log, at the screen where it stopped.
+    pub fn resume(config: AppConfig, old: &LogContents) -> Result<Self, String> {
+        let mut app = Self::empty(config);
+        let path = new_log_path(&app.config.logs, &old.start.participant, chrono::Utc::now());
+        let rec = RecordedSession::resume(old, &path, now_ns()).map_err(|e| e.to_string())?;
+        let status = format!(
+            "Resumed {} after {} events; continuing in {}",
+            old.path.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
+            old.events.len(),
+            path.display()
+        );
+        if app.config.simulate
+            && let Some(truth) = old.start.simulated_truth.clone()
+        {
+            let person = SimulatedPerson { truth, alpha: rec.session().study().protocol.learning.alpha };
+            app.plan = Some(Plan {
+                start: old.start.clone(),
+                new_record: None,
+                simulated: Some(ScriptedParticipant { person }),
+                log_path: path,
+                error: None,
+            });
+        }
+        app.shown = Some(rec.session().clone());
+        app.live = Some(rec);
+        app.screen = Screen::Session;
+        app.sync_cursor();
+        app.after_event();
+        app.status = status;
+        Ok(app)
+    }
+
+    fn empty(config: AppConfig) -> Self {
+        Self {
+            config,
+            screen: Screen::Setup,
+            overlay: None,
+            plan: None,
+            live: None,
+            shown: None,
+            worker: None,
+            pending: VecDeque::new(),
+            status: String::new(),
+            joint_pair: 0,
+            cursor: 0,
+            now_ns: now_ns(),
+            session_started_ns: None,
+            last_simulated_ns: 0,
+            quit: false,
+            exit_message: None,
+        }
+    }
+
+    fn make_plan(&self) -> Plan {
+        let c = &self.config;
+        let study = &c.study;
+        let seed = c.seed.unwrap_or_else(|| rand::rng().random());
+        let now = chrono::Utc::now();
+        let started_at = now.to_rfc3339_opts(chrono::SecondsFormat::Millis, true);
+        if c.simulate {
+            let p = plan(study, seed, 0, None, started_at);
+            let log_path = new_log_path(&c.logs, &p.start.participant, now);
+            return Plan { start: p.start, new_record: None, simulated: Some(p.participant), log_path, error: None };
+        }
+        let (id, slot, new_record, error) = if c.participant == "new" {
+            let id = new_id(&mut rand::rng());
+            let slot = least_filled_slot(&c.logs, 2);
+            let rec = ParticipantRecord {
+                id: id.clone(),
+                slot,
+                created_at: now.to_rfc3339_opts(chrono::SecondsFormat::Secs, true),
+                body_height_m: None,
+                handedness: None,
+            };
+            (id, slot, Some(rec), None)
+        } else {
+            match ParticipantRecord::load(&c.participants, &c.participant) {
+                Ok(r) => (r.id, r.slot, None, None),
+                Err(e) => (c.participant.clone(), 0, None, Some(e.to_string())),
+            }
+        };
+        let start = SessionStart {
+            session_id: format!("{:016x}", rand::rng().random::<u64>()),
+            participant: id.clone(),
+            protocol_name: study.protocol.name.clone(),
+            protocol_sha256: study.sha256.clone(),
+            seed,
+            condition_order: condition_order(study, slot),
+            program_labels: study.protocol.session.program_labels.clone(),
+            software_version: env!("CARGO_PKG_VERSION").to_string(),
+            pilot: false,
+            slot,
+            started_at,
+            simulated_truth: None,
+            resumed_from: None,
+        };
+        let log_path = if validate_id(&id).is_ok() { new_log_path(&c.logs, &id, now) } else { PathBuf::new() };
+        Plan { start, new_record, simulated: None, log_path, error }
+    }
+
+    /// The session as currently shown.
+    pub fn session(&self) -> Option<&Session> {
+        self.live.as_ref().map(|l| l.session()).or(self.shown.as_ref())
+    }
+
+    /// The log being written.
+    pub fn log_path(&self) -> Option<PathBuf> {
+        match &self.screen {
+            Screen::Summary(s) => Some(s.log_path.clone()),
+            _ => self
+                .live
+                .as_ref()
+                .map(|l| l.path().to_path_buf())
+                .or_else(|| self.plan.as_ref().map(|p| p.log_path.clone())),
+        }
+    }
+
+    /// Whether work is under way (the screen shows "computing").
+    pub fn busy(&self) -> bool {
+        self.worker.is_some()
+    }
+
+    /// What the keyboard drives now.
+    pub fn mode(&self) -> Mode {
+        match &self.overlay {
+            Some(Overlay::Help) => return Mode::Help,
+            Some(Overlay::ConfirmQuit) => return Mode::ConfirmQuit,
+            Some(Overlay::VoidReason) => return Mode::VoidReason,
+            Some(Overlay::Note(_) | Overlay::ParticipantId(_)) => return Mode::LineEdit,
+            None => {}
+        }
+        match &self.screen {
+            Screen::Setup => Mode::Setup,
+            Screen::Summary(_) => Mode::Summary,
+            Screen::Session => match self.session().map(|s| s.prompt()) {
+                Some(Prompt::Present(_)) => Mode::Present,
+                Some(Prompt::Grasp(_)) => Mode::Grasp,
+                Some(Prompt::Paused) => Mode::Paused,
+                Some(Prompt::Done { .. }) | None => Mode::Summary,
+                Some(_) => Mode::Questionnaire,
+            },
+        }
+    }
+
+    /// A key press: applied now, or queued while work is under way.
+    pub fn key(&mut self, key: KeyEvent) {
+        if self.busy() {
+            self.pending.push_back(key);
+            return;
+        }
+        if let Some(action) = action_for(self.mode(), key) {
+            self.update(action);
+        }
+    }
+
+    /// Advances the clock, collects finished work, replays queued keys, and lets a
+    /// simulated participant act.
+    pub fn tick(&mut self, now_ns: u64) {
+        self.now_ns = now_ns;
+        self.collect();
+        while !self.busy() {
+            let Some(k) = self.pending.pop_front() else { break };
+            self.key(k);
+        }
+        if self.busy() || self.overlay.is_some() || !matches!(self.screen, Screen::Session) {
+            return;
+        }
+        let Some(sim) = self.plan.as_ref().and_then(|p| p.simulated.clone()) else { return };
+        if now_ns.saturating_sub(self.last_simulated_ns) < self.config.pace.as_nanos() as u64 {
+            return;
+        }
+        if let Some(event) = self.session().and_then(|s| sim.respond(s)) {
+            self.last_simulated_ns = now_ns;
+            self.submit(event);
+        }
+    }
+
+    /// Blocks until the worker is done (headless drivers and tests).
+    pub fn wait_idle(&mut self) {
+        while let Some(rx) = &self.worker {
+            match rx.recv() {
+                Ok(done) => {
+                    self.worker = None;
+                    self.finish_work(done);
+                }
+                Err(_) => self.worker = None,
+            }
+        }
+        while !self.busy() {
+            let Some(k) = self.pending.pop_front() else { break };
+            self.key(k);
+            if let Some(rx) = self.worker.take()
+                && let Ok(done) = rx.recv()
+            {
+                self.finish_work(done);
+            }
+        }
+    }
+
+    fn collect(&mut self) {
+        let Some(rx) = &self.worker else { return };
+        match rx.try_recv() {
+            Ok(done) => {
+                self.worker = None;
+                self.finish_work(done);
+            }
+            Err(TryRecvError::Empty) => {}
+            Err(TryRecvError::Disconnected) => {
+                self.worker = None;
+                self.status = "internal error: the worker stopped".into();
+            }
+        }
+    }
+
+    fn finish_work(&mut self, done: WorkDone) {
+        match done {
+            WorkDone::Submitted(rec, result) => {
+                self.shown = Some(rec.session().clone());
+                self.live = Some(*rec);
+                match result {
+                    Ok(()) => self.after_event(),
+                    Err(e) => self.status = e,
+                }
+            }
+            WorkDone::Finished(view) => self.screen = Screen::Summary(view),
+        }
+    }
+
+    /// Sends an event to the session through the recorder, off the drawing loop.
+    fn submit(&mut self, event: Event) {
+        let Some(mut live) = self.live.take() else { return };
+        let (tx, rx) = channel();
+        let time_ns = now_ns();
+        std::thread::spawn(move || {
+            let result = live.submit(Stamped { time_ns, event }).map(|_| ()).map_err(|e| e.to_string());
+            let _ = tx.send(WorkDone::Submitted(Box::new(live), result));
+        });
+        self.worker = Some(rx);
+    }
+
+    /// After an event took effect: keep the questionnaire cursor in step, and finish the
+    /// log when the session is over.
+    fn after_event(&mut self) {
+        self.status.clear();
+        let Some(session) = self.session() else { return };
+        if let Prompt::Done { completed } = session.prompt() {
+            self.finish_log(completed);
+        }
+    }
+
+    fn sync_cursor(&mut self) {
+        if let Some(Prompt::Likert { index, .. }) = self.session().map(|s| s.prompt()) {
+            self.cursor = index;
+        } else if let Some(Prompt::ForcedChoice) = self.session().map(|s| s.prompt()) {
+            self.cursor = self.likert_count();
+        }
+    }
+
+    /// Number of Likert questions.
+    pub fn likert_count(&self) -> usize {
+        self.session().map_or(0, |s| s.likert_order().len())
+    }
+
+    fn finish_log(&mut self, completed: bool) {
+        let Some(live) = self.live.take() else { return };
+        let (tx, rx) = channel();
+        std::thread::spawn(move || {
+            let view = match live.finish() {
+                Ok(path) => {
+                    let analysis =
+                        read_log(&path).map_err(|e| e.to_string()).and_then(|l| analyse(&l).map_err(|e| e.to_string()));
+                    let (analysis, error) = match analysis {
+                        Ok(a) => (Some(a), None),
+                        Err(e) => (None, Some(e)),
+                    };
+                    SummaryView { log_path: path, completed, analysis, error }
+                }
+                Err(e) => {
+                    SummaryView { log_path: PathBuf::new(), completed, analysis: None, error: Some(e.to_string()) }
+                }
+            };
+            let _ = tx.send(WorkDone::Finished(Box::new(view)));
+        });
+        self.worker = Some(rx);
+    }
+
+    fn start(&mut self) {
+        let Some(plan) = self.plan.clone() else { return };
+        if let Some(e) = &plan.error {
+            self.status = format!("cannot start: {e}");
+            return;
+        }
+        if let Some(rec) = &plan.new_record
+            && let Err(e) = rec.create(&self.config.participants)
+        {
+            self.status = format!("cannot create the participant record: {e}");
+            return;
+        }
+        let session = match Session::new(Arc::clone(&self.config.study), plan.start.clone()) {
+            Ok(s) => s,
+            Err(e) => {
+                self.status = e.to_string();
+                return;
+            }
+        };
+        match RecordedSession::create(&plan.log_path, &self.config.protocol_text, session, now_ns()) {
+            Ok(rec) => {
+                self.shown = Some(rec.session().clone());
+                self.live = Some(rec);
+                self.screen = Screen::Session;
+                self.session_started_ns = Some(self.now_ns);
+                self.status = format!("Session started; logging to {}", plan.log_path.display());
+            }
+            Err(e) => self.status = format!("cannot create the log: {e}"),
+        }
+    }
+
+    fn quit_now(&mut self) {
+        if let Some(live) = self.live.take() {
+            let done = matches!(live.session().prompt(), Prompt::Done { .. });
+            match live.finish() {
+                Ok(path) if !done => {
+                    self.exit_message =
+                        Some(format!("Session left unfinished; continue it with: handover resume {}", path.display()))
+                }
+                Ok(_) => {}
+                Err(e) => self.exit_message = Some(format!("could not finish the log: {e}")),
+            }
+        }
+        self.quit = true;
+    }
+
+    /// Applies an operator's intent.
+    pub fn update(&mut self, action: Action) {
+        let mode = self.mode();
+        match (mode, action) {
+            (_, Action::Help) => self.overlay = Some(Overlay::Help),
+            (Mode::Help, Action::Cancel) => self.overlay = None,
+            (Mode::Setup, Action::Quit) | (Mode::Summary, Action::Quit) => self.quit_now(),
+            (_, Action::Quit) if mode != Mode::LineEdit => self.overlay = Some(Overlay::ConfirmQuit),
+            (Mode::ConfirmQuit, Action::Yes) => {
+                self.overlay = None;
+                self.quit_now();
+            }
+            (Mode::ConfirmQuit, Action::No) => self.overlay = None,
+            (Mode::Setup, Action::Confirm) => self.start(),
+            (Mode::Setup, Action::EditParticipant) if !self.config.simulate => {
+                self.overlay = Some(Overlay::ParticipantId(String::new()))
+            }
+            (Mode::LineEdit, Action::Char(c)) => {
+                if let Some(Overlay::Note(t) | Overlay::ParticipantId(t)) = &mut self.overlay {
+                    t.push(c);
+                }
+            }
+            (Mode::LineEdit, Action::Backspace) => {
+                if let Some(Overlay::Note(t) | Overlay::ParticipantId(t)) = &mut self.overlay {
+                    t.pop();
+                }
+            }
+            (Mode::LineEdit | Mode::VoidReason, Action::Cancel) => self.overlay = None,
+            (Mode::LineEdit, Action::Confirm) => match self.overlay.take() {
+                Some(Overlay::Note(text)) if !text.trim().is_empty() => self.submit(Event::Note { text }),
+                Some(Overlay::ParticipantId(id)) => {
+                    let id = id.trim().to_string();
+                    if id == "new" || validate_id(&id).is_ok() {
+                        self.config.participant = id;
+                        self.plan = Some(self.make_plan());
+                    } else {
+                        self.status = format!("'{id}' is not a participant id (A–Z, a–z, 0–9, '-', at most 32)");
+                    }
+                }
+                _ => {}
+            },
+            (Mode::Present | Mode::Grasp | Mode::Questionnaire | Mode::Paused, Action::Note) => {
+                self.overlay = Some(Overlay::Note(String::new()))
+            }
+            (Mode::Present | Mode::Grasp | Mode::Questionnaire, Action::Pause) => self.submit(Event::Paused),
+            (Mode::Paused, Action::Pause) => self.submit(Event::Resumed),
+            (Mode::Present | Mode::Grasp, Action::SwitchJoints) => self.joint_pair += 1,
+            (Mode::Present | Mode::Grasp, Action::Void) => self.overlay = Some(Overlay::VoidReason),
+            (Mode::VoidReason, Action::VoidReason(k)) => {
+                self.overlay = None;
+                self.submit(Event::TrialVoided { reason: VoidReason::ALL[k], detail: String::new() });
+            }
+            (Mode::Present, Action::Undo) => {
+                if self.session().is_some_and(|s| s.can_undo()) {
+                    self.submit(Event::GraspUndone);
+                } else {
+                    self.status = "Nothing to undo: a grasp can be undone until the next query is presented".into();
+                }
+            }
+            (Mode::Present, Action::Confirm) => {
+                if let Some(Prompt::Present(v)) = self.session().map(|s| s.prompt()) {
+                    let id = self.session().expect("a session").query(v.query).query.id.clone();
+                    self.submit(Event::QueryPresented { query: id });
+                }
+            }
+            (Mode::Grasp, Action::Region(k)) => {
+                let Some(s) = self.session() else { return };
+                let Prompt::Grasp(v) = s.prompt() else { return };
+                let q = s.query(v.query);
+                match q.regions.get(k) {
+                    Some(&r) => {
+                        let region = s.study().object(q).regions[r].id.clone();
+                        self.submit(Event::GraspRecorded { region });
+                    }
+                    None => self.status = format!("Only {} regions are offered", q.regions.len()),
+                }
+            }
+            (Mode::Questionnaire, a) => self.questionnaire(a),
+            _ => {}
+        }
+    }
+
+    fn questionnaire(&mut self, action: Action) {
+        let n = self.likert_count();
+        let Some(s) = self.session() else { return };
+        let order = s.likert_order();
+        match action {
+            Action::Prev => self.cursor = self.cursor.saturating_sub(1),
+            Action::Next => self.cursor = (self.cursor + 1).min(n + 1),
+            Action::Likert(k) if self.cursor < n => {
+                let scale = &s.study().protocol.questionnaire.scale;
+                let Some(point) = scale.get(k) else {
+                    self.status = format!("The scale has {} points", scale.len());
+                    return;
+                };
+                let (program, item) = order[self.cursor];
+                let event = Event::LikertAnswered {
+                    program,
+                    item: s.study().protocol.questionnaire.items[item].id.clone(),
+                    value: point.value,
+                };
+                self.cursor += 1;
+                self.submit(event);
+            }
+            Action::Choice(p) if self.cursor >= n => {
+                self.cursor = n + 1;
+                self.submit(Event::ForcedChoice { program: p });
+            }
+            Action::Confirm => {
+                if s.prompt() == Prompt::Finish && self.cursor >= n {
+                    self.submit(Event::Ended);
+                } else {
+                    self.cursor = (self.cursor + 1).min(n + 1);
+                }
+            }
+            _ => {}
+        }
+    }
+}

@@ -1,0 +1,95 @@
+//! Dialogs and whole-screen states: help, quit, void reason, line editor, pause, too small.
+
+use ratatui::Frame;
+use ratatui::layout::{Constraint, Flex, Layout, Rect};
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Block, Clear, Paragraph, Wrap};
+
+use crate::session::VoidReason;
+use crate::tui::app::App;
+use crate::tui::keys::HELP;
+use crate::tui::theme;
+
+fn centred(area: Rect, width: u16, height: u16) -> Rect {
+    let [v] = Layout::vertical([Constraint::Length(height.min(area.height))]).flex(Flex::Center).areas(area);
+    let [h] = Layout::horizontal([Constraint::Length(width.min(area.width))]).flex(Flex::Center).areas(v);
+    h
+}
+
+fn dialog(frame: &mut Frame, area: Rect, title: &str, lines: Vec<Line>, width: u16) {
+    let r = centred(area, width, lines.len() as u16 + 2);
+    frame.render_widget(Clear, r);
+    frame.render_widget(
+        Paragraph::new(lines).wrap(Wrap { trim: false }).block(Block::bordered().title(title.to_string())),
+        r,
+    );
+}
+
+pub fn help(frame: &mut Frame, area: Rect) {
+    let lines: Vec<Line> = HELP
+        .iter()
+        .map(|(k, w)| {
+            if w.is_empty() {
+                Line::from(Span::styled(k.to_string(), theme::title()))
+            } else {
+                Line::from(vec![Span::styled(format!(" {k:<6} "), theme::key()), Span::raw(format!(" {w}"))])
+            }
+        })
+        .collect();
+    dialog(frame, area, " Keys (Esc closes) ", lines, 72);
+}
+
+pub fn confirm_quit(app: &App, frame: &mut Frame, area: Rect) {
+    let resumable = app.session().is_some();
+    let mut lines = vec![Line::from(Span::styled("Quit the console?", theme::instruction()))];
+    if resumable {
+        lines.push(Line::from("Everything recorded is on disk; the session can be resumed with"));
+        lines.push(Line::from("`handover resume <log>`."));
+    }
+    lines.push(Line::from("y: quit   n: stay"));
+    dialog(frame, area, " Quit ", lines, 70);
+}
+
+pub fn void_reason(frame: &mut Frame, area: Rect) {
+    let mut lines = vec![Line::from("Why is this trial void? (it will be repeated)")];
+    for (k, r) in VoidReason::ALL.iter().enumerate() {
+        lines.push(Line::from(vec![
+            Span::styled(format!(" {} ", k + 1), theme::key()),
+            Span::raw(format!(" {}", r.label())),
+        ]));
+    }
+    dialog(frame, area, " Void the trial ", lines, 56);
+}
+
+pub fn line_editor(frame: &mut Frame, area: Rect, title: &str, text: &str) {
+    let lines = vec![Line::from(vec![Span::raw(text.to_string()), Span::styled("▏", theme::instruction())])];
+    dialog(frame, area, &format!(" {title} "), lines, 76);
+}
+
+pub fn paused(app: &App, frame: &mut Frame, area: Rect) {
+    let notes = app.session().map_or(0, |s| s.notes().len());
+    let lines = vec![
+        Line::from(Span::styled(theme::PAUSED, theme::warning())),
+        Line::from(""),
+        Line::from("The session is paused: nothing is presented or recorded."),
+        Line::from(format!("Notes so far: {notes} (n adds one)")),
+    ];
+    frame.render_widget(Paragraph::new(lines).block(Block::bordered().title(" Paused ")), area);
+}
+
+pub fn finishing(frame: &mut Frame, area: Rect) {
+    frame.render_widget(
+        Paragraph::new(vec![Line::from(theme::COMPUTING), Line::from("Finishing the log and computing the summary.")])
+            .block(Block::bordered().title(" Summary ")),
+        area,
+    );
+}
+
+pub fn too_small(frame: &mut Frame, area: Rect) {
+    let text = vec![
+        Line::from(Span::styled("Terminal too small", theme::warning())),
+        Line::from(format!("need {}×{}, have {}×{}", theme::MIN_WIDTH, theme::MIN_HEIGHT, area.width, area.height)),
+        Line::from("Enlarge the window; nothing is lost."),
+    ];
+    frame.render_widget(Paragraph::new(text).wrap(Wrap { trim: false }), area);
+}

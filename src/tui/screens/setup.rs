@@ -1,0 +1,68 @@
+//! The setup screen: protocol, participant, blinded order, seed, log path.
+
+use ratatui::Frame;
+use ratatui::layout::Rect;
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Block, Paragraph, Wrap};
+
+use crate::session::program_letter;
+use crate::tui::app::App;
+use crate::tui::theme;
+
+pub fn render(app: &App, frame: &mut Frame, area: Rect) {
+    let study = &app.config.study;
+    let p = &study.protocol;
+    let mut lines = vec![
+        Line::from(Span::styled(format!("Protocol: {}", p.name), theme::title())),
+        Line::from(format!("  {}", p.description)),
+        Line::from(format!(
+            "  {} training queries, {} test queries; {} training trials per program; {} particles, α = {}",
+            study.training.len(),
+            study.test.len(),
+            p.session.trials_per_condition,
+            p.learning.particles,
+            p.learning.alpha
+        )),
+        Line::from(""),
+    ];
+    match &app.plan {
+        Some(plan) => {
+            let who = if plan.simulated.is_some() {
+                format!("{} (simulated participant — rehearsal, logged as pilot)", plan.start.participant)
+            } else if plan.new_record.is_some() {
+                format!("{} (new; created when the session starts)", plan.start.participant)
+            } else {
+                format!("{} (existing record)", plan.start.participant)
+            };
+            lines.push(Line::from(vec![Span::styled("Participant: ", theme::title()), Span::raw(who)]));
+            lines.push(Line::from(Span::styled(
+                format!("Order (slot {}), experimenter's view only:", plan.start.slot),
+                theme::title(),
+            )));
+            for (i, c) in plan.start.condition_order.iter().enumerate() {
+                lines.push(Line::from(format!(
+                    "  {} (Program {}) = {}",
+                    plan.start.program_labels[i],
+                    program_letter(i),
+                    c.name()
+                )));
+            }
+            lines
+                .push(Line::from(vec![Span::styled("Seed: ", theme::title()), Span::raw(plan.start.seed.to_string())]));
+            lines.push(Line::from(vec![
+                Span::styled("Log: ", theme::title()),
+                Span::raw(plan.log_path.display().to_string()),
+            ]));
+            if let Some(e) = &plan.error {
+                lines.push(Line::from(Span::styled(format!("Cannot start: {e}"), theme::warning())));
+            }
+        }
+        None => lines.push(Line::from("No plan")),
+    }
+    lines.push(Line::from(""));
+    lines.push(Line::from(Span::styled("Press Enter to start the session.", theme::instruction())));
+    frame.render_widget(
+        Paragraph::new(lines).wrap(Wrap { trim: false }).block(Block::bordered().title(" Setup ")),
+        area,
+    );
+}

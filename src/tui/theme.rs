@@ -1,0 +1,37 @@
+//! Colours, styles and the console's fixed strings, in one place.
+
+use ratatui::style::{Color, Modifier, Style};
+
+pub const MIN_WIDTH: u16 = 80;
+pub const MIN_HEIGHT: u16 = 24;
+
+pub fn title() -> Style {
+    Style::new().fg(Color::Cyan).add_modifier(Modifier::BOLD)
+}
+
+pub fn instruction() -> Style {
+    Style::new().fg(Color::Yellow).add_modifier(Modifier::BOLD)
+}
+
+pub fn key() -> Style {
+    Style::new().fg(Color::Black).bg(Color::Gray)
+}
+
+pub fn dim() -> Style {
+    Style::new().fg(Color::DarkGray)
+}
+
+pub fn selected() -> Style {
+    Style::new().fg(Color::Black).bg(Color::Green).add_modifier(Modifier::BOLD)
+}
+
+pub fn warning() -> Style {
+    Style::new().fg(Color::Red).add_modifier(Modifier::BOLD)
+}
+
+pub const APP: &str = "handover";
+pub const PRESENT: &str = "ROBOT OPERATOR — command the robot to hand over:";
+pub const PRESENT_DONE: &str = "Press Enter when the robot holds the object there.";
+pub const GRASP: &str = "Which grip did the participant take?";
+pub const COMPUTING: &str = "computing…";
+pub const PAUSED: &str = "PAUSED — press p to resume";
