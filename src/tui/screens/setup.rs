@@ -5,7 +5,6 @@ use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Paragraph, Wrap};
 
-use crate::session::program_letter;
 use crate::tui::app::App;
 use crate::tui::theme;
 
@@ -40,12 +39,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
                 theme::title(),
             )));
             for (i, c) in plan.start.condition_order.iter().enumerate() {
-                lines.push(Line::from(format!(
-                    "  {} (Program {}) = {}",
-                    plan.start.program_labels[i],
-                    program_letter(i),
-                    c.name()
-                )));
+                lines.push(Line::from(format!("  {} = {}", plan.start.program_labels[i], c.name())));
             }
             lines
                 .push(Line::from(vec![Span::styled("Seed: ", theme::title()), Span::raw(plan.start.seed.to_string())]));

@@ -60,7 +60,7 @@ fn instruction(session: &Session, v: &TrialView, done: bool, frame: &mut Frame, 
         Line::from(format!("  pose: {}", q.query.label)),
         Line::from(format!("  position     x {x:+.3}  y {y:+.3}  z {z:+.3} m")),
         Line::from(format!("  orientation  roll {r:+.1}°  pitch {p:+.1}°  yaw {yaw:+.1}°")),
-        Line::from("  frame: participant's right shoulder (x forward, y left, z up)"),
+        Line::from("  frame: right shoulder (x forward, y left, z up)"),
         Line::from(""),
         Line::from(Span::styled(
             if done { "Presented." } else { theme::PRESENT_DONE },

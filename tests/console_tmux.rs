@@ -1,0 +1,117 @@
+//! End to end: the real binary in a real terminal (tmux): start a session, record grasps,
+//! undo one, void one, answer the questionnaire, and check the screen and the log.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use handover::record::{mcap_files, read_log};
+
+fn tmux(args: &[&str]) -> String {
+    let out = Command::new("tmux").args(args).output().expect("tmux runs");
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+fn has_tmux() -> bool {
+    Command::new("tmux").arg("-V").output().is_ok_and(|o| o.status.success())
+}
+
+struct Session(String);
+
+impl Drop for Session {
+    fn drop(&mut self) {
+        tmux(&["kill-session", "-t", &self.0]);
+    }
+}
+
+fn send(name: &str, keys: &[&str]) {
+    for k in keys {
+        tmux(&["send-keys", "-t", name, k]);
+        std::thread::sleep(Duration::from_millis(40));
+    }
+}
+
+fn wait_for(name: &str, text: &str) -> String {
+    let t0 = Instant::now();
+    loop {
+        let screen = tmux(&["capture-pane", "-t", name, "-p"]);
+        if screen.contains(text) {
+            return screen;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(60), "'{text}' never appeared; the screen:\n{screen}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+fn small_protocol(dir: &Path) -> PathBuf {
+    let mut v: serde_json::Value = serde_json::from_str(handover::protocol::DEFAULT_PROTOCOL).unwrap();
+    v["learning"]["particles"] = 300.into();
+    let p = dir.join("small.json");
+    std::fs::write(&p, v.to_string()).unwrap();
+    p
+}
+
+#[test]
+fn the_console_runs_a_session_in_a_real_terminal() {
+    if !has_tmux() {
+        assert!(std::env::var_os("CI").is_none(), "CI must install tmux (.ci/run does)");
+        eprintln!("tmux is not installed: skipping the end-to-end console test (CI runs it)");
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("handover-tmux-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let proto = small_protocol(&dir);
+    let name = format!("handover-e2e-{}", std::process::id());
+    let cmd = format!(
+        "{} run --protocol {} --logs {} --participants {} --seed 5; sleep 30",
+        env!("CARGO_BIN_EXE_handover"),
+        proto.display(),
+        dir.join("logs").display(),
+        dir.join("participants").display()
+    );
+    tmux(&["new-session", "-d", "-s", &name, "-x", "100", "-y", "30", &cmd]);
+    let _guard = Session(name.clone());
+    wait_for(&name, "Press Enter to start the session.");
+    send(&name, &["Enter"]);
+    wait_for(&name, "Training · Program A · trial 1/5");
+    // Trial 1: present, take grip 1, undo it, take grip 2 instead.
+    send(&name, &["Enter", "1"]);
+    wait_for(&name, "trial 2/5");
+    send(&name, &["u"]);
+    let screen = wait_for(&name, "Training · Program A · trial 1/5");
+    assert!(screen.contains("Presented."), "the undone trial awaits its grasp again:\n{screen}");
+    send(&name, &["2"]);
+    wait_for(&name, "trial 2/5");
+    // Trial 2: present, then void it (robot fault); it is repeated.
+    send(&name, &["Enter", "x"]);
+    wait_for(&name, "Why is this trial void?");
+    send(&name, &["2"]);
+    wait_for(&name, "Press Enter when the robot holds the object there.");
+    // The rest of training and the test phase: 25 trials, keys sent without waiting.
+    for k in 0..25 {
+        send(&name, &["Enter", if k % 2 == 0 { "1" } else { "2" }]);
+    }
+    wait_for(&name, "statement 1/8");
+    send(&name, &["4", "4", "3", "5", "2", "4", "3", "3", "b"]);
+    let screen = wait_for(&name, "Press Enter to finish the session");
+    assert!(screen.contains("8 of 8 statements answered") && screen.contains("forced choice: Program B"), "{screen}");
+    send(&name, &["Enter"]);
+    let screen = wait_for(&name, "Session complete.");
+    assert!(screen.contains("Program A = ") && screen.contains("Objects each condition chose"), "{screen}");
+    send(&name, &["q"]);
+    std::thread::sleep(Duration::from_millis(300));
+    let logs = mcap_files(&dir.join("logs"));
+    assert_eq!(logs.len(), 1);
+    let log = read_log(&logs[0]).unwrap();
+    assert!(log.finished);
+    let count = |t: &str| log.messages.iter().filter(|m| m.topic == t).count();
+    assert_eq!(count("/trial/undo"), 1);
+    assert_eq!(count("/trial/void"), 1);
+    assert_eq!(count("/trial/response"), 27, "26 kept and the one undone");
+    assert_eq!(count("/questionnaire/likert"), 8);
+    assert_eq!(count("/questionnaire/choice"), 1);
+    let end = log.messages.iter().find(|m| m.topic == "/session/end").unwrap();
+    assert_eq!(end.value["status"], "completed");
+    let _ = std::fs::remove_dir_all(dir);
+}
