@@ -136,3 +136,52 @@ pub fn mean_se_plot(path: &Path, title: &str, x_label: &str, y_label: &str, seri
     root.present().map_err(|e| err(&e))?;
     Ok(())
 }
+
+/// Grouped bars: for each group (a legend entry), one bar per category.
+pub fn bar_chart(
+    path: &Path,
+    title: &str,
+    y_label: &str,
+    categories: &[String],
+    groups: &[(String, Vec<f64>)],
+) -> Result<(), String> {
+    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let root = SVGBackend::new(path, (720, 480)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let max = groups.iter().flat_map(|g| g.1.iter().copied()).fold(1.0f64, f64::max);
+    let n = categories.len().max(1);
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..n as f64, 0.0..max * 1.15)
+        .map_err(|e| err(&e))?;
+    let cats = categories.to_vec();
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .x_labels(n * 2 + 1)
+        .x_label_formatter(&|x| {
+            let k = x.floor() as usize;
+            if (x - k as f64 - 0.5).abs() < 0.01 { cats.get(k).cloned().unwrap_or_default() } else { String::new() }
+        })
+        .y_desc(y_label)
+        .draw()
+        .map_err(|e| err(&e))?;
+    let width = 0.8 / groups.len().max(1) as f64;
+    for (gi, (name, values)) in groups.iter().enumerate() {
+        let colour = PALETTE[gi % PALETTE.len()];
+        chart
+            .draw_series(values.iter().enumerate().map(|(k, &v)| {
+                let x0 = k as f64 + 0.1 + gi as f64 * width;
+                Rectangle::new([(x0, 0.0), (x0 + width * 0.95, v)], colour.filled())
+            }))
+            .map_err(|e| err(&e))?
+            .label(name.as_str())
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], colour.filled()));
+    }
+    chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(|e| err(&e))?;
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}

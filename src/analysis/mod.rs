@@ -1,6 +1,10 @@
 //! Post-hoc analysis of session logs: each session replayed from its events, the belief
 //! after every training iteration scored on the session's own test responses.
 
+mod stats;
+mod summary;
+mod verify;
+
 use std::sync::Arc;
 
 use crate::belief::{Belief, TestExample, posterior_predictive_log_likelihood, test_log_likelihood};
@@ -8,6 +12,12 @@ use crate::ergo::Observation;
 use crate::record::{LogContents, RecordError, replay_with, study_of};
 use crate::select::OutcomeModel;
 use crate::session::{Applied, Phase, Session, SessionStart};
+
+pub use stats::{Wilcoxon, mean, median, quantile, standard_error, wilcoxon_signed_rank};
+pub use summary::{
+    CurvePoint, DISTINCT_Q_STAR_TOLERANCE_DEG, ItemTest, LikertSummary, StudySummary, distinct_q_star, summarise,
+};
+pub use verify::{Difference, verify};
 
 /// One training handover: what was offered and what was taken.
 #[derive(Clone, Debug, PartialEq)]

@@ -3,6 +3,7 @@
 //!
 //! Exit codes: 0 success, 1 the work failed, 2 bad input or usage.
 
+mod analyze;
 mod console;
 mod dry_run;
 mod feasible;
@@ -44,6 +45,8 @@ enum Command {
     DryRun(dry_run::DryRunArgs),
     /// Continue an interrupted session from its log.
     Resume(resume::ResumeArgs),
+    /// Analyse session logs (Fig. 10, Table I), optionally verifying every derived value.
+    Analyze(analyze::AnalyzeArgs),
 }
 
 /// Runs the chosen subcommand.
@@ -60,6 +63,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Participant(args) => participant::run(args),
         Command::DryRun(args) => dry_run::run(args),
         Command::Resume(args) => resume::run(args),
+        Command::Analyze(args) => analyze::run(args),
     }
 }
 

@@ -16,7 +16,7 @@ use serde_json::Value;
 use crate::protocol::{ProtocolError, Study};
 use crate::session::{Applied, Event, Session, SessionError, SessionStart, Stamped};
 
-pub use messages::{event_from_message, messages_for};
+pub use messages::{event_from_message, initial_beliefs, messages_for, topic_of as event_topic};
 pub use schemas::{TOPICS, schema};
 
 /// Topics whose messages are events (the others are derived from them).

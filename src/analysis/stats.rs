@@ -1,0 +1,162 @@
+//! Descriptive statistics and the Wilcoxon signed-rank test for the questionnaire.
+
+/// Mean; NaN for no values.
+pub fn mean(v: &[f64]) -> f64 {
+    if v.is_empty() { f64::NAN } else { v.iter().sum::<f64>() / v.len() as f64 }
+}
+
+/// Standard error of the mean (sample sd / √n); 0 for one value, NaN for none.
+pub fn standard_error(v: &[f64]) -> f64 {
+    match v.len() {
+        0 => f64::NAN,
+        1 => 0.0,
+        n => {
+            let m = mean(v);
+            (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt() / (n as f64).sqrt()
+        }
+    }
+}
+
+/// The p-th quantile by linear interpolation between order statistics (R's type 7).
+pub fn quantile(v: &[f64], p: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(|a, b| a.total_cmp(b));
+    let h = (s.len() - 1) as f64 * p;
+    let (lo, hi) = (h.floor() as usize, h.ceil() as usize);
+    s[lo] + (h - lo as f64) * (s[hi] - s[lo])
+}
+
+pub fn median(v: &[f64]) -> f64 {
+    quantile(v, 0.5)
+}
+
+/// The result of a Wilcoxon signed-rank test on paired differences.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Wilcoxon {
+    /// Pairs with a non-zero difference (zeros are dropped, Wilcoxon's original treatment).
+    pub n: usize,
+    /// Sum of the ranks of the positive differences (mid-ranks for ties in |d|).
+    pub w_plus: f64,
+    /// Two-sided p-value.
+    pub p_value: f64,
+    /// Whether p is exact (all 2^n sign patterns enumerated, n ≤ 20) or from the normal
+    /// approximation with tie correction.
+    pub exact: bool,
+}
+
+/// Mid-ranks of |d| (1-based).
+fn ranks(abs: &[f64]) -> Vec<f64> {
+    let mut idx: Vec<usize> = (0..abs.len()).collect();
+    idx.sort_by(|&a, &b| abs[a].total_cmp(&abs[b]));
+    let mut r = vec![0.0; abs.len()];
+    let mut i = 0;
+    while i < idx.len() {
+        let mut j = i;
+        while j + 1 < idx.len() && abs[idx[j + 1]] == abs[idx[i]] {
+            j += 1;
+        }
+        let mid = (i + j) as f64 / 2.0 + 1.0;
+        for &k in &idx[i..=j] {
+            r[k] = mid;
+        }
+        i = j + 1;
+    }
+    r
+}
+
+/// The two-sided Wilcoxon signed-rank test of paired differences `d` against 0. Zero
+/// differences are dropped; ties in |d| get mid-ranks. With at most 20 non-zero pairs the
+/// p-value is exact: the share of the 2^n equally likely sign patterns (under H0) whose
+/// W+ is at least as far from n(n+1)/4 as the observed one. `None` without non-zero pairs.
+pub fn wilcoxon_signed_rank(d: &[f64]) -> Option<Wilcoxon> {
+    let nz: Vec<f64> = d.iter().copied().filter(|x| *x != 0.0).collect();
+    let n = nz.len();
+    if n == 0 {
+        return None;
+    }
+    let r = ranks(&nz.iter().map(|x| x.abs()).collect::<Vec<_>>());
+    let w_plus: f64 = nz.iter().zip(&r).filter(|(x, _)| **x > 0.0).map(|(_, r)| r).sum();
+    let centre: f64 = r.iter().sum::<f64>() / 2.0;
+    let observed = (w_plus - centre).abs();
+    if n <= 20 {
+        let mut extreme = 0u64;
+        for mask in 0u64..(1 << n) {
+            let w: f64 = (0..n).filter(|&i| mask >> i & 1 == 1).map(|i| r[i]).sum();
+            if (w - centre).abs() >= observed - 1e-9 {
+                extreme += 1;
+            }
+        }
+        let p = extreme as f64 / (1u64 << n) as f64;
+        return Some(Wilcoxon { n, w_plus, p_value: p.min(1.0), exact: true });
+    }
+    // Normal approximation with the tie correction of the variance.
+    let mut tie_term = 0.0;
+    let mut sorted = r.clone();
+    sorted.sort_by(|a, b| a.total_cmp(b));
+    let mut i = 0;
+    while i < sorted.len() {
+        let mut j = i;
+        while j + 1 < sorted.len() && sorted[j + 1] == sorted[i] {
+            j += 1;
+        }
+        let t = (j - i + 1) as f64;
+        tie_term += t * t * t - t;
+        i = j + 1;
+    }
+    let nf = n as f64;
+    let var = nf * (nf + 1.0) * (2.0 * nf + 1.0) / 24.0 - tie_term / 48.0;
+    let z = observed / var.sqrt();
+    let p = 2.0 * (1.0 - standard_normal_cdf(z));
+    Some(Wilcoxon { n, w_plus, p_value: p.min(1.0), exact: false })
+}
+
+/// Φ(z) by the complementary error function (Abramowitz–Stegun 7.1.26, |error| < 1.5e-7).
+fn standard_normal_cdf(z: f64) -> f64 {
+    let x = z.abs() / std::f64::consts::SQRT_2;
+    let t = 1.0 / (1.0 + 0.327_591_1 * x);
+    let poly =
+        t * (0.254_829_592 + t * (-0.284_496_736 + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
+    let erfc = poly * (-x * x).exp();
+    if z >= 0.0 { 1.0 - erfc / 2.0 } else { erfc / 2.0 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quartiles_match_r_type_7() {
+        let v = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0];
+        assert_eq!(median(&v), 4.5);
+        assert_eq!(quantile(&v, 0.25), 2.75);
+        assert_eq!(quantile(&v, 0.75), 6.25);
+        assert!((standard_error(&[1.0, 3.0]) - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn exact_wilcoxon_by_hand() {
+        // All five differences positive with distinct ranks: W+ = 15, only the all-positive
+        // and all-negative patterns are as extreme: p = 2/32.
+        let w = wilcoxon_signed_rank(&[1.0, 2.0, 3.0, 4.0, 5.0]).unwrap();
+        assert_eq!((w.n, w.w_plus, w.exact), (5, 15.0, true));
+        assert!((w.p_value - 0.0625).abs() < 1e-15);
+        // Zeros are dropped; ties get mid-ranks: d = [0, 1, -1, 2] → |d| ranks 1.5, 1.5, 3.
+        let w = wilcoxon_signed_rank(&[0.0, 1.0, -1.0, 2.0]).unwrap();
+        assert_eq!((w.n, w.w_plus), (3, 4.5));
+        // Patterns with |W+ − 3| ≥ 1.5: W+ ∈ {0, 1.5(×2)…}: enumerate by hand: sums of subsets of
+        // {1.5, 1.5, 3}: 0, 1.5, 1.5, 3, 3, 4.5, 4.5, 6 → |·−3| ≥ 1.5 for 0, 1.5, 1.5, 4.5, 4.5, 6.
+        assert!((w.p_value - 6.0 / 8.0).abs() < 1e-15);
+        assert!(wilcoxon_signed_rank(&[0.0, 0.0]).is_none());
+    }
+
+    #[test]
+    fn normal_approximation_for_large_samples() {
+        let d: Vec<f64> = (1..=30).map(|i| i as f64).collect();
+        let w = wilcoxon_signed_rank(&d).unwrap();
+        assert!(!w.exact && w.p_value < 1e-5);
+        assert!((standard_normal_cdf(1.959_964) - 0.975).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,105 @@
+//! `--verify`: every derived value written in a log, recomputed from its events.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use serde_json::Value;
+
+use crate::record::{LogContents, RecordError, initial_beliefs, messages_for, study_of};
+use crate::session::Session;
+
+/// One logged message that the recomputation does not reproduce.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Difference {
+    pub topic: String,
+    /// The event the message belongs to (0: the start).
+    pub event_index: u32,
+    pub detail: String,
+}
+
+/// The first place where two JSON values differ, as a path.
+fn first_difference(path: &str, a: &Value, b: &Value) -> Option<String> {
+    match (a, b) {
+        (Value::Object(x), Value::Object(y)) => {
+            for k in x.keys().chain(y.keys()) {
+                match (x.get(k), y.get(k)) {
+                    (Some(u), Some(v)) => {
+                        if let Some(d) = first_difference(&format!("{path}.{k}"), u, v) {
+                            return Some(d);
+                        }
+                    }
+                    (u, v) => return Some(format!("{path}.{k}: logged {u:?}, recomputed {v:?}")),
+                }
+            }
+            None
+        }
+        (Value::Array(x), Value::Array(y)) if x.len() == y.len() => {
+            x.iter().zip(y).enumerate().find_map(|(i, (u, v))| first_difference(&format!("{path}[{i}]"), u, v))
+        }
+        _ if a == b => None,
+        _ => Some(format!("{path}: logged {a}, recomputed {b}")),
+    }
+}
+
+/// Replays the log and compares every message with its recomputation.
+pub fn verify(log: &LogContents) -> Result<Vec<Difference>, RecordError> {
+    let study = Arc::new(study_of(log)?);
+    let mut logged: BTreeMap<u32, Vec<(&str, &Value)>> = BTreeMap::new();
+    for m in &log.messages {
+        logged.entry(m.sequence).or_default().push((m.topic.as_str(), &m.value));
+    }
+    let mut expected: BTreeMap<u32, Vec<(&'static str, Value)>> = BTreeMap::new();
+    let mut session = Session::new(Arc::clone(&study), log.start.clone()).map_err(|e| RecordError::Replay {
+        path: log.path.clone(),
+        index: 0,
+        topic: "/session/start".into(),
+        source: Box::new(e),
+    })?;
+    let mut start = serde_json::to_value(&log.start).expect("serialisable");
+    start["event_index"] = Value::from(0);
+    let mut first = vec![("/session/start", start)];
+    first.extend(initial_beliefs(&session));
+    expected.insert(0, first);
+    let mut differences = Vec::new();
+    for (i, stamped) in log.events.iter().enumerate() {
+        let index = i + 1;
+        match session.apply(&stamped.event) {
+            Ok(applied) => {
+                expected.insert(index as u32, messages_for(stamped, index, &applied, &session));
+            }
+            Err(e) => {
+                differences.push(Difference {
+                    topic: crate::record::event_topic(&stamped.event).to_string(),
+                    event_index: index as u32,
+                    detail: format!("the event does not replay: {e}"),
+                });
+                break;
+            }
+        }
+    }
+    for (index, logged_msgs) in &logged {
+        let Some(exp) = expected.get(index) else { continue };
+        // A truncated log may lack the tail of its last event's messages.
+        let last = Some(index) == logged.keys().next_back();
+        if logged_msgs.len() != exp.len() && !(last && logged_msgs.len() < exp.len()) {
+            differences.push(Difference {
+                topic: logged_msgs.first().map_or("", |m| m.0).to_string(),
+                event_index: *index,
+                detail: format!("{} messages logged, {} recomputed", logged_msgs.len(), exp.len()),
+            });
+            continue;
+        }
+        for ((topic, value), (etopic, evalue)) in logged_msgs.iter().zip(exp) {
+            if topic != etopic {
+                differences.push(Difference {
+                    topic: topic.to_string(),
+                    event_index: *index,
+                    detail: format!("logged on {topic}, recomputed on {etopic}"),
+                });
+            } else if let Some(d) = first_difference("", value, evalue) {
+                differences.push(Difference { topic: topic.to_string(), event_index: *index, detail: d });
+            }
+        }
+    }
+    Ok(differences)
+}

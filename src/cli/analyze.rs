@@ -1,0 +1,535 @@
+//! `handover analyze`: the paper's user-study results (Fig. 10, Table I) from session logs.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use clap::{Args, ValueEnum};
+use handover::analysis::{DISTINCT_Q_STAR_TOLERANCE_DEG, SessionAnalysis, StudySummary, analyse, summarise, verify};
+use handover::plot::{Series, bar_chart, mean_se_plot};
+use handover::record::{LogContents, mcap_files, read_log, study_of};
+use handover::session::program_letter;
+use serde::Serialize;
+
+use super::input::bad;
+
+/// Analyse session logs: per session the order, the queries each condition chose, the
+/// belief after each training iteration (replayed from the events) scored on the
+/// session's own test responses, and the questionnaire; across sessions the paper's Fig. 10,
+/// the objects each condition chose, and Table I with Wilcoxon signed-rank tests (also
+/// split by condition order). Pilot (dry-run) logs are reported separately. A resumed
+/// session counts once. Exit status 1 if a file was skipped or --verify found a difference.
+#[derive(Debug, Args)]
+pub struct AnalyzeArgs {
+    /// Session logs (.mcap) or directories searched recursively.
+    #[arg(required = true, value_name = "LOG|DIR")]
+    paths: Vec<PathBuf>,
+    /// Write sessions.csv, trials.csv, test_log_likelihood.csv, questionnaire.csv, fig10.svg,
+    /// objects.svg and table1.md here (pilot sessions under DIR/pilot/).
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Recompute every derived value in each log (mapped configurations, beliefs, scores)
+    /// from its events and report any difference.
+    #[arg(long)]
+    verify: bool,
+    /// Output on stdout.
+    #[arg(long, value_enum, default_value_t = Format::Table)]
+    format: Format,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq)]
+enum Format {
+    Table,
+    Json,
+}
+
+struct Analysed {
+    log: LogContents,
+    analysis: SessionAnalysis,
+}
+
+#[derive(Serialize)]
+struct JsonSession<'a> {
+    session_id: &'a str,
+    participant: &'a str,
+    pilot: bool,
+    log: String,
+    completed: bool,
+    truncated: bool,
+    condition_order: Vec<&'static str>,
+    program_labels: &'a [String],
+    runs: Vec<JsonRun<'a>>,
+    test_trials: &'a [(String, String, String)],
+    likert: &'a [(usize, String, i64)],
+    forced_choice: Option<String>,
+}
+
+#[derive(Serialize)]
+struct JsonRun<'a> {
+    program: String,
+    condition: &'a str,
+    queries: Vec<(&'a str, &'a str, &'a str)>,
+    test_log_likelihood_mode: &'a [f64],
+    test_log_likelihood_predictive: &'a [f64],
+    learned_q_star_deg: Vec<f64>,
+}
+
+#[derive(Serialize)]
+struct JsonOut<'a> {
+    sessions: Vec<JsonSession<'a>>,
+    real: Option<StudySummary>,
+    pilot: Option<StudySummary>,
+    skipped: Vec<String>,
+    warnings: Vec<String>,
+    differences: Vec<String>,
+}
+
+pub fn run(args: AnalyzeArgs) -> Result<()> {
+    let mut files = Vec::new();
+    for p in &args.paths {
+        if !p.exists() {
+            return Err(bad(format!("{}: no such file or directory", p.display())));
+        }
+        files.extend(mcap_files(p));
+    }
+    if files.is_empty() {
+        return Err(bad("no .mcap files found in the given paths"));
+    }
+    let (mut skipped, mut warnings, mut differences) = (Vec::new(), Vec::new(), Vec::new());
+    // Read every log; keep the most complete log of each session.
+    let mut by_session: BTreeMap<String, LogContents> = BTreeMap::new();
+    for f in &files {
+        match read_log(f) {
+            Err(e) => skipped.push(format!("skipped {e}")),
+            Ok(log) => {
+                let id = log.start.session_id.clone();
+                match by_session.get(&id) {
+                    Some(old) if (old.events.len(), old.finished) >= (log.events.len(), log.finished) => warnings
+                        .push(format!("{}: superseded by {} (same session, resumed)", f.display(), old.path.display())),
+                    Some(old) => {
+                        warnings.push(format!(
+                            "{}: superseded by {} (same session, resumed)",
+                            old.path.display(),
+                            f.display()
+                        ));
+                        by_session.insert(id, log);
+                    }
+                    None => {
+                        by_session.insert(id, log);
+                    }
+                }
+            }
+        }
+    }
+    let mut analysed = Vec::new();
+    for log in by_session.into_values() {
+        if !log.finished {
+            warnings.push(format!(
+                "{}: the log ends early (a crash not yet resumed, or a quit): analysed up to its last whole message ({} events){}",
+                log.path.display(),
+                log.events.len(),
+                if log.cut_tail { "; a partial record at the end was ignored" } else { "" }
+            ));
+        }
+        if args.verify {
+            match verify(&log) {
+                Ok(d) => differences.extend(
+                    d.into_iter()
+                        .map(|d| format!("{}: event {} {}: {}", log.path.display(), d.event_index, d.topic, d.detail)),
+                ),
+                Err(e) => differences.push(e.to_string()),
+            }
+        }
+        match analyse(&log) {
+            Ok(analysis) => analysed.push(Analysed { log, analysis }),
+            Err(e) => skipped.push(format!("skipped {e}")),
+        }
+    }
+    analysed.sort_by(|a, b| {
+        (a.log.start.pilot, &a.log.start.started_at).cmp(&(b.log.start.pilot, &b.log.start.started_at))
+    });
+    let summary_of = |pilot: bool| -> Option<StudySummary> {
+        let group: Vec<&Analysed> = analysed.iter().filter(|a| a.log.start.pilot == pilot).collect();
+        let first = group.first()?;
+        let study = study_of(&first.log).ok()?;
+        let conditions: Vec<String> = study.protocol.session.conditions.iter().map(|c| c.name().to_string()).collect();
+        let items: Vec<(String, String)> =
+            study.protocol.questionnaire.items.iter().map(|i| (i.id.clone(), i.statement.clone())).collect();
+        let sessions: Vec<SessionAnalysis> = group.iter().map(|a| a.analysis.clone()).collect();
+        Some(summarise(&sessions, &conditions, &items))
+    };
+    let (real, pilot) = (summary_of(false), summary_of(true));
+    if let Some(dir) = &args.out {
+        for (is_pilot, summary) in [(false, &real), (true, &pilot)] {
+            let Some(summary) = summary else { continue };
+            let d = if is_pilot { dir.join("pilot") } else { dir.clone() };
+            let group: Vec<&Analysed> = analysed.iter().filter(|a| a.log.start.pilot == is_pilot).collect();
+            write_outputs(&d, &group, summary).with_context(|| format!("cannot write into {}", d.display()))?;
+            eprintln!("wrote {}", d.display());
+        }
+    }
+    match args.format {
+        Format::Json => {
+            let out = JsonOut {
+                sessions: analysed.iter().map(json_session).collect(),
+                real,
+                pilot,
+                skipped: skipped.clone(),
+                warnings: warnings.clone(),
+                differences: differences.clone(),
+            };
+            println!("{}", serde_json::to_string_pretty(&out)?);
+        }
+        Format::Table => {
+            for (label, is_pilot, summary) in
+                [("REAL SESSIONS", false, &real), ("PILOT SESSIONS (dry runs, rehearsals)", true, &pilot)]
+            {
+                let group: Vec<&Analysed> = analysed.iter().filter(|a| a.log.start.pilot == is_pilot).collect();
+                if let Some(s) = summary {
+                    print!("{}", table(label, &group, s));
+                }
+            }
+        }
+    }
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
+    for s in &skipped {
+        eprintln!("{s}");
+    }
+    if args.verify {
+        if differences.is_empty() {
+            eprintln!("verify: every derived value matches its recomputation");
+        }
+        for d in &differences {
+            eprintln!("verify: {d}");
+        }
+    }
+    if !differences.is_empty() {
+        anyhow::bail!("--verify: {} difference(s) between the logs and their recomputation", differences.len());
+    }
+    if !skipped.is_empty() {
+        anyhow::bail!("{} file(s) skipped", skipped.len());
+    }
+    Ok(())
+}
+
+fn deg(v: &[f64]) -> Vec<f64> {
+    v.iter().map(|x| (x.to_degrees() * 10.0).round() / 10.0).collect()
+}
+
+fn json_session(a: &Analysed) -> JsonSession<'_> {
+    let s = &a.analysis;
+    JsonSession {
+        session_id: &s.start.session_id,
+        participant: &s.start.participant,
+        pilot: s.start.pilot,
+        log: a.log.path.display().to_string(),
+        completed: s.completed,
+        truncated: !a.log.finished,
+        condition_order: s.start.condition_order.iter().map(|c| c.name()).collect(),
+        program_labels: &s.start.program_labels,
+        runs: s
+            .runs
+            .iter()
+            .map(|r| JsonRun {
+                program: program_letter(r.program),
+                condition: &r.condition,
+                queries: r.trials.iter().map(|t| (t.query.as_str(), t.object.as_str(), t.region.as_str())).collect(),
+                test_log_likelihood_mode: &r.test_ll_mode,
+                test_log_likelihood_predictive: &r.test_ll_predictive,
+                learned_q_star_deg: deg(&r.learned_q_star),
+            })
+            .collect(),
+        test_trials: &s.test_trials,
+        likert: &s.likert,
+        forced_choice: s.choice.map(program_letter),
+    }
+}
+
+fn table(label: &str, group: &[&Analysed], s: &StudySummary) -> String {
+    let mut o = format!("\n== {label}: {} sessions ({} completed) ==\n", s.sessions, s.completed);
+    o += "\nSessions:\n";
+    for a in group {
+        let x = &a.analysis;
+        let runs: Vec<String> = x
+            .runs
+            .iter()
+            .map(|r| {
+                let objs: Vec<&str> =
+                    r.trials.iter().map(|t| if t.object == "handlebars" { "H" } else { "L" }).collect();
+                format!(
+                    "{}={} [{}] LL {}",
+                    program_letter(r.program),
+                    r.condition,
+                    objs.join(""),
+                    r.test_ll_mode.last().map_or("—".into(), |v| format!("{v:.1}"))
+                )
+            })
+            .collect();
+        o += &format!(
+            "  {:<18} {:<10} {}{}\n",
+            x.start.participant,
+            if x.completed {
+                "completed"
+            } else if a.log.finished {
+                "aborted"
+            } else {
+                "partial"
+            },
+            runs.join("; "),
+            x.choice.map_or(String::new(), |p| format!("; prefers {}", program_letter(p)))
+        );
+    }
+    o += "  (objects: H handlebars, L lock; LL: test log-likelihood of the mode after the last iteration)\n";
+    o += "\nFig. 10 — test-set log-likelihood of the mode (mean ± s.e.) by iteration:\n";
+    let conditions: Vec<String> = s.distinct_q_star.keys().cloned().collect();
+    let iterations = s.fig10.iter().map(|p| p.iteration).max().map_or(0, |m| m + 1);
+    o += &format!("  {:>9}", "iteration");
+    for c in &conditions {
+        o += &format!(" {:>22}", c);
+    }
+    o += "\n";
+    for it in 0..iterations {
+        o += &format!("  {it:>9}");
+        for c in &conditions {
+            match s.fig10.iter().find(|p| &p.condition == c && p.iteration == it) {
+                Some(p) => o += &format!(" {:>22}", format!("{:.1} ± {:.1}", p.mode_mean, p.mode_se)),
+                None => o += &format!(" {:>22}", "—"),
+            }
+        }
+        o += "\n";
+    }
+    o += &format!("\nDistinct learned q* (joints within {DISTINCT_Q_STAR_TOLERANCE_DEG}°): ");
+    o += &s.distinct_q_star.iter().map(|(c, n)| format!("{c} {n}")).collect::<Vec<_>>().join(", ");
+    o += "\nObjects offered in training: ";
+    o += &s
+        .objects
+        .iter()
+        .map(|(c, m)| format!("{c}: {}", m.iter().map(|(k, v)| format!("{k} {v}")).collect::<Vec<_>>().join(", ")))
+        .collect::<Vec<_>>()
+        .join("; ");
+    o += "\n\nTable I — Likert (mean / median [IQR]) and forced choice:\n";
+    o += &table1_markdown(s);
+    o
+}
+
+fn table1_markdown(s: &StudySummary) -> String {
+    let conditions: Vec<String> = s.distinct_q_star.keys().cloned().collect();
+    let mut o = String::from("| item |");
+    for c in &conditions {
+        o += &format!(" {c} |");
+    }
+    o += " Wilcoxon (all) | by order |\n|---|";
+    for _ in &conditions {
+        o += "---|";
+    }
+    o += "---|---|\n";
+    let mut items: Vec<&str> = s.likert.iter().map(|l| l.item.as_str()).collect();
+    items.dedup();
+    for item in items {
+        o += &format!("| {item} |");
+        for c in &conditions {
+            match s.likert.iter().find(|l| l.item == item && &l.condition == c) {
+                Some(l) if l.n > 0 => {
+                    o += &format!(" {:.2} / {:.1} [{:.1}–{:.1}] (n={}) |", l.mean, l.median, l.q1, l.q3, l.n)
+                }
+                _ => o += " — |",
+            }
+        }
+        let fmt = |t: &handover::analysis::ItemTest| match &t.test {
+            Some(w) => {
+                format!("W+={} n={} p={:.3}{}", w.w_plus, w.n, w.p_value, if w.exact { "" } else { " (normal)" })
+            }
+            None => format!("no non-zero pairs (n={})", t.pairs),
+        };
+        let all = s.tests.iter().find(|t| t.item == item && t.group == "all");
+        o += &format!(" {} |", all.map_or("—".into(), fmt));
+        let by: Vec<String> = s
+            .tests
+            .iter()
+            .filter(|t| t.item == item && t.group != "all")
+            .map(|t| format!("{}: {}", t.group, fmt(t)))
+            .collect();
+        o += &format!(" {} |\n", by.join("; "));
+    }
+    o += &format!("| forced choice (n={}) |", s.forced_choice_n);
+    for c in &conditions {
+        o += &format!(" {:.0} % |", s.forced_choice.get(c).copied().unwrap_or(f64::NAN) * 100.0);
+    }
+    o += " | |\n";
+    o += "\nWilcoxon signed-rank, two-sided, on per-participant differences (first condition − second); \
+zero differences are dropped, tied |differences| get mid-ranks; p is exact (all sign patterns) for up to 20 pairs.\n";
+    o
+}
+
+fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary) -> Result<()> {
+    std::fs::create_dir_all(dir)?;
+    let mut w = csv::Writer::from_path(dir.join("sessions.csv"))?;
+    w.write_record([
+        "session_id",
+        "participant",
+        "pilot",
+        "slot",
+        "condition_order",
+        "program_a",
+        "program_b",
+        "completed",
+        "truncated",
+        "events",
+        "forced_choice_program",
+        "forced_choice_condition",
+        "started_at",
+        "log",
+    ])?;
+    for a in group {
+        let x = &a.analysis;
+        let cond = |p: usize| x.runs.get(p).map_or(String::new(), |r| r.condition.clone());
+        w.write_record([
+            x.start.session_id.clone(),
+            x.start.participant.clone(),
+            x.start.pilot.to_string(),
+            x.start.slot.to_string(),
+            x.runs.iter().map(|r| r.condition.as_str()).collect::<Vec<_>>().join("-"),
+            cond(0),
+            cond(1),
+            x.completed.to_string(),
+            (!a.log.finished).to_string(),
+            a.log.events.len().to_string(),
+            x.choice.map(program_letter).unwrap_or_default(),
+            x.choice.map(cond).unwrap_or_default(),
+            x.start.started_at.clone(),
+            a.log.path.display().to_string(),
+        ])?;
+    }
+    w.flush()?;
+    let mut w = csv::Writer::from_path(dir.join("trials.csv"))?;
+    w.write_record([
+        "session_id",
+        "participant",
+        "phase",
+        "condition",
+        "program",
+        "trial",
+        "query",
+        "object",
+        "region",
+    ])?;
+    for a in group {
+        let x = &a.analysis;
+        for r in &x.runs {
+            for t in &r.trials {
+                w.write_record([
+                    &x.start.session_id,
+                    &x.start.participant,
+                    "training",
+                    &r.condition,
+                    &program_letter(r.program),
+                    &t.trial.to_string(),
+                    &t.query,
+                    &t.object,
+                    &t.region,
+                ])?;
+            }
+        }
+        for (k, (q, o, reg)) in x.test_trials.iter().enumerate() {
+            w.write_record([
+                &x.start.session_id,
+                &x.start.participant,
+                "test",
+                "",
+                "",
+                &(k + 1).to_string(),
+                q,
+                o,
+                reg,
+            ])?;
+        }
+    }
+    w.flush()?;
+    let mut w = csv::Writer::from_path(dir.join("test_log_likelihood.csv"))?;
+    w.write_record([
+        "session_id",
+        "participant",
+        "condition",
+        "program",
+        "iteration",
+        "log_likelihood_mode",
+        "log_likelihood_predictive",
+    ])?;
+    for a in group {
+        let x = &a.analysis;
+        for r in &x.runs {
+            for (it, (m, p)) in r.test_ll_mode.iter().zip(&r.test_ll_predictive).enumerate() {
+                w.write_record([
+                    x.start.session_id.clone(),
+                    x.start.participant.clone(),
+                    r.condition.clone(),
+                    program_letter(r.program),
+                    it.to_string(),
+                    m.to_string(),
+                    p.to_string(),
+                ])?;
+            }
+        }
+    }
+    w.flush()?;
+    let mut w = csv::Writer::from_path(dir.join("questionnaire.csv"))?;
+    w.write_record(["session_id", "participant", "condition_order", "condition", "program", "item", "value"])?;
+    for a in group {
+        let x = &a.analysis;
+        let order = x.runs.iter().map(|r| r.condition.as_str()).collect::<Vec<_>>().join("-");
+        for (p, item, v) in &x.likert {
+            let cond = x.runs.get(*p).map_or("", |r| r.condition.as_str());
+            w.write_record([
+                x.start.session_id.as_str(),
+                x.start.participant.as_str(),
+                order.as_str(),
+                cond,
+                program_letter(*p).as_str(),
+                item.as_str(),
+                v.to_string().as_str(),
+            ])?;
+        }
+    }
+    w.flush()?;
+    let conditions: Vec<String> = s.distinct_q_star.keys().cloned().collect();
+    for (file, predictive) in [("fig10.svg", false), ("fig10_predictive.svg", true)] {
+        let series: Vec<Series> = conditions
+            .iter()
+            .map(|c| Series {
+                name: c,
+                points: s
+                    .fig10
+                    .iter()
+                    .filter(|p| &p.condition == c)
+                    .map(|p| {
+                        if predictive {
+                            (p.iteration as f64, p.predictive_mean, p.predictive_se)
+                        } else {
+                            (p.iteration as f64, p.mode_mean, p.mode_se)
+                        }
+                    })
+                    .collect(),
+            })
+            .collect();
+        let y =
+            if predictive { "posterior-predictive test log-likelihood" } else { "test-set log-likelihood of the mode" };
+        mean_se_plot(&dir.join(file), &format!("Fig. 10 — {} sessions", s.sessions), "training iteration", y, &series)
+            .map_err(anyhow::Error::msg)?;
+    }
+    let objects: Vec<String> = {
+        let mut v: Vec<String> = s.objects.values().flat_map(|m| m.keys().cloned()).collect();
+        v.sort();
+        v.dedup();
+        v
+    };
+    let groups: Vec<(String, Vec<f64>)> = conditions
+        .iter()
+        .map(|c| (c.clone(), objects.iter().map(|o| s.objects[c].get(o).copied().unwrap_or(0) as f64).collect()))
+        .collect();
+    bar_chart(&dir.join("objects.svg"), "Objects offered in training", "times offered", &objects, &groups)
+        .map_err(anyhow::Error::msg)?;
+    std::fs::write(dir.join("table1.md"), format!("# Table I — {} sessions\n\n{}", s.sessions, table1_markdown(s)))?;
+    Ok(())
+}

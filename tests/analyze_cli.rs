@@ -1,0 +1,137 @@
+//! `handover analyze` as a researcher runs it on a folder of logs.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::Arc;
+use std::time::Duration;
+
+use handover::dryrun::{drive, now_ns, plan};
+use handover::protocol::Study;
+use handover::record::{RecordedSession, new_log_path};
+use handover::session::Session;
+
+fn handover(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_handover")).args(args).output().unwrap();
+    (out.status.code().unwrap_or(-1), String::from_utf8(out.stdout).unwrap(), String::from_utf8(out.stderr).unwrap())
+}
+
+fn small_protocol_text() -> String {
+    let mut v: serde_json::Value = serde_json::from_str(handover::protocol::DEFAULT_PROTOCOL).unwrap();
+    v["learning"]["particles"] = 300.into();
+    v.to_string()
+}
+
+/// Logs: `pilots` dry-run sessions and one real (not pilot) completed session.
+fn logs(name: &str, pilots: usize) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("handover-analyze-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let text = small_protocol_text();
+    let study = Arc::new(Study::from_json(&text, "small").unwrap());
+    for i in 0..=pilots {
+        let mut p = plan(&study, 77, i, None, "2026-11-22T00:00:00Z".into());
+        if i == pilots {
+            p.start.pilot = false;
+            p.start.participant = "p-real0001".into();
+        }
+        let session = Session::new(Arc::clone(&study), p.start.clone()).unwrap();
+        let path = new_log_path(&dir, &p.start.participant, chrono::Utc::now());
+        let mut rec = RecordedSession::create(&path, &text, session, now_ns()).unwrap();
+        drive(&mut rec, &p.participant, Duration::ZERO).unwrap();
+        rec.finish().unwrap();
+    }
+    dir
+}
+
+fn files(dir: &Path) -> Vec<PathBuf> {
+    handover::record::mcap_files(dir)
+}
+
+#[test]
+fn writes_tidy_csv_plots_and_table_one_keeping_pilots_apart() {
+    let dir = logs("outputs", 3);
+    let out = dir.join("out");
+    let (code, stdout, err) = handover(&["analyze", dir.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(stdout.contains("== REAL SESSIONS: 1 sessions (1 completed) =="), "{stdout}");
+    assert!(stdout.contains("== PILOT SESSIONS (dry runs, rehearsals): 3 sessions (3 completed) =="), "{stdout}");
+    assert!(stdout.contains("Fig. 10") && stdout.contains("| prefer |") && stdout.contains("forced choice"));
+    for f in [
+        "sessions.csv",
+        "trials.csv",
+        "test_log_likelihood.csv",
+        "questionnaire.csv",
+        "fig10.svg",
+        "objects.svg",
+        "table1.md",
+    ] {
+        assert!(out.join(f).exists(), "{f}");
+        assert!(out.join("pilot").join(f).exists(), "pilot/{f}");
+    }
+    let mut q = csv::Reader::from_path(out.join("pilot/questionnaire.csv")).unwrap();
+    assert!(q.headers().unwrap().iter().any(|h| h == "value"));
+    assert_eq!(q.records().count(), 3 * 8, "one row per answer");
+    let mut t = csv::Reader::from_path(out.join("pilot/test_log_likelihood.csv")).unwrap();
+    assert_eq!(t.records().count(), 3 * 2 * 6, "session × condition × iteration 0..=5");
+    let mut s = csv::Reader::from_path(out.join("sessions.csv")).unwrap();
+    let rows: Vec<_> = s.records().map(|r| r.unwrap()).collect();
+    assert_eq!(rows.len(), 1);
+    assert_eq!(&rows[0][1], "p-real0001");
+    let (code, json, _) = handover(&["analyze", dir.to_str().unwrap(), "--format", "json"]);
+    assert_eq!(code, 0);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["sessions"].as_array().unwrap().len(), 4);
+    assert_eq!(v["pilot"]["sessions"], 3);
+    assert_eq!(v["real"]["sessions"], 1);
+}
+
+#[test]
+fn verify_accepts_honest_logs_and_reports_edited_ones() {
+    let dir = logs("verify", 1);
+    let (code, _, err) = handover(&["analyze", dir.to_str().unwrap(), "--verify"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("every derived value matches"), "{err}");
+    // Edit one derived number (a belief's entropy) without changing the file's length.
+    let f = &files(&dir)[0];
+    let mut bytes = std::fs::read(f).unwrap();
+    let key = b"\"entropy\":";
+    let at = (0..bytes.len() - key.len())
+        .find(|&i| &bytes[i..i + key.len()] == key && bytes[i + key.len()].is_ascii_digit())
+        .unwrap()
+        + key.len();
+    let d = bytes[at];
+    bytes[at] = if d == b'1' { b'2' } else { b'1' };
+    std::fs::write(f, &bytes).unwrap();
+    let (code, _, err) = handover(&["analyze", dir.to_str().unwrap(), "--verify"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("/belief") && err.contains(".entropy"), "{err}");
+}
+
+#[test]
+fn truncated_foreign_and_resumed_logs() {
+    let dir = logs("odd", 1);
+    let all = files(&dir);
+    // A crash: the first log cut short is analysed up to its last whole message.
+    let bytes = std::fs::read(&all[0]).unwrap();
+    std::fs::write(&all[0], &bytes[..bytes.len() * 3 / 4]).unwrap();
+    let (code, out, err) = handover(&["analyze", dir.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("ends early") && err.contains("analysed up to its last whole message"), "{err}");
+    assert!(out.contains("partial"), "{out}");
+    // Resuming it writes a second log of the same session: it is counted once.
+    let (code, _, err) = handover(&["resume", all[0].to_str().unwrap(), "--dry-run"]);
+    assert_eq!(code, 0, "{err}");
+    let (code, out, err) = handover(&["analyze", dir.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("PILOT SESSIONS (dry runs, rehearsals): 1 sessions (1 completed)"), "{out}");
+    assert!(err.contains("superseded"), "{err}");
+    // A foreign file is skipped with a message, and the exit status says so.
+    std::fs::write(dir.join("notes.mcap"), b"not a log at all").unwrap();
+    let (code, _, err) = handover(&["analyze", dir.to_str().unwrap()]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("notes.mcap") && err.contains("not a handover session log") && err.contains("skipped"),
+        "{err}"
+    );
+    let (code, _, _) = handover(&["analyze", "/nonexistent/dir"]);
+    assert_eq!(code, 2);
+}
