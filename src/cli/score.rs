@@ -7,7 +7,7 @@ use anyhow::Result;
 use clap::Args;
 use handover::belief::{Belief, Grid};
 use handover::ergo::{ConfigSet, FeasibleSet, Lambda, Observation};
-use handover::select::{OutcomeModel, argmax, information_gain_paper, query_value};
+use handover::select::{OutcomeModel, SelectorKind, argmax, choose_from_values, information_gain_paper, query_value};
 use serde::{Deserialize, Serialize};
 
 use super::input::{bad, parse_json, read_text};
@@ -218,8 +218,8 @@ fn score(cfg: Config) -> Result<Output> {
         .grid
         .as_ref()
         .map(|g| cfg.menu.iter().map(|s| information_gain_paper(&cfg.belief, s, cfg.alpha, outcomes, g)).collect());
-    let active = argmax(&values.iter().map(|v| v.information_gain).collect::<Vec<_>>());
-    let passive = argmax(&values.iter().map(|v| -v.expected_cost).collect::<Vec<_>>());
+    let active = choose_from_values(SelectorKind::Active, &values, 0.0).expect("active decides from values");
+    let passive = choose_from_values(SelectorKind::Passive, &values, 0.0).expect("passive decides from values");
     let active_paper = paper.as_ref().map(|p| cfg.ids[argmax(p)].clone());
     let posterior = match &cfg.observation {
         None => None,

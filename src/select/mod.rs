@@ -35,8 +35,8 @@ pub struct Problem<'a> {
     pub outcomes: OutcomeModel,
 }
 
-/// A selector's choice and its criterion for every menu item (higher is better, except
-/// for `passive`, where it is the expected cost and lower is better).
+/// A selector's choice and the criterion it maximised, for every menu item (`passive`
+/// maximises the negated expected cost).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Selection {
     pub index: usize,
@@ -56,16 +56,27 @@ pub fn menu_values(problem: &Problem) -> Vec<QueryValue> {
     problem.menu.iter().map(|set| query_value(problem.belief, set, problem.alpha, problem.outcomes)).collect()
 }
 
-/// The choice of a selector that decides from information gain and expected cost alone
-/// (`active`, `passive`, `hybrid`); `None` for those that need more (`random`, `active-paper`).
-pub fn choose_from_values(kind: SelectorKind, values: &[QueryValue], beta: f64) -> Option<usize> {
-    let v: Vec<f64> = match kind {
+/// The criterion maximised by a selector that decides from information gain and expected
+/// cost alone: I (`active`), −E[cost] (`passive`, eq. 11), I − β·E[cost] (`hybrid`); `None`
+/// for those that need more (`random`, `active-paper`).
+fn objective(kind: SelectorKind, values: &[QueryValue], beta: f64) -> Option<Vec<f64>> {
+    Some(match kind {
         SelectorKind::Active => values.iter().map(|v| v.information_gain).collect(),
         SelectorKind::Passive => values.iter().map(|v| -v.expected_cost).collect(),
         SelectorKind::Hybrid => values.iter().map(|v| v.information_gain - beta * v.expected_cost).collect(),
         SelectorKind::Random | SelectorKind::ActivePaper => return None,
-    };
-    Some(argmax(&v))
+    })
+}
+
+/// The choice of `active`, `passive` or `hybrid` from already computed values; `None` for
+/// the selectors that need more (`random`, `active-paper`).
+pub fn choose_from_values(kind: SelectorKind, values: &[QueryValue], beta: f64) -> Option<usize> {
+    objective(kind, values, beta).map(|v| argmax(&v))
+}
+
+fn select_by_values(kind: SelectorKind, problem: &Problem, beta: f64) -> Selection {
+    let criterion = objective(kind, &menu_values(problem), beta).expect("a selector of values");
+    Selection { index: argmax(&criterion), criterion }
 }
 
 /// Index of the largest value; the earliest on ties.
@@ -87,8 +98,7 @@ impl Selector for Active {
         "active"
     }
     fn select(&self, problem: &Problem, _: &mut SeededRng) -> Selection {
-        let criterion: Vec<f64> = menu_values(problem).iter().map(|v| v.information_gain).collect();
-        Selection { index: argmax(&criterion), criterion }
+        select_by_values(SelectorKind::Active, problem, 0.0)
     }
 }
 
@@ -119,9 +129,7 @@ impl Selector for Passive {
         "passive"
     }
     fn select(&self, problem: &Problem, _: &mut SeededRng) -> Selection {
-        let criterion: Vec<f64> = menu_values(problem).iter().map(|v| v.expected_cost).collect();
-        let negated: Vec<f64> = criterion.iter().map(|c| -c).collect();
-        Selection { index: argmax(&negated), criterion }
+        select_by_values(SelectorKind::Passive, problem, 0.0)
     }
 }
 
@@ -152,9 +160,7 @@ impl Selector for Hybrid {
         "hybrid"
     }
     fn select(&self, problem: &Problem, _: &mut SeededRng) -> Selection {
-        let criterion: Vec<f64> =
-            menu_values(problem).iter().map(|v| v.information_gain - self.beta * v.expected_cost).collect();
-        Selection { index: argmax(&criterion), criterion }
+        select_by_values(SelectorKind::Hybrid, problem, self.beta)
     }
 }
 

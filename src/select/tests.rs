@@ -62,8 +62,8 @@ fn passive_picks_the_lowest_expected_cost() {
     let b = two_particles();
     let p = Problem { belief: &b, menu: &menu, alpha: 1.0, outcomes: OutcomeModel::Configuration };
     let s = Passive.select(&p, &mut SeededRng::seed_from_u64(0));
-    // Set 0: min costs 4 and 1 → 2.5; set 1: 0.25 and 0.25 → 0.25.
-    assert_eq!(s.criterion, vec![2.5, 0.25]);
+    // Set 0: min costs 4 and 1 → 2.5; set 1: 0.25 and 0.25 → 0.25 (maximised negated).
+    assert_eq!(s.criterion, vec![-2.5, -0.25]);
     assert_eq!(s.index, 1);
 }
 
