@@ -99,12 +99,42 @@ fn participant_new_creates_a_pseudonymous_record_in_the_least_filled_slot() {
 }
 
 #[test]
+fn a_completed_real_session_fills_its_slot() {
+    use std::sync::Arc;
+    let dir = tmpdir("slots");
+    let (parts, logs) = (dir.join("participants"), dir.join("logs"));
+    // One completed real session in slot 0 (and a dropout in slot 1, which does not count).
+    let text = std::fs::read_to_string(small_protocol(&dir)).unwrap();
+    let study = Arc::new(handover::protocol::Study::from_json(&text, "small").unwrap());
+    for (i, finish) in [(0usize, true), (1, false)] {
+        let mut p = handover::dryrun::plan(&study, 3, i, None, "2026-11-22T00:00:00Z".into());
+        p.start.pilot = false;
+        let session = handover::session::Session::new(Arc::clone(&study), p.start.clone()).unwrap();
+        let path = handover::record::new_log_path(&logs, &p.start.participant, chrono::Utc::now());
+        let mut rec = handover::record::RecordedSession::create(&path, &text, session, 1).unwrap();
+        if finish {
+            handover::dryrun::drive(&mut rec, &p.participant, Duration::ZERO).unwrap();
+        }
+        rec.finish().unwrap();
+    }
+    let (code, out, err) =
+        handover(&["participant", "new", "--participants", parts.to_str().unwrap(), "--logs", logs.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(parts.join(format!("{}.json", out.trim()))).unwrap()).unwrap();
+    assert_eq!(v["slot"], 1, "slot 0 has a completed session, slot 1 only a dropout");
+    assert!(err.contains("Program A = passive"), "{err}");
+}
+
+#[test]
 fn participant_ids_that_are_not_pseudonyms_are_refused() {
     let dir = tmpdir("ids");
     for bad in ["../etc/passwd", "a b", "p.1", "", "x/y", &"x".repeat(33)] {
         let (code, _, err) = handover(&["participant", "show", bad, "--participants", dir.to_str().unwrap()]);
         assert_eq!(code, 2, "{bad}: {err}");
         assert!(err.contains("invalid"), "{err}");
+        let (code, _, err) = handover(&["run", "--participant", bad]);
+        assert_eq!(code, 2, "run --participant {bad}: {err}");
     }
     let (code, _, err) = handover(&["participant", "show", "p-unknown", "--participants", dir.to_str().unwrap()]);
     assert_eq!(code, 2, "{err}");
