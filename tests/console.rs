@@ -219,6 +219,21 @@ fn undo_and_void_by_keys() {
 }
 
 #[test]
+fn aborting_ends_the_session_for_good() {
+    let dir = tmpdir("abort");
+    let mut a = app(&dir);
+    press(&mut a, KeyCode::Enter);
+    trials(&mut a, 2, '1');
+    keys(&mut a, "qa");
+    a.wait_idle();
+    let Screen::Summary(view) = &a.screen else { panic!("expected the summary screen") };
+    assert!(!view.completed);
+    let log = read_log(&view.log_path).unwrap();
+    let end = log.messages.iter().find(|m| m.topic == "/session/end").unwrap();
+    assert_eq!(end.value["status"], "aborted");
+}
+
+#[test]
 fn a_rehearsal_with_a_simulated_participant_is_flagged_pilot() {
     let dir = tmpdir("simulate");
     let mut a = App::new(config(&dir, true));

@@ -202,3 +202,20 @@ fn likert_values_must_be_on_the_scale() {
     ));
     assert!(matches!(s.apply(&Event::ForcedChoice { program: 2 }), Err(SessionError::UnknownProgram(2))));
 }
+
+#[test]
+fn region_observations_update_by_the_handle_taken() {
+    let mut st = Study::default_study();
+    st.protocol.learning.particles = 300;
+    st.protocol.learning.observation = OutcomeModel::Region;
+    let st = Arc::new(st);
+    let mut s = Session::new(Arc::clone(&st), start(&st, 0, 3)).unwrap();
+    let prior = s.learners()[0].belief.clone();
+    grasp_first(&mut s);
+    let after = &s.learners()[0].belief;
+    assert_ne!(after, &prior, "the handle taken is evidence");
+    assert!(after.weights().iter().all(|w| w.is_finite()));
+    // The label model still maps the handle to a configuration for the log.
+    let t = &s.trials()[0];
+    assert_eq!(s.set(t.query).region_of(t.config), t.region);
+}

@@ -459,6 +459,12 @@ impl App {
                 self.quit_now();
             }
             (Mode::ConfirmQuit, Action::No) => self.overlay = None,
+            (Mode::ConfirmQuit, Action::Abort) => {
+                self.overlay = None;
+                if self.live.is_some() {
+                    self.submit(Event::Aborted { reason: "ended early by the operator".into() });
+                }
+            }
             (Mode::Setup, Action::Confirm) => self.start(),
             (Mode::Setup, Action::EditParticipant) if !self.config.simulate => {
                 self.overlay = Some(Overlay::ParticipantId(String::new()))

@@ -38,6 +38,8 @@ pub enum Action {
     Quit,
     Yes,
     No,
+    /// End the session early for good (the participant withdrew).
+    Abort,
     /// A Likert answer: the n-th scale point (0-based).
     Likert(usize),
     Prev,
@@ -79,6 +81,7 @@ pub fn action_for(mode: Mode, key: KeyEvent) -> Option<Action> {
         Mode::ConfirmQuit => match key.code {
             K::Char('y') | K::Enter => Some(A::Yes),
             K::Char('n') | K::Esc => Some(A::No),
+            K::Char('a') => Some(A::Abort),
             _ => None,
         },
         Mode::VoidReason => match key.code {
@@ -130,7 +133,7 @@ pub const HELP: [(&str, &str); 16] = [
     ("p", "pause / resume"),
     ("Tab", "switch the joints of the particle view"),
     ("?", "this help"),
-    ("q", "quit (asks first; the session can be resumed)"),
+    ("q", "quit (asks first; the session can be resumed; or a: abort it for good)"),
     ("Questionnaire", ""),
     ("1–5", "answer the statement"),
     ("← / →", "previous / next statement"),
@@ -181,6 +184,7 @@ mod tests {
     fn dialogs_and_editors() {
         assert_eq!(action_for(Mode::ConfirmQuit, key(KeyCode::Char('y'))), Some(Action::Yes));
         assert_eq!(action_for(Mode::ConfirmQuit, key(KeyCode::Esc)), Some(Action::No));
+        assert_eq!(action_for(Mode::ConfirmQuit, key(KeyCode::Char('a'))), Some(Action::Abort));
         assert_eq!(action_for(Mode::VoidReason, key(KeyCode::Char('3'))), Some(Action::VoidReason(2)));
         assert_eq!(action_for(Mode::VoidReason, key(KeyCode::Char('5'))), None);
         assert_eq!(

@@ -106,7 +106,7 @@ fn key_hints(app: &App) -> Line<'static> {
         Mode::Paused => &[("p", "resume"), ("n", "note"), ("q", "quit")],
         Mode::Summary => &[("Enter/q", "exit")],
         Mode::Help => &[("Esc", "close help")],
-        Mode::ConfirmQuit => &[("y", "quit"), ("n", "stay")],
+        Mode::ConfirmQuit => &[("y", "quit"), ("n", "stay"), ("a", "abort session")],
         Mode::VoidReason => &[("1–4", "reason"), ("Esc", "cancel")],
         Mode::LineEdit => &[("Enter", "save"), ("Esc", "cancel")],
     };

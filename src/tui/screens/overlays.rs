@@ -46,7 +46,11 @@ pub fn confirm_quit(app: &App, frame: &mut Frame, area: Rect) {
         lines.push(Line::from("Everything recorded is on disk; the session can be resumed with"));
         lines.push(Line::from("`handover resume <log>`."));
     }
-    lines.push(Line::from("y: quit   n: stay"));
+    lines.push(Line::from(if resumable {
+        "y: quit   n: stay   a: abort the session for good"
+    } else {
+        "y: quit   n: stay"
+    }));
     dialog(frame, area, " Quit ", lines, 70);
 }
 
