@@ -129,6 +129,11 @@ impl ParticipantRecord {
         let path = Self::path(dir, &self.id)?;
         let err = |source| RecordFileError::Io { path: path.clone(), source };
         std::fs::create_dir_all(dir).map_err(err)?;
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700)).map_err(err)?;
+        }
         let mut o = std::fs::OpenOptions::new();
         o.write(true).create_new(true);
         #[cfg(unix)]
