@@ -4,7 +4,9 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::{Args, Subcommand};
+use handover::belief::ResamplePolicy;
 use handover::protocol::Study;
+use handover::select::OutcomeModel;
 
 use super::input::load_study;
 
@@ -55,9 +57,17 @@ pub fn summary(s: &Study) -> String {
         sizes.iter().min().unwrap_or(&0),
         sizes.iter().max().unwrap_or(&0)
     );
+    let resampling = match l.resampling {
+        ResamplePolicy::EveryUpdate => "after every update".to_string(),
+        ResamplePolicy::EssBelow { fraction } => format!("when ESS < {fraction} N"),
+    };
+    let observation = match l.observation {
+        OutcomeModel::Configuration => "the label model's configuration of the grip taken",
+        OutcomeModel::Region => "the grip region taken",
+    };
     out += &format!(
-        "  learning: {} particles, α = {}, learns {}, observation {:?}, resampling {:?}\n",
-        l.particles, l.alpha, l.learn, l.observation, l.resampling
+        "  learning: {} particles, α = {}, learns {}, observes {observation}, resamples {resampling}\n",
+        l.particles, l.alpha, l.learn
     );
     let conds: Vec<_> = p.session.conditions.iter().map(|c| c.name()).collect();
     out += &format!(
