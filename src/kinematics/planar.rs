@@ -67,12 +67,10 @@ pub fn wrap(a: f64) -> f64 {
     a
 }
 
-/// A planar object: points on its outline, each labelled with the connected piece it
-/// belongs to.
+/// A planar object: points along its closed outline, in order.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PlanarObject {
     pub points: Vec<Point2<f64>>,
-    pub piece: Vec<usize>,
 }
 
 /// One configuration of a planar feasible set and what it reaches.
@@ -81,9 +79,13 @@ pub struct PlanarConfig {
     pub q: [f64; 2],
     /// Index of the object point it reaches.
     pub point: usize,
-    /// The connected piece of the object that point is on.
+    /// The connected piece of the feasible set (in configuration space) it belongs to:
+    /// solutions of neighbouring outline points on the same elbow branch are connected.
     pub piece: usize,
 }
+
+/// Neighbouring solutions farther apart than this (rad, in either joint) are not connected.
+const PIECE_GAP: f64 = 0.5;
 
 impl PlanarObject {
     /// A closed random outline around `centre` (Fig. 5: same centre, random shape and size):
@@ -103,25 +105,51 @@ impl PlanarObject {
                 centre + Rotation2::new(turn) * local
             })
             .collect();
-        Self { points, piece: vec![0; n] }
+        Self { points }
     }
 
     /// The same object moved by a rotation `angle` about its origin and a translation.
     pub fn placed(&self, angle: f64, at: Vector2<f64>) -> Self {
         let r = Rotation2::new(angle);
-        Self {
-            points: self.points.iter().map(|p| Point2::from(r * p.coords + at)).collect(),
-            piece: self.piece.clone(),
-        }
+        Self { points: self.points.iter().map(|p| Point2::from(r * p.coords + at)).collect() }
     }
 
-    /// Every IK solution of every point, labelled with its point and piece.
+    /// Every IK solution of every point, labelled with its point and its connected piece
+    /// (pieces numbered in order of first appearance).
     pub fn feasible_set(&self, arm: &PlanarArm) -> Vec<PlanarConfig> {
         let mut out = Vec::new();
         for (i, p) in self.points.iter().enumerate() {
             for q in arm.inverse(*p) {
-                out.push(PlanarConfig { q, point: i, piece: self.piece[i] });
+                out.push(PlanarConfig { q, point: i, piece: 0 });
             }
+        }
+        // Union-find over solutions: connect the same elbow branch at consecutive points of
+        // the closed outline when the joints move little.
+        let mut parent: Vec<usize> = (0..out.len()).collect();
+        fn find(p: &mut [usize], i: usize) -> usize {
+            if p[i] != i {
+                let r = find(p, p[i]);
+                p[i] = r;
+            }
+            p[i]
+        }
+        let n = self.points.len();
+        for a in 0..out.len() {
+            for b in 0..out.len() {
+                let next = (out[a].point + 1) % n;
+                let same_branch = (out[a].q[1] >= 0.0) == (out[b].q[1] >= 0.0);
+                let close = (0..2).all(|d| wrap(out[a].q[d] - out[b].q[d]).abs() < PIECE_GAP);
+                if out[b].point == next && a != b && same_branch && close {
+                    let (x, y) = (find(&mut parent, a), find(&mut parent, b));
+                    parent[x] = y;
+                }
+            }
+        }
+        let mut ids = std::collections::HashMap::new();
+        for i in 0..out.len() {
+            let root = find(&mut parent, i);
+            let next_id = ids.len();
+            out[i].piece = *ids.entry(root).or_insert(next_id);
         }
         out
     }
@@ -172,6 +200,33 @@ mod tests {
         assert_eq!(o, PlanarObject::random_shape(Point2::new(0.3, 0.2), 0.05, 0.15, 24, &mut b));
         let set = o.feasible_set(&PlanarArm::default());
         assert!(!set.is_empty());
-        assert!(set.iter().all(|c| c.point < 24 && c.piece == 0));
+        assert!(set.iter().all(|c| c.point < 24));
+    }
+
+    #[test]
+    fn the_two_elbow_branches_of_a_reachable_outline_are_two_pieces() {
+        // A small circle well inside the workspace: every point has both branches, and each
+        // branch traces one closed curve in configuration space.
+        let points = (0..24)
+            .map(|i| {
+                let t = std::f64::consts::TAU * i as f64 / 24.0;
+                Point2::new(0.35 + 0.05 * t.cos(), 0.1 + 0.05 * t.sin())
+            })
+            .collect();
+        let set = PlanarObject { points }.feasible_set(&PlanarArm::default());
+        assert_eq!(set.len(), 48);
+        let pieces: std::collections::BTreeSet<usize> = set.iter().map(|c| c.piece).collect();
+        assert_eq!(pieces.len(), 2);
+        assert!(set.iter().all(|c| (c.piece == set[0].piece) == ((c.q[1] >= 0.0) == (set[0].q[1] >= 0.0))));
+        // Cut by a joint limit, the elbow-down branch disappears and one piece is left.
+        let limited = PlanarArm { limits: [[-3.2, 3.2], [0.0, 3.2]], ..PlanarArm::default() };
+        let points = (0..24)
+            .map(|i| {
+                let t = std::f64::consts::TAU * i as f64 / 24.0;
+                Point2::new(0.35 + 0.05 * t.cos(), 0.1 + 0.05 * t.sin())
+            })
+            .collect();
+        let set = PlanarObject { points }.feasible_set(&limited);
+        assert!(set.iter().all(|c| c.piece == 0));
     }
 }
