@@ -146,10 +146,10 @@ impl PlanarObject {
             }
         }
         let mut ids = std::collections::HashMap::new();
-        for i in 0..out.len() {
+        for (i, c) in out.iter_mut().enumerate() {
             let root = find(&mut parent, i);
             let next_id = ids.len();
-            out[i].piece = *ids.entry(root).or_insert(next_id);
+            c.piece = *ids.entry(root).or_insert(next_id);
         }
         out
     }
