@@ -72,6 +72,9 @@ fn writes_tidy_csv_plots_and_table_one_keeping_pilots_apart() {
     assert_eq!(q.records().count(), 3 * 8, "one row per answer");
     let mut t = csv::Reader::from_path(out.join("pilot/test_log_likelihood.csv")).unwrap();
     assert_eq!(t.records().count(), 3 * 2 * 6, "session × condition × iteration 0..=5");
+    let mut b = csv::Reader::from_path(out.join("pilot/beliefs.csv")).unwrap();
+    assert!(b.headers().unwrap().iter().any(|h| h == "mode_q_star_deg_elbow_flexion"));
+    assert_eq!(b.records().count(), 3 * 2 * 6, "the replayed belief after each iteration");
     let mut s = csv::Reader::from_path(out.join("sessions.csv")).unwrap();
     let rows: Vec<_> = s.records().map(|r| r.unwrap()).collect();
     assert_eq!(rows.len(), 1);
@@ -82,6 +85,7 @@ fn writes_tidy_csv_plots_and_table_one_keeping_pilots_apart() {
     assert_eq!(v["sessions"].as_array().unwrap().len(), 4);
     assert_eq!(v["pilot"]["sessions"], 3);
     assert_eq!(v["real"]["sessions"], 1);
+    assert_eq!(v["sessions"][0]["runs"][0]["beliefs"].as_array().unwrap().len(), 6);
 }
 
 #[test]

@@ -40,6 +40,19 @@ pub struct RunAnalysis {
     pub test_ll_predictive: Vec<f64>,
     /// The mode's q* after the last iteration (radians).
     pub learned_q_star: Vec<f64>,
+    /// The belief after each iteration 0..=N, recomputed by replaying the events.
+    pub beliefs: Vec<BeliefPoint>,
+}
+
+/// A replayed belief after one training iteration.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct BeliefPoint {
+    pub iteration: usize,
+    pub mode: crate::ergo::Lambda,
+    pub mean: crate::ergo::Lambda,
+    /// Gridded entropy (nats).
+    pub entropy: f64,
+    pub ess: f64,
 }
 
 /// One session, replayed.
@@ -132,6 +145,18 @@ pub fn analyse(log: &LogContents) -> Result<SessionAnalysis, RecordError> {
             test_ll_mode,
             test_ll_predictive,
             learned_q_star: modes.last().map(|m| m.q_star.clone()).unwrap_or_default(),
+            beliefs: beliefs
+                .iter()
+                .zip(&modes)
+                .enumerate()
+                .map(|(iteration, (b, m))| BeliefPoint {
+                    iteration,
+                    mode: m.clone(),
+                    mean: b.mean(),
+                    entropy: b.entropy(&ctx.grid),
+                    ess: b.ess(),
+                })
+                .collect(),
         });
     }
     let items = &study.protocol.questionnaire.items;

@@ -24,8 +24,8 @@ pub struct AnalyzeArgs {
     /// Session logs (.mcap) or directories searched recursively.
     #[arg(required = true, value_name = "LOG|DIR")]
     paths: Vec<PathBuf>,
-    /// Write sessions.csv, trials.csv, test_log_likelihood.csv, questionnaire.csv, fig10.svg,
-    /// objects.svg and table1.md here (pilot sessions under DIR/pilot/).
+    /// Write sessions.csv, trials.csv, test_log_likelihood.csv, beliefs.csv, questionnaire.csv,
+    /// fig10.svg, objects.svg and table1.md here (pilot sessions under DIR/pilot/).
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
     /// Recompute every derived value in each log (mapped configurations, beliefs, scores)
@@ -72,6 +72,7 @@ struct JsonRun<'a> {
     test_log_likelihood_mode: &'a [f64],
     test_log_likelihood_predictive: &'a [f64],
     learned_q_star_deg: Vec<f64>,
+    beliefs: &'a [handover::analysis::BeliefPoint],
 }
 
 #[derive(Serialize)]
@@ -239,6 +240,7 @@ fn json_session(a: &Analysed) -> JsonSession<'_> {
                 test_log_likelihood_mode: &r.test_ll_mode,
                 test_log_likelihood_predictive: &r.test_ll_predictive,
                 learned_q_star_deg: deg(&r.learned_q_star),
+                beliefs: &r.beliefs,
             })
             .collect(),
         test_trials: &s.test_trials,
@@ -470,6 +472,36 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary) -> Result<()
                     m.to_string(),
                     p.to_string(),
                 ])?;
+            }
+        }
+    }
+    w.flush()?;
+    let mut w = csv::Writer::from_path(dir.join("beliefs.csv"))?;
+    let joints = handover::kinematics::JOINT_NAMES;
+    let mut header: Vec<String> =
+        ["session_id", "participant", "condition", "program", "iteration", "entropy", "ess"].map(String::from).to_vec();
+    for part in ["mode_q_star_deg", "mean_q_star_deg", "mode_w", "mean_w"] {
+        header.extend(joints.iter().map(|j| format!("{part}_{j}")));
+    }
+    w.write_record(&header)?;
+    for a in group {
+        let x = &a.analysis;
+        for r in &x.runs {
+            for b in &r.beliefs {
+                let mut row = vec![
+                    x.start.session_id.clone(),
+                    x.start.participant.clone(),
+                    r.condition.clone(),
+                    program_letter(r.program),
+                    b.iteration.to_string(),
+                    b.entropy.to_string(),
+                    b.ess.to_string(),
+                ];
+                row.extend(b.mode.q_star.iter().map(|v| v.to_degrees().to_string()));
+                row.extend(b.mean.q_star.iter().map(|v| v.to_degrees().to_string()));
+                row.extend(b.mode.w.iter().map(|v| v.to_string()));
+                row.extend(b.mean.w.iter().map(|v| v.to_string()));
+                w.write_record(&row)?;
             }
         }
     }
