@@ -251,3 +251,30 @@ fn a_rehearsal_with_a_simulated_participant_is_flagged_pilot() {
     assert!(log.start.pilot && log.start.participant.starts_with("pilot-"));
     assert!(!dir.join("participants").exists(), "rehearsals never touch participants/");
 }
+
+#[test]
+fn an_existing_participant_s_body_height_scales_the_arm() {
+    let dir = tmpdir("height");
+    let rec = handover::participant::ParticipantRecord {
+        id: "p-tall0001".into(),
+        slot: 1,
+        created_at: "2026-11-22T00:00:00Z".into(),
+        body_height_m: Some(1.85),
+        handedness: None,
+    };
+    rec.create(&dir.join("participants")).unwrap();
+    let mut cfg = config(&dir, false);
+    cfg.participant = "p-tall0001".into();
+    let mut a = App::new(cfg);
+    a.tick(T0);
+    press(&mut a, KeyCode::Enter);
+    let s = a.session().unwrap();
+    assert_eq!(s.start().slot, 1, "the record's slot");
+    assert!((s.study().arm.upper_arm - 0.186 * 1.85).abs() < 1e-12);
+    trials(&mut a, 1, '1');
+    keys(&mut a, "qy");
+    let log = read_log(&handover::record::mcap_files(&dir.join("logs"))[0]).unwrap();
+    let replayed = handover::record::study_of(&log).unwrap();
+    assert!((replayed.arm.upper_arm - 0.186 * 1.85).abs() < 1e-12, "the log holds the protocol as run");
+    assert_eq!(replayed.sha256, log.start.protocol_sha256);
+}

@@ -287,3 +287,19 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
     use sha2::Digest;
     sha2::Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
 }
+
+/// The protocol text with the arm scaled to a participant's body height (Winter's
+/// fractions; joint limits kept). The session logs this text, so a replay uses the same arm.
+pub fn with_body_height(text: &str, name: &str, height_m: f64) -> Result<(String, Study), ProtocolError> {
+    let mut v: serde_json::Value = serde_json::from_str(text)
+        .map_err(|e| ProtocolError::new(name, vec![Problem { path: String::new(), message: e.to_string() }]))?;
+    let limits = v.get("arm").and_then(|a| a.get("limits_deg")).cloned();
+    let mut arm = serde_json::json!({ "body_height_m": height_m });
+    if let Some(l) = limits {
+        arm["limits_deg"] = l;
+    }
+    v["arm"] = arm;
+    let text = serde_json::to_string_pretty(&v).expect("serialisable");
+    let study = Study::from_json(&text, &format!("{name} (arm of a {height_m} m participant)"))?;
+    Ok((text, study))
+}

@@ -15,7 +15,7 @@ use super::keys::{Action, Mode, action_for};
 use crate::analysis::{SessionAnalysis, analyse};
 use crate::dryrun::{now_ns, plan};
 use crate::participant::{ParticipantRecord, ScriptedParticipant, SimulatedPerson, new_id, validate_id};
-use crate::protocol::Study;
+use crate::protocol::{Study, with_body_height};
 use crate::record::{LogContents, RecordedSession, least_filled_slot, new_log_path, read_log};
 use crate::session::{Event, Prompt, Session, SessionStart, Stamped, VoidReason, condition_order};
 
@@ -72,6 +72,9 @@ pub struct Plan {
     pub simulated: Option<ScriptedParticipant>,
     pub log_path: PathBuf,
     pub error: Option<String>,
+    /// The protocol as this session runs it: the participant's body height scales the arm.
+    pub study: Arc<Study>,
+    pub protocol_text: String,
 }
 
 enum WorkDone {
@@ -135,6 +138,8 @@ impl App {
                 simulated: Some(ScriptedParticipant { person }),
                 log_path: path,
                 error: None,
+                study: Arc::clone(&app.config.study),
+                protocol_text: app.config.protocol_text.clone(),
             });
         }
         app.shown = Some(rec.session().clone());
@@ -176,8 +181,17 @@ impl App {
         if c.simulate {
             let p = plan(study, seed, 0, None, started_at);
             let log_path = new_log_path(&c.logs, &p.start.participant, now);
-            return Plan { start: p.start, new_record: None, simulated: Some(p.participant), log_path, error: None };
+            return Plan {
+                start: p.start,
+                new_record: None,
+                simulated: Some(p.participant),
+                log_path,
+                error: None,
+                study: Arc::clone(study),
+                protocol_text: c.protocol_text.clone(),
+            };
         }
+        let (mut study, mut protocol_text) = (Arc::clone(study), c.protocol_text.clone());
         let (id, slot, new_record, error) = if c.participant == "new" {
             let id = new_id(&mut rand::rng());
             let slot = least_filled_slot(&c.logs, 2);
@@ -191,7 +205,14 @@ impl App {
             (id, slot, Some(rec), None)
         } else {
             match ParticipantRecord::load(&c.participants, &c.participant) {
-                Ok(r) => (r.id, r.slot, None, None),
+                Ok(r) => match r.body_height_m.map(|h| with_body_height(&c.protocol_text, &study.source_name, h)) {
+                    Some(Ok((text, scaled))) => {
+                        (study, protocol_text) = (Arc::new(scaled), text);
+                        (r.id, r.slot, None, None)
+                    }
+                    Some(Err(e)) => (r.id, r.slot, None, Some(e.to_string())),
+                    None => (r.id, r.slot, None, None),
+                },
                 Err(e) => (c.participant.clone(), 0, None, Some(e.to_string())),
             }
         };
@@ -201,7 +222,7 @@ impl App {
             protocol_name: study.protocol.name.clone(),
             protocol_sha256: study.sha256.clone(),
             seed,
-            condition_order: condition_order(study, slot),
+            condition_order: condition_order(&study, slot),
             program_labels: study.protocol.session.program_labels.clone(),
             software_version: env!("CARGO_PKG_VERSION").to_string(),
             pilot: false,
@@ -211,7 +232,7 @@ impl App {
             resumed_from: None,
         };
         let log_path = if validate_id(&id).is_ok() { new_log_path(&c.logs, &id, now) } else { PathBuf::new() };
-        Plan { start, new_record, simulated: None, log_path, error }
+        Plan { start, new_record, simulated: None, log_path, error, study, protocol_text }
     }
 
     /// The session as currently shown.
@@ -412,14 +433,14 @@ impl App {
             self.status = format!("cannot create the participant record: {e}");
             return;
         }
-        let session = match Session::new(Arc::clone(&self.config.study), plan.start.clone()) {
+        let session = match Session::new(Arc::clone(&plan.study), plan.start.clone()) {
             Ok(s) => s,
             Err(e) => {
                 self.status = e.to_string();
                 return;
             }
         };
-        match RecordedSession::create(&plan.log_path, &self.config.protocol_text, session, now_ns()) {
+        match RecordedSession::create(&plan.log_path, &plan.protocol_text, session, now_ns()) {
             Ok(rec) => {
                 self.shown = Some(rec.session().clone());
                 self.live = Some(rec);
