@@ -210,13 +210,8 @@ fn print_table(name: &str, s: &Settings, summary: &[SummaryRow], seconds: f64, t
     };
     let cell = |r: Option<&SummaryRow>| r.map_or("—".to_string(), |r| format!("{:.3} ± {:.3}", r.mean, r.se));
     println!(
-        "{:<13} {:>20} {:>20} {:>22} {:>20} {:>22}",
-        "algorithm",
-        "distance (it 0)",
-        "distance (last)",
-        "test log-lik (last)",
-        "true cost (mean)",
-        "log P(λ*) (last)"
+        "{:<12} {:>17} {:>17} {:>20} {:>10} {:>17}",
+        "algorithm", "distance (it 0)", "distance (last)", "test log-lik (last)", "true cost", "log P(λ*) (last)"
     );
     for k in &s.algorithms {
         let alg = k.name();
@@ -228,7 +223,7 @@ fn print_table(name: &str, s: &Settings, summary: &[SummaryRow], seconds: f64, t
             format!("{:.3}", costs.iter().map(|r| r.mean).sum::<f64>() / costs.len() as f64)
         };
         println!(
-            "{:<13} {:>20} {:>20} {:>22} {:>20} {:>22}",
+            "{:<12} {:>17} {:>17} {:>20} {:>10} {:>17}",
             alg,
             cell(get(alg, 0, "distance_to_truth")),
             cell(get(alg, s.iterations, "distance_to_truth")),
