@@ -7,11 +7,10 @@ use std::time::Duration;
 use anyhow::Result;
 use clap::Args;
 use handover::participant::validate_id;
-use handover::protocol::DEFAULT_PROTOCOL;
 use handover::record::{LogContents, study_of};
 use handover::tui::{App, AppConfig, run_terminal};
 
-use super::input::{bad, load_study, read_text};
+use super::input::{bad, load_protocol};
 
 /// Open the operator console and run a study session: setup, the training runs (blinded
 /// as Program A / B), the test phase, the questionnaire and a summary. Every event is on
@@ -80,11 +79,8 @@ pub fn run(args: RunArgs) -> Result<()> {
     if participant != "new" {
         validate_id(&participant).map_err(|e| bad(format!("--participant: {e}")))?;
     }
-    let study = Arc::new(load_study(protocol.as_deref())?);
-    let protocol_text = match &protocol {
-        Some(p) => read_text(p)?,
-        None => DEFAULT_PROTOCOL.to_string(),
-    };
+    let (protocol_text, study) = load_protocol(protocol.as_deref())?;
+    let study = Arc::new(study);
     let config = AppConfig {
         study,
         protocol_text,

@@ -9,11 +9,11 @@ use clap::Args;
 use handover::analysis::{SessionAnalysis, analyse};
 use handover::dryrun::{drive, now_ns, plan};
 use handover::ergo::Lambda;
-use handover::protocol::{DEFAULT_PROTOCOL, LambdaSpec, Study};
+use handover::protocol::{LambdaSpec, Study};
 use handover::record::{RecordedSession, new_log_path, read_log};
 use handover::session::{Session, program_letter};
 
-use super::input::{bad, load_study, parse_json, read_text};
+use super::input::{bad, load_protocol, parse_json, read_text};
 
 /// Run whole sessions with simulated participants (a rehearsal of the study, or a check of
 /// the protocol). Each participant gets a pilot id and slot, a ground truth from the prior
@@ -60,16 +60,9 @@ fn load_truth(path: &std::path::Path) -> Result<Lambda> {
     Ok(spec.to_lambda())
 }
 
-fn protocol_text(path: Option<&std::path::Path>) -> Result<String> {
-    Ok(match path {
-        Some(p) => read_text(p)?,
-        None => DEFAULT_PROTOCOL.to_string(),
-    })
-}
-
 pub fn run(args: DryRunArgs) -> Result<()> {
-    let study = Arc::new(load_study(args.protocol.as_deref())?);
-    let text = protocol_text(args.protocol.as_deref())?;
+    let (text, study) = load_protocol(args.protocol.as_deref())?;
+    let study = Arc::new(study);
     if args.participants == 0 {
         return Err(bad("--participants is 0, expected at least 1"));
     }

@@ -31,8 +31,17 @@ pub fn parse_json<T: serde::de::DeserializeOwned>(text: &str, name: &str) -> any
 
 /// The protocol at `path`, or the embedded default; an invalid one is bad input.
 pub fn load_study(path: Option<&Path>) -> anyhow::Result<handover::protocol::Study> {
-    match path {
-        Some(p) => handover::protocol::Study::load(p).map_err(|e| bad(e.to_string())),
-        None => Ok(handover::protocol::Study::default_study()),
-    }
+    load_protocol(path).map(|(_, study)| study)
+}
+
+/// The protocol's text (logged with every session) and its study, from `path` or the
+/// embedded default; an invalid one is bad input.
+pub fn load_protocol(path: Option<&Path>) -> anyhow::Result<(String, handover::protocol::Study)> {
+    use handover::protocol::{DEFAULT_PROTOCOL, DEFAULT_PROTOCOL_NAME, Study};
+    let (text, name) = match path {
+        Some(p) => (read_text(p)?, p.display().to_string()),
+        None => (DEFAULT_PROTOCOL.to_string(), DEFAULT_PROTOCOL_NAME.to_string()),
+    };
+    let study = Study::from_json(&text, &name).map_err(|e| bad(e.to_string()))?;
+    Ok((text, study))
 }
