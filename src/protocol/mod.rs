@@ -3,8 +3,6 @@
 
 mod validate;
 
-use std::path::Path;
-
 use serde::{Deserialize, Serialize};
 
 use crate::belief::{ComponentPrior, Prior, PriorError, ResamplePolicy};
@@ -251,15 +249,6 @@ impl Study {
             )
         })?;
         validate::study(protocol, name, sha256_hex(text.as_bytes()))
-    }
-
-    /// Reads and validates a protocol file.
-    pub fn load(path: &Path) -> Result<Self, ProtocolError> {
-        let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| {
-            ProtocolError::new(&name, vec![Problem { path: String::new(), message: format!("cannot read: {e}") }])
-        })?;
-        Self::from_json(&text, &name)
     }
 
     /// The embedded default protocol.
