@@ -12,6 +12,7 @@ pub mod experiment;
 pub mod kinematics;
 pub mod participant;
 pub mod plot;
+pub mod private_files;
 pub mod protocol;
 pub mod record;
 pub mod select;

@@ -128,20 +128,8 @@ impl ParticipantRecord {
     pub fn create(&self, dir: &std::path::Path) -> Result<std::path::PathBuf, RecordFileError> {
         let path = Self::path(dir, &self.id)?;
         let err = |source| RecordFileError::Io { path: path.clone(), source };
-        std::fs::create_dir_all(dir).map_err(err)?;
-        #[cfg(unix)]
-        {
-            use std::os::unix::fs::PermissionsExt;
-            std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700)).map_err(err)?;
-        }
-        let mut o = std::fs::OpenOptions::new();
-        o.write(true).create_new(true);
-        #[cfg(unix)]
-        {
-            use std::os::unix::fs::OpenOptionsExt;
-            o.mode(0o600);
-        }
-        let mut f = o.open(&path).map_err(err)?;
+        crate::private_files::create_dir(dir).map_err(err)?;
+        let mut f = crate::private_files::create_file(&path).map_err(err)?;
         use std::io::Write;
         let text = serde_json::to_string_pretty(self).expect("serialisable");
         f.write_all(text.as_bytes()).and_then(|_| f.write_all(b"\n")).and_then(|_| f.sync_all()).map_err(err)?;

@@ -59,29 +59,6 @@ fn mcap_err(path: &Path) -> impl Fn(mcap::McapError) -> RecordError + '_ {
     move |e| RecordError::Mcap { path: path.to_path_buf(), message: e.to_string() }
 }
 
-/// Creates a new file readable by the owner only; never overwrites (fails if it exists).
-fn create_private(path: &Path) -> std::io::Result<File> {
-    let mut o = std::fs::OpenOptions::new();
-    o.write(true).create_new(true);
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::OpenOptionsExt;
-        o.mode(0o600);
-    }
-    o.open(path)
-}
-
-/// Creates `dir` (and parents) with mode 0700 for the last component.
-pub fn create_private_dir(dir: &Path) -> std::io::Result<()> {
-    std::fs::create_dir_all(dir)?;
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700))?;
-    }
-    Ok(())
-}
-
 /// `logs/<participant>/<participant>_<UTC time>.mcap`, with a suffix if that name is taken.
 pub fn new_log_path(logs: &Path, participant: &str, time: chrono::DateTime<chrono::Utc>) -> PathBuf {
     let dir = logs.join(participant);
@@ -110,9 +87,9 @@ impl Recorder {
     /// record and the initial beliefs, and syncs.
     pub fn create(path: &Path, protocol_text: &str, session: &Session, time_ns: u64) -> Result<Self, RecordError> {
         if let Some(dir) = path.parent() {
-            create_private_dir(dir).map_err(io(dir))?;
+            crate::private_files::create_dir(dir).map_err(io(dir))?;
         }
-        let file = create_private(path).map_err(io(path))?;
+        let file = crate::private_files::create_file(path).map_err(io(path))?;
         let sync = file.try_clone().map_err(io(path))?;
         let options = mcap::WriteOptions::new()
             .use_chunks(false)
