@@ -7,7 +7,9 @@ use anyhow::Result;
 use clap::Args;
 use handover::belief::{Belief, Grid};
 use handover::ergo::{ConfigSet, FeasibleSet, Lambda, Observation};
-use handover::select::{OutcomeModel, SelectorKind, argmax, choose_from_values, information_gain_paper, query_value};
+use handover::select::{
+    OutcomeModel, Problem, SelectorKind, argmax, choose_from_values, information_gain_paper, menu_values,
+};
 use serde::{Deserialize, Serialize};
 
 use super::input::{bad, parse_json, read_text};
@@ -213,7 +215,8 @@ impl Config {
 
 fn score(cfg: Config) -> Result<Output> {
     let outcomes = OutcomeModel::Configuration;
-    let values: Vec<_> = cfg.menu.iter().map(|s| query_value(&cfg.belief, s, cfg.alpha, outcomes)).collect();
+    let problem = Problem { belief: &cfg.belief, menu: &cfg.menu, alpha: cfg.alpha, outcomes };
+    let values = menu_values(&problem);
     let paper: Option<Vec<f64>> = cfg
         .grid
         .as_ref()

@@ -6,9 +6,10 @@ use rand::RngExt;
 use super::Scenario;
 use crate::SeededRng;
 use crate::belief::Prior;
-use crate::ergo::{ConfigSet, FeasibleSet, LearnMask};
+use crate::ergo::{FeasibleSet, LearnMask};
 use crate::kinematics::{Pose, feasible_set};
 use crate::protocol::{LearningSpec, Study};
+use crate::session::choice_set;
 
 /// The 7-DoF scenario on a protocol's arm, objects, discretisation and prior (by default the
 /// embedded bike-handover protocol). Random poses: 0.28–0.46 m forward, 0.15 m right to
@@ -69,8 +70,7 @@ impl Scenario for Arm7 {
                 &self.study.protocol.discretisation,
             );
             if set.per_region.iter().all(|&n| n > 0) {
-                let configs = ConfigSet::from_rows(&set.rows()).expect("finite IK solutions");
-                return FeasibleSet::with_regions(configs, &set.labels()).expect("labels grouped by region");
+                return choice_set(&set);
             }
         }
     }

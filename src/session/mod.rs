@@ -13,6 +13,7 @@ use rand::seq::SliceRandom;
 
 use crate::belief::{Belief, Grid};
 use crate::ergo::{ConfigSet, FeasibleSet, Observation, most_likely_in_region};
+use crate::kinematics::ArmFeasibleSet;
 use crate::protocol::{ResolvedQuery, Study};
 use crate::select::{OutcomeModel, QueryValue, SelectorKind};
 use crate::{SeededRng, derive_seed};
@@ -29,10 +30,11 @@ pub fn condition_order(study: &Study, slot: usize) -> Vec<SelectorKind> {
     c
 }
 
-/// The ergo feasible set of a resolved query, configurations grouped by offered region.
-pub fn choice_set(q: &ResolvedQuery) -> FeasibleSet {
-    let configs = ConfigSet::from_rows(&q.feasible.rows()).expect("validated protocols have feasible configurations");
-    FeasibleSet::with_regions(configs, &q.feasible.labels()).expect("feasible sets are grouped by region")
+/// The choice model's view of an arm's feasible set (which must not be empty, as validated
+/// protocols guarantee): its configurations, grouped by offered region.
+pub fn choice_set(set: &ArmFeasibleSet) -> FeasibleSet {
+    let configs = ConfigSet::from_rows(&set.rows()).expect("a non-empty set of finite IK solutions");
+    FeasibleSet::with_regions(configs, &set.labels()).expect("feasible sets are grouped by region")
 }
 
 /// Why an event does not fit the session's state.
@@ -202,8 +204,8 @@ impl Session {
             beta: learning.hybrid_beta,
             label_model: learning.label_model.to_lambda(),
         };
-        let menu: Arc<Vec<FeasibleSet>> = Arc::new(study.training.iter().map(choice_set).collect());
-        let tests: Arc<Vec<FeasibleSet>> = Arc::new(study.test.iter().map(choice_set).collect());
+        let menu: Arc<Vec<FeasibleSet>> = Arc::new(study.training.iter().map(|q| choice_set(&q.feasible)).collect());
+        let tests: Arc<Vec<FeasibleSet>> = Arc::new(study.test.iter().map(|q| choice_set(&q.feasible)).collect());
         // Both conditions start from the same draw of the prior.
         let mut particle_rng = SeededRng::seed_from_u64(derive_seed(start.seed, 0, purpose::PARTICLES));
         let belief = Belief::from_prior(&prior, learning.particles, &mut particle_rng)
