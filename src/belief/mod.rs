@@ -156,6 +156,11 @@ impl Belief {
         &self.free
     }
 
+    /// The prior's support [min, max] of each component of [q*, w].
+    pub fn support(&self) -> &[(f64, f64)] {
+        &self.support
+    }
+
     /// Bayes update with one observation (eq. 4–5), in log space: each particle's
     /// likelihood is normalised over the feasible set with its own normaliser.
     pub fn update(&mut self, set: &FeasibleSet, alpha: f64, obs: &Observation) -> Result<(), BeliefError> {

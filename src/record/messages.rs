@@ -60,7 +60,7 @@ fn belief_message(index: usize, run: usize, b: &BeliefSummary, session: &Session
 /// The `/belief` messages of both conditions' priors, logged with the start.
 pub fn initial_beliefs(session: &Session) -> Vec<(&'static str, Value)> {
     (0..session.learners().len())
-        .map(|run| ("/belief", belief_message(0, run, &session.learners()[run].summary(session.context()), session)))
+        .map(|run| ("/belief", belief_message(0, run, &session.learners()[run].summary, session)))
         .collect()
 }
 

@@ -1,7 +1,7 @@
 //! One training condition's learner: its belief, its selector and its suggestion.
 
 use crate::SeededRng;
-use crate::belief::{Belief, Grid, ResamplePolicy};
+use crate::belief::{Belief, CellIndex, Grid, ResamplePolicy};
 use crate::ergo::{FeasibleSet, Lambda, Observation};
 use crate::select::{OutcomeModel, Problem, QueryValue, SelectorKind, menu_values};
 
@@ -20,13 +20,28 @@ pub struct LearningContext {
 }
 
 /// A summary of a belief, as logged on `/belief`.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct BeliefSummary {
     pub iteration: usize,
     pub mode: Lambda,
     pub mean: Lambda,
     pub entropy: f64,
     pub ess: f64,
+}
+
+impl BeliefSummary {
+    /// Summarises a belief after `iteration` updates (one pass over the grid cells gives
+    /// both the mode and the entropy).
+    pub fn of(belief: &Belief, iteration: usize, grid: &Grid) -> Self {
+        let cells = CellIndex::new(belief, grid);
+        BeliefSummary {
+            iteration,
+            mode: cells.mode(belief),
+            mean: belief.mean(),
+            entropy: cells.entropy(belief.weights()),
+            ess: belief.ess(),
+        }
+    }
 }
 
 /// A learner: belief, RNG (resampling, random selection), and the next suggestion.
@@ -43,6 +58,8 @@ pub struct Learner {
     pub scores: Vec<QueryValue>,
     /// Gridded entropy after each iteration (index 0: the prior).
     pub entropies: Vec<f64>,
+    /// The current belief's summary (kept, as the console shows it on every frame).
+    pub summary: BeliefSummary,
 }
 
 impl Learner {
@@ -53,9 +70,10 @@ impl Learner {
         menu: &[FeasibleSet],
         ctx: &LearningContext,
     ) -> Self {
-        let entropy = belief.entropy(&ctx.grid);
+        let summary = BeliefSummary::of(&belief, 0, &ctx.grid);
+        let entropies = vec![summary.entropy];
         let mut l =
-            Self { condition, belief, rng, iteration: 0, suggestion: 0, scores: Vec::new(), entropies: vec![entropy] };
+            Self { condition, belief, rng, iteration: 0, suggestion: 0, scores: Vec::new(), entropies, summary };
         l.suggest(menu, ctx);
         l
     }
@@ -76,17 +94,8 @@ impl Learner {
         self.belief.update(set, ctx.alpha, obs).expect("an offered configuration has positive likelihood");
         self.belief.maybe_resample(ctx.policy, &ctx.jitter, &mut self.rng);
         self.iteration += 1;
-        self.entropies.push(self.belief.entropy(&ctx.grid));
+        self.summary = BeliefSummary::of(&self.belief, self.iteration, &ctx.grid);
+        self.entropies.push(self.summary.entropy);
         self.suggest(menu, ctx);
-    }
-
-    pub fn summary(&self, ctx: &LearningContext) -> BeliefSummary {
-        BeliefSummary {
-            iteration: self.iteration,
-            mode: self.belief.mode(&ctx.grid),
-            mean: self.belief.mean(),
-            entropy: *self.entropies.last().expect("the prior's entropy"),
-            ess: self.belief.ess(),
-        }
     }
 }

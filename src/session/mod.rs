@@ -461,7 +461,7 @@ impl Session {
                         let menu = Arc::clone(&self.menu);
                         let ctx = self.ctx.clone();
                         self.learners[run].learn(&set, &obs, &menu, &ctx);
-                        Some(self.learners[run].summary(&ctx))
+                        Some(self.learners[run].summary.clone())
                     }
                     None => None,
                 };
@@ -567,7 +567,7 @@ impl Session {
         }
         undo.learner.map(|(run, l)| {
             self.learners[run] = l;
-            self.learners[run].summary(&self.ctx)
+            self.learners[run].summary.clone()
         })
     }
 }

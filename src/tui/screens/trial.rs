@@ -126,8 +126,7 @@ fn shown(c: usize, v: f64) -> f64 {
 fn belief_panel(app: &App, session: &Session, run: usize, frame: &mut Frame, area: Rect) {
     let learner = &session.learners()[run];
     let belief = &learner.belief;
-    let prior = session.study().protocol.learning.prior().expect("a validated prior");
-    let supports: Vec<(f64, f64)> = prior.components().iter().map(|c| c.support()).collect();
+    let supports = belief.support();
     let free = belief.free().to_vec();
     let block_title = format!(" Belief · {} · iteration {} ", session.start().program_labels[run], learner.iteration);
     let outer = Block::bordered().title(block_title);
@@ -146,7 +145,7 @@ fn belief_panel(app: &App, session: &Session, run: usize, frame: &mut Frame, are
             .block(Block::new().title(format!("entropy per iteration (now {last:.2} nats)"))),
         spark_area,
     );
-    let mode = belief.mode(&session.context().grid).to_vec();
+    let mode = learner.summary.mode.to_vec();
     let rows: Vec<Row> = free
         .iter()
         .take(7)
