@@ -11,13 +11,14 @@ use crate::belief::{Belief, TestExample, posterior_predictive_log_likelihood, te
 use crate::ergo::Observation;
 use crate::record::{LogContents, RecordError, replay_with, study_of};
 use crate::select::OutcomeModel;
-use crate::session::{Applied, Phase, Session, SessionStart};
+use crate::session::{Applied, BeliefSummary, Phase, Session, SessionStart};
 
 pub use stats::{Wilcoxon, mean, median, quantile, standard_error, wilcoxon_signed_rank};
 pub use summary::{
     CurvePoint, DISTINCT_Q_STAR_TOLERANCE_DEG, ItemTest, LikertSummary, StudySummary, distinct_q_star, summarise,
 };
-pub use verify::{Difference, verify};
+pub use verify::Difference;
+use verify::Verifier;
 
 /// One training handover: what was offered and what was taken.
 #[derive(Clone, Debug, PartialEq)]
@@ -41,18 +42,7 @@ pub struct RunAnalysis {
     /// The mode's q* after the last iteration (radians).
     pub learned_q_star: Vec<f64>,
     /// The belief after each iteration 0..=N, recomputed by replaying the events.
-    pub beliefs: Vec<BeliefPoint>,
-}
-
-/// A replayed belief after one training iteration.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct BeliefPoint {
-    pub iteration: usize,
-    pub mode: crate::ergo::Lambda,
-    pub mean: crate::ergo::Lambda,
-    /// Gridded entropy (nats).
-    pub entropy: f64,
-    pub ess: f64,
+    pub beliefs: Vec<BeliefSummary>,
 }
 
 /// One session, replayed.
@@ -66,23 +56,36 @@ pub struct SessionAnalysis {
     pub likert: Vec<(usize, String, i64)>,
     pub choice: Option<usize>,
     pub completed: bool,
-    pub final_session: Session,
 }
 
 /// Replays a log and computes its per-session results.
 pub fn analyse(log: &LogContents) -> Result<SessionAnalysis, RecordError> {
+    analyse_and_verify(log, false).map(|(a, _)| a)
+}
+
+/// [`analyse`], and with `verify` also the differences between the log's derived messages
+/// and their recomputation ([`verify`]), from one replay.
+pub fn analyse_and_verify(log: &LogContents, verify: bool) -> Result<(SessionAnalysis, Vec<Difference>), RecordError> {
     let study = Arc::new(study_of(log)?);
     let runs = log.start.condition_order.len();
-    // Beliefs after each training iteration, per run (index 0: the prior).
-    let mut snapshots: Vec<Vec<Belief>> = Vec::new();
-    let (session, _) = replay_with(Arc::clone(&study), log, |session, applied| {
-        if snapshots.is_empty() {
-            snapshots = session.learners().iter().map(|l| vec![l.belief.clone()]).collect();
+    // Beliefs (and their summaries) after each training iteration, per run (index 0: the prior).
+    let mut snapshots: Vec<Vec<(Belief, BeliefSummary)>> = Vec::new();
+    let mut verifier = Verifier::default();
+    let snapshot = |session: &Session, run: usize| {
+        let l = &session.learners()[run];
+        (l.belief.clone(), l.summary.clone())
+    };
+    let session = replay_with(Arc::clone(&study), log, |session, step| {
+        if verify {
+            verifier.visit(session, step);
         }
-        match applied {
+        if snapshots.is_empty() {
+            snapshots = (0..session.learners().len()).map(|run| vec![snapshot(session, run)]).collect();
+        }
+        match step.map(|(_, _, applied)| applied) {
             Some(Applied::Responded { view, .. }) if view.phase == Phase::Training => {
                 let run = view.program.expect("training has a program");
-                snapshots[run].push(session.learners()[run].belief.clone());
+                snapshots[run].push(snapshot(session, run));
             }
             Some(Applied::Undone { view, .. }) | Some(Applied::Voided { view, retracted: true })
                 if view.phase == Phase::Training =>
@@ -92,6 +95,7 @@ pub fn analyse(log: &LogContents) -> Result<SessionAnalysis, RecordError> {
             _ => {}
         }
     })?;
+    let differences = if verify { verifier.differences(log) } else { Vec::new() };
     let ctx = session.context();
     let tests: Vec<TestExample> = session
         .trials()
@@ -111,8 +115,9 @@ pub fn analyse(log: &LogContents) -> Result<SessionAnalysis, RecordError> {
         study.object(q).regions[q.regions[t.region]].id.clone()
     };
     let mut out_runs = Vec::with_capacity(runs);
-    for (run, beliefs) in snapshots.iter().enumerate() {
-        let modes: Vec<_> = beliefs.iter().map(|b| b.mode(&ctx.grid)).collect();
+    for (run, points) in snapshots.into_iter().enumerate() {
+        let (beliefs, summaries): (Vec<Belief>, Vec<BeliefSummary>) = points.into_iter().unzip();
+        let modes: Vec<_> = summaries.iter().map(|b| b.mode.clone()).collect();
         let (test_ll_mode, test_ll_predictive) = if tests.is_empty() {
             (Vec::new(), Vec::new())
         } else {
@@ -145,22 +150,12 @@ pub fn analyse(log: &LogContents) -> Result<SessionAnalysis, RecordError> {
             test_ll_mode,
             test_ll_predictive,
             learned_q_star: modes.last().map(|m| m.q_star.clone()).unwrap_or_default(),
-            beliefs: beliefs
-                .iter()
-                .zip(&modes)
-                .enumerate()
-                .map(|(iteration, (b, m))| BeliefPoint {
-                    iteration,
-                    mode: m.clone(),
-                    mean: b.mean(),
-                    entropy: b.entropy(&ctx.grid),
-                    ess: b.ess(),
-                })
-                .collect(),
+            beliefs: summaries,
         });
     }
     let items = &study.protocol.questionnaire.items;
-    Ok(SessionAnalysis {
+    let completed = matches!(session.prompt(), crate::session::Prompt::Done { completed: true });
+    let analysis = SessionAnalysis {
         start: log.start.clone(),
         runs: out_runs,
         test_trials: session
@@ -174,7 +169,7 @@ pub fn analyse(log: &LogContents) -> Result<SessionAnalysis, RecordError> {
             .collect(),
         likert: session.likert_answers().iter().map(|(&(p, i), &v)| (p, items[i].id.clone(), v)).collect(),
         choice: session.forced_choice(),
-        completed: matches!(session.prompt(), crate::session::Prompt::Done { completed: true }),
-        final_session: session,
-    })
+        completed,
+    };
+    Ok((analysis, differences))
 }

@@ -1,11 +1,10 @@
 //! `--verify`: every derived value written in a log, recomputed from its events.
 
 use std::collections::BTreeMap;
-use std::sync::Arc;
 
 use serde_json::Value;
 
-use crate::record::{LogContents, RecordError, initial_beliefs, messages_for, study_of};
+use crate::record::{LogContents, ReplayStep, initial_beliefs, messages_for};
 use crate::session::Session;
 
 /// One logged message that the recomputation does not reproduce.
@@ -41,65 +40,60 @@ fn first_difference(path: &str, a: &Value, b: &Value) -> Option<String> {
     }
 }
 
-/// Replays the log and compares every message with its recomputation.
-pub fn verify(log: &LogContents) -> Result<Vec<Difference>, RecordError> {
-    let study = Arc::new(study_of(log)?);
-    let mut logged: BTreeMap<u32, Vec<(&str, &Value)>> = BTreeMap::new();
-    for m in &log.messages {
-        logged.entry(m.sequence).or_default().push((m.topic.as_str(), &m.value));
-    }
-    let mut expected: BTreeMap<u32, Vec<(&'static str, Value)>> = BTreeMap::new();
-    let mut session = Session::new(Arc::clone(&study), log.start.clone()).map_err(|e| RecordError::Replay {
-        path: log.path.clone(),
-        index: 0,
-        topic: "/session/start".into(),
-        source: Box::new(e),
-    })?;
-    let mut start = serde_json::to_value(&log.start).expect("serialisable");
-    start["event_index"] = Value::from(0);
-    let mut first = vec![("/session/start", start)];
-    first.extend(initial_beliefs(&session));
-    expected.insert(0, first);
-    let mut differences = Vec::new();
-    for (i, stamped) in log.events.iter().enumerate() {
-        let index = i + 1;
-        match session.apply(&stamped.event) {
-            Ok(applied) => {
-                expected.insert(index as u32, messages_for(stamped, index, &applied, &session));
+/// Collects, during a replay, every message the log should hold.
+#[derive(Default)]
+pub(crate) struct Verifier {
+    expected: BTreeMap<u32, Vec<(&'static str, Value)>>,
+}
+
+impl Verifier {
+    /// Records the messages of the start (no step) or of one replayed event.
+    pub fn visit(&mut self, session: &Session, step: Option<ReplayStep>) {
+        match step {
+            None => {
+                let mut start = serde_json::to_value(session.start()).expect("serialisable");
+                start["event_index"] = Value::from(0);
+                let mut first = vec![("/session/start", start)];
+                first.extend(initial_beliefs(session));
+                self.expected.insert(0, first);
             }
-            Err(e) => {
-                differences.push(Difference {
-                    topic: crate::record::event_topic(&stamped.event).to_string(),
-                    event_index: index as u32,
-                    detail: format!("the event does not replay: {e}"),
-                });
-                break;
+            Some((index, stamped, applied)) => {
+                self.expected.insert(index as u32, messages_for(stamped, index, applied, session));
             }
         }
     }
-    for (index, logged_msgs) in &logged {
-        let Some(exp) = expected.get(index) else { continue };
-        // A truncated log may lack the tail of its last event's messages.
-        let last = Some(index) == logged.keys().next_back();
-        if logged_msgs.len() != exp.len() && !(last && logged_msgs.len() < exp.len()) {
-            differences.push(Difference {
-                topic: logged_msgs.first().map_or("", |m| m.0).to_string(),
-                event_index: *index,
-                detail: format!("{} messages logged, {} recomputed", logged_msgs.len(), exp.len()),
-            });
-            continue;
+
+    /// Compares the log's messages with those recomputed.
+    pub fn differences(&self, log: &LogContents) -> Vec<Difference> {
+        let mut logged: BTreeMap<u32, Vec<(&str, &Value)>> = BTreeMap::new();
+        for m in &log.messages {
+            logged.entry(m.sequence).or_default().push((m.topic.as_str(), &m.value));
         }
-        for ((topic, value), (etopic, evalue)) in logged_msgs.iter().zip(exp) {
-            if topic != etopic {
+        let mut differences = Vec::new();
+        for (index, logged_msgs) in &logged {
+            let Some(exp) = self.expected.get(index) else { continue };
+            // A truncated log may lack the tail of its last event's messages.
+            let last = Some(index) == logged.keys().next_back();
+            if logged_msgs.len() != exp.len() && !(last && logged_msgs.len() < exp.len()) {
                 differences.push(Difference {
-                    topic: topic.to_string(),
+                    topic: logged_msgs.first().map_or("", |m| m.0).to_string(),
                     event_index: *index,
-                    detail: format!("logged on {topic}, recomputed on {etopic}"),
+                    detail: format!("{} messages logged, {} recomputed", logged_msgs.len(), exp.len()),
                 });
-            } else if let Some(d) = first_difference("", value, evalue) {
-                differences.push(Difference { topic: topic.to_string(), event_index: *index, detail: d });
+                continue;
+            }
+            for ((topic, value), (etopic, evalue)) in logged_msgs.iter().zip(exp) {
+                if topic != etopic {
+                    differences.push(Difference {
+                        topic: topic.to_string(),
+                        event_index: *index,
+                        detail: format!("logged on {topic}, recomputed on {etopic}"),
+                    });
+                } else if let Some(d) = first_difference("", value, evalue) {
+                    differences.push(Difference { topic: topic.to_string(), event_index: *index, detail: d });
+                }
             }
         }
+        differences
     }
-    Ok(differences)
 }

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
-use handover::analysis::{DISTINCT_Q_STAR_TOLERANCE_DEG, SessionAnalysis, StudySummary, analyse, summarise, verify};
+use handover::analysis::{DISTINCT_Q_STAR_TOLERANCE_DEG, SessionAnalysis, StudySummary, analyse_and_verify, summarise};
 use handover::plot::{Series, bar_chart, mean_se_plot};
 use handover::record::{LogContents, mcap_files, read_log, study_of};
 use handover::session::program_letter;
@@ -72,7 +72,7 @@ struct JsonRun<'a> {
     test_log_likelihood_mode: &'a [f64],
     test_log_likelihood_predictive: &'a [f64],
     learned_q_star_deg: Vec<f64>,
-    beliefs: &'a [handover::analysis::BeliefPoint],
+    beliefs: &'a [handover::session::BeliefSummary],
 }
 
 #[derive(Serialize)]
@@ -132,18 +132,22 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
                 if log.cut_tail { "; a partial record at the end was ignored" } else { "" }
             ));
         }
-        if args.verify {
-            match verify(&log) {
-                Ok(d) => differences.extend(
-                    d.into_iter()
+        match analyse_and_verify(&log, args.verify) {
+            Ok((analysis, diffs)) => {
+                differences.extend(
+                    diffs
+                        .into_iter()
                         .map(|d| format!("{}: event {} {}: {}", log.path.display(), d.event_index, d.topic, d.detail)),
-                ),
-                Err(e) => differences.push(e.to_string()),
+                );
+                analysed.push(Analysed { log, analysis });
             }
-        }
-        match analyse(&log) {
-            Ok(analysis) => analysed.push(Analysed { log, analysis }),
-            Err(e) => skipped.push(format!("skipped {e}")),
+            Err(e) => {
+                // A log whose events do not replay is both a verify failure and a skip.
+                if args.verify {
+                    differences.push(e.to_string());
+                }
+                skipped.push(format!("skipped {e}"));
+            }
         }
     }
     analysed.sort_by(|a, b| {

@@ -263,18 +263,16 @@ pub fn study_of(log: &LogContents) -> Result<Study, RecordError> {
         .map_err(|source| RecordError::Protocol { path: log.path.clone(), source })
 }
 
-/// Rebuilds the session of a log by folding its events; also returns what each applied.
-pub fn replay(study: Arc<Study>, log: &LogContents) -> Result<(Session, Vec<Applied>), RecordError> {
-    replay_with(study, log, |_, _| {})
-}
+/// One replayed event: its index in the log (1, 2, …), the event and what it applied.
+pub type ReplayStep<'a> = (usize, &'a Stamped, &'a Applied);
 
-/// [`replay`], calling `visit` with the new session (and what the event applied) once at the
-/// start and after every event.
+/// Rebuilds the session of a log by folding its events, calling `visit` with the session
+/// once at the start (no step) and after every event (with that step).
 pub fn replay_with(
     study: Arc<Study>,
     log: &LogContents,
-    mut visit: impl FnMut(&Session, Option<&Applied>),
-) -> Result<(Session, Vec<Applied>), RecordError> {
+    mut visit: impl FnMut(&Session, Option<ReplayStep>),
+) -> Result<Session, RecordError> {
     let err = |index: usize, event: &Event, source: SessionError| RecordError::Replay {
         path: log.path.clone(),
         index,
@@ -282,14 +280,12 @@ pub fn replay_with(
         source: Box::new(source),
     };
     let mut session = Session::new(study, log.start.clone()).map_err(|e| err(0, &Event::Ended, e))?;
-    let mut applied = Vec::with_capacity(log.events.len());
     visit(&session, None);
     for (i, s) in log.events.iter().enumerate() {
-        let a = session.apply(&s.event).map_err(|e| err(i + 1, &s.event, e))?;
-        visit(&session, Some(&a));
-        applied.push(a);
+        let applied = session.apply(&s.event).map_err(|e| err(i + 1, &s.event, e))?;
+        visit(&session, Some((i + 1, s, &applied)));
     }
-    Ok((session, applied))
+    Ok(session)
 }
 
 /// A session whose every event is logged durably before the state moves on.
