@@ -439,9 +439,14 @@ impl Session {
                         offered: offered.join(", "),
                     });
                 };
-                let set = self.set(view.query).clone();
+                // Field by field, so that the set and the settings are borrowed while a
+                // learner is updated.
+                let set: &FeasibleSet = match view.query {
+                    QueryRef::Training(i) => &self.menu[i],
+                    QueryRef::Test(i) => &self.tests[i],
+                };
                 let config =
-                    most_likely_in_region(&set, r, &self.ctx.label_model).expect("validated: every region is feasible");
+                    most_likely_in_region(set, r, &self.ctx.label_model).expect("validated: every region is feasible");
                 let record = TrialRecord {
                     phase: view.phase,
                     run: view.program,
@@ -458,9 +463,7 @@ impl Session {
                             OutcomeModel::Configuration => Observation::Config(config),
                             OutcomeModel::Region => Observation::Region(set.regions()[r].clone().collect()),
                         };
-                        let menu = Arc::clone(&self.menu);
-                        let ctx = self.ctx.clone();
-                        self.learners[run].learn(&set, &obs, &menu, &ctx);
+                        self.learners[run].learn(set, &obs, &self.menu, &self.ctx);
                         Some(self.learners[run].summary.clone())
                     }
                     None => None,
