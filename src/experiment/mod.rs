@@ -10,7 +10,7 @@ mod two_sets;
 use rand::SeedableRng;
 use rayon::prelude::*;
 
-use crate::belief::{Belief, Grid, Prior, ResamplePolicy, TestExample, true_cost};
+use crate::belief::{Belief, CellIndex, Grid, Prior, ResamplePolicy, TestExample, true_cost};
 use crate::ergo::{FeasibleSet, Lambda, LearnMask, Observation};
 use crate::participant::SimulatedPerson;
 use crate::select::{OutcomeModel, Problem, SelectorKind};
@@ -136,7 +136,8 @@ fn run_trial(scenario: &dyn Scenario, s: &Settings, prior: &Prior, trial: usize)
         let mut resample_rng = rng(s.seed, trial, purpose::RESAMPLE);
         let mut select_rng = rng(s.seed, trial, purpose::SELECT);
         let measure = |belief: &Belief, iteration: usize, query: Option<usize>, cost: Option<f64>| {
-            let mode = belief.mode(&grid);
+            let cells = CellIndex::new(belief, &grid);
+            let mode = cells.mode(belief);
             let log_density = belief.log_density_at(&t.truth, &bandwidth);
             MetricRow {
                 algorithm: kind.name(),
@@ -149,7 +150,7 @@ fn run_trial(scenario: &dyn Scenario, s: &Settings, prior: &Prior, trial: usize)
                     .expect("test observations index their own sets"),
                 true_cost: cost,
                 query,
-                entropy: belief.entropy(&grid),
+                entropy: cells.entropy(belief.weights()),
             }
         };
         rows.push(measure(&belief, 0, None, None));
