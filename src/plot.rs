@@ -2,6 +2,7 @@
 
 use std::path::Path;
 
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 /// Region colours, in order.
@@ -66,15 +67,23 @@ pub fn scatter_grid(path: &Path, title: &str, panels: &[ScatterPanel], cols: usi
                 .label(g.name)
                 .legend(move |(x, y)| Circle::new((x + 5, y), 4, colour.filled()));
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
-            .map_err(|e| err(&e))?;
+        legend(&mut chart, SeriesLabelPosition::UpperRight).map_err(|e| err(&e))?;
     }
     root.present().map_err(|e| err(&e))?;
     Ok(())
+}
+
+type Chart<'a, 'b> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// The legend every plot draws: framed, on a translucent white background.
+fn legend<'a, 'b: 'a>(chart: &mut Chart<'a, 'b>, position: SeriesLabelPosition) -> Result<(), String> {
+    chart
+        .configure_series_labels()
+        .position(position)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| e.to_string())
 }
 
 /// One line of a line plot: (x, mean, standard error) points.
@@ -126,12 +135,7 @@ pub fn mean_se_plot(path: &Path, title: &str, x_label: &str, y_label: &str, seri
     let ends_high = series.iter().filter_map(|s| s.points.last()).map(|p| p.1).sum::<f64>()
         / series.len().max(1) as f64
         > (lo + hi) / 2.0;
-    chart
-        .configure_series_labels()
-        .position(if ends_high { SeriesLabelPosition::LowerRight } else { SeriesLabelPosition::UpperRight })
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
+    legend(&mut chart, if ends_high { SeriesLabelPosition::LowerRight } else { SeriesLabelPosition::UpperRight })
         .map_err(|e| err(&e))?;
     root.present().map_err(|e| err(&e))?;
     Ok(())
@@ -181,7 +185,7 @@ pub fn bar_chart(
             .label(name.as_str())
             .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], colour.filled()));
     }
-    chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(|e| err(&e))?;
+    legend(&mut chart, SeriesLabelPosition::UpperRight).map_err(|e| err(&e))?;
     root.present().map_err(|e| err(&e))?;
     Ok(())
 }
