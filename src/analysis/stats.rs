@@ -78,7 +78,8 @@ pub fn wilcoxon_signed_rank(d: &[f64]) -> Option<Wilcoxon> {
         return None;
     }
     let r = ranks(&nz.iter().map(|x| x.abs()).collect::<Vec<_>>());
-    let w_plus: f64 = nz.iter().zip(&r).filter(|(x, _)| **x > 0.0).map(|(_, r)| r).sum();
+    // `+ 0.0`: an empty float sum is −0, which would print as "-0".
+    let w_plus: f64 = nz.iter().zip(&r).filter(|(x, _)| **x > 0.0).map(|(_, r)| r).sum::<f64>() + 0.0;
     let centre: f64 = r.iter().sum::<f64>() / 2.0;
     let observed = (w_plus - centre).abs();
     if n <= 20 {
@@ -150,6 +151,9 @@ mod tests {
         // {1.5, 1.5, 3}: 0, 1.5, 1.5, 3, 3, 4.5, 4.5, 6 → |·−3| ≥ 1.5 for 0, 1.5, 1.5, 4.5, 4.5, 6.
         assert!((w.p_value - 6.0 / 8.0).abs() < 1e-15);
         assert!(wilcoxon_signed_rank(&[0.0, 0.0]).is_none());
+        // No positive difference: W+ is zero, and prints as "0".
+        let w = wilcoxon_signed_rank(&[-1.0, -2.0]).unwrap();
+        assert_eq!(format!("{}", w.w_plus), "0");
     }
 
     #[test]
