@@ -28,7 +28,7 @@ pub struct SimulateArgs {
     #[arg(value_enum)]
     scenario: ScenarioName,
     /// What is learned: q-star (w known), weights (q* known) or both.
-    #[arg(long, default_value = "q-star", value_parser = parse_learn)]
+    #[arg(long, default_value = "q-star")]
     learn: LearnMask,
     /// Number of trials (each with its own ground truth, menu and test set).
     #[arg(long, default_value_t = 50)]
@@ -50,8 +50,7 @@ pub struct SimulateArgs {
     #[arg(long)]
     alpha: Option<f64>,
     /// Comma-separated algorithms to compare.
-    #[arg(long, value_delimiter = ',', value_parser = parse_selector,
-          default_value = "active,active-paper,passive,random,hybrid")]
+    #[arg(long, value_delimiter = ',', default_value = "active,active-paper,passive,random,hybrid")]
     algorithms: Vec<SelectorKind>,
     /// β of `hybrid` (maximises information gain − β · expected cost).
     #[arg(long, default_value_t = DEFAULT_HYBRID_BETA)]
@@ -72,14 +71,6 @@ enum ScenarioName {
     Planar2,
     Arm7,
     TwoSets,
-}
-
-fn parse_learn(s: &str) -> Result<LearnMask, String> {
-    s.parse()
-}
-
-fn parse_selector(s: &str) -> Result<SelectorKind, String> {
-    s.parse()
 }
 
 /// Measures plotted, with their axis labels.
