@@ -1,6 +1,8 @@
-//! Files that hold participant data: readable by the owner only, never overwritten.
+//! Files that hold participant data: readable by the owner only, never overwritten, and
+//! never left empty or half-written when a write fails.
 
 use std::fs::File;
+use std::io::Write;
 use std::path::Path;
 
 /// Creates a new file with mode 0600; fails if it exists (nothing is ever overwritten).
@@ -15,13 +17,77 @@ pub fn create_file(path: &Path) -> std::io::Result<File> {
     o.open(path)
 }
 
-/// Creates `dir` (and parents) and gives the last component mode 0700.
+/// Creates `dir` and every missing parent with mode 0700, and gives `dir` itself mode 0700
+/// (an existing parent is left as it is).
 pub fn create_dir(dir: &Path) -> std::io::Result<()> {
-    std::fs::create_dir_all(dir)?;
+    let mut b = std::fs::DirBuilder::new();
+    b.recursive(true);
     #[cfg(unix)]
     {
-        use std::os::unix::fs::PermissionsExt;
+        use std::os::unix::fs::{DirBuilderExt, PermissionsExt};
+        b.mode(0o700);
+        b.create(dir)?;
         std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700))?;
     }
+    #[cfg(not(unix))]
+    b.create(dir)?;
     Ok(())
+}
+
+/// Writes a whole new owner-only file and syncs it; on any failure the file is removed, so
+/// that no empty or partial file is left to be read later as corrupt.
+pub fn write_new(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let mut f = create_file(path)?;
+    let written = f.write_all(bytes).and_then(|()| f.sync_all());
+    if let Err(e) = written {
+        drop(f);
+        let _ = std::fs::remove_file(path);
+        return Err(e);
+    }
+    sync_parent(path);
+    Ok(())
+}
+
+/// Syncs the directory that holds `path`, so that a new file's name is durable too (best
+/// effort: not every file system supports it).
+pub fn sync_parent(path: &Path) {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty())
+        && let Ok(d) = File::open(dir)
+    {
+        let _ = d.sync_all();
+    }
+}
+
+#[cfg(all(test, unix))]
+mod tests {
+    use super::*;
+    use std::os::unix::fs::PermissionsExt;
+
+    fn mode(p: &Path) -> u32 {
+        std::fs::metadata(p).unwrap().permissions().mode() & 0o777
+    }
+
+    #[test]
+    fn every_created_directory_is_owner_only() {
+        let tmp = std::env::temp_dir().join(format!("handover-dirs-{}", std::process::id()));
+        let deep = tmp.join("logs").join("p-1");
+        create_dir(&deep).unwrap();
+        assert_eq!(mode(&tmp), 0o700);
+        assert_eq!(mode(&tmp.join("logs")), 0o700);
+        assert_eq!(mode(&deep), 0o700);
+        std::fs::remove_dir_all(&tmp).unwrap();
+    }
+
+    #[test]
+    fn existing_files_are_never_overwritten() {
+        let tmp = std::env::temp_dir().join(format!("handover-new-{}", std::process::id()));
+        create_dir(&tmp).unwrap();
+        let p = tmp.join("a.json");
+        write_new(&p, b"{}").unwrap();
+        assert_eq!(mode(&p), 0o600);
+        let e = write_new(&p, b"other").unwrap_err();
+        assert_eq!(e.kind(), std::io::ErrorKind::AlreadyExists);
+        assert_eq!(std::fs::read(&p).unwrap(), b"{}");
+        std::fs::remove_dir_all(&tmp).unwrap();
+    }
 }

@@ -4,10 +4,11 @@
 
 mod messages;
 mod schemas;
+mod writer;
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 use std::fs::File;
-use std::io::BufWriter;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -18,6 +19,7 @@ use crate::session::{Applied, Event, Session, SessionError, SessionStart, Stampe
 
 pub use messages::{event_from_message, initial_beliefs, messages_for, topic_of as event_topic};
 pub use schemas::{TOPICS, schema};
+pub use writer::{McapWriter, Sink};
 
 /// Topics whose messages are events (the others are derived from them).
 pub const EVENT_TOPICS: [&str; 10] = [
@@ -41,6 +43,11 @@ pub const PROTOCOL_ATTACHMENT: &str = "protocol.json";
 pub enum RecordError {
     #[error("{path}: {source}")]
     Io { path: PathBuf, source: std::io::Error },
+    #[error(
+        "{path}: the log could not be written: {source}; nothing after event {last_event} is recorded{}",
+        if *restored { "" } else { " (and the file could not be cut back: do not write to it again)" }
+    )]
+    Write { path: PathBuf, last_event: usize, restored: bool, source: std::io::Error },
     #[error("{path}: MCAP: {message}")]
     Mcap { path: PathBuf, message: String },
     #[error("{path}: not a handover session log: {why}")]
@@ -59,62 +66,86 @@ fn mcap_err(path: &Path) -> impl Fn(mcap::McapError) -> RecordError + '_ {
     move |e| RecordError::Mcap { path: path.to_path_buf(), message: e.to_string() }
 }
 
-/// `logs/<participant>/<participant>_<UTC time>.mcap`, with a suffix if that name is taken.
+/// `logs/<participant>/<participant>_<UTC time>.mcap` (the id must be valid: it becomes a
+/// file name). The recorder adds a suffix if that name is taken when it creates the file.
 pub fn new_log_path(logs: &Path, participant: &str, time: chrono::DateTime<chrono::Utc>) -> PathBuf {
-    let dir = logs.join(participant);
-    let stem = format!("{participant}_{}", time.format("%Y%m%dT%H%M%SZ"));
-    let mut path = dir.join(format!("{stem}.mcap"));
-    let mut k = 2;
-    while path.exists() {
-        path = dir.join(format!("{stem}-{k}.mcap"));
-        k += 1;
+    log_path_in(&logs.join(participant), participant, time)
+}
+
+/// `<dir>/<participant>_<UTC time>.mcap`.
+pub fn log_path_in(dir: &Path, participant: &str, time: chrono::DateTime<chrono::Utc>) -> PathBuf {
+    dir.join(format!("{participant}_{}.mcap", time.format("%Y%m%dT%H%M%SZ")))
+}
+
+/// Creates `path` owner-only, or, if that name is taken, `<stem>-2.mcap`, `-3`, … (two
+/// consoles started in the same second each get their own file; nothing is overwritten).
+fn create_unique(path: &Path) -> std::io::Result<(PathBuf, File)> {
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let mut candidate = path.to_path_buf();
+    for k in 2..=1000 {
+        match crate::private_files::create_file(&candidate) {
+            Ok(f) => return Ok((candidate, f)),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                candidate = path.with_file_name(format!("{stem}-{k}.mcap"));
+            }
+            Err(e) => return Err(e),
+        }
     }
-    path
+    Err(std::io::Error::new(std::io::ErrorKind::AlreadyExists, "1000 logs of that name exist"))
 }
 
 /// Writes one session's log. Every `record` call returns only after the event's messages
-/// are on disk (written, flushed and fsynced).
+/// are on disk (written as one buffer and synced); a failed write leaves the file as it was
+/// after the last good event, so a retry logs the event once.
 pub struct Recorder {
     path: PathBuf,
-    writer: mcap::Writer<BufWriter<File>>,
-    sync: File,
+    writer: McapWriter<Box<dyn Sink>>,
     channels: HashMap<&'static str, u16>,
-    next_index: usize,
+    /// Index of the last event on disk.
+    last_index: usize,
 }
 
 impl Recorder {
-    /// Creates the log file (owner-only, never overwriting), writes the protocol, the start
-    /// record and the initial beliefs, and syncs.
+    /// Creates the log file (owner-only, never overwriting: a taken name gets a suffix),
+    /// writes the protocol, the start record and the initial beliefs, and syncs. If any of
+    /// that fails, no file is left behind.
     pub fn create(path: &Path, protocol_text: &str, session: &Session, time_ns: u64) -> Result<Self, RecordError> {
-        if let Some(dir) = path.parent() {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             crate::private_files::create_dir(dir).map_err(io(dir))?;
         }
-        let file = crate::private_files::create_file(path).map_err(io(path))?;
-        let sync = file.try_clone().map_err(io(path))?;
-        let options = mcap::WriteOptions::new()
-            .use_chunks(false)
-            .compression(None)
-            .profile("")
-            .library(format!("handover {}", env!("CARGO_PKG_VERSION")));
-        let mut writer = options.create(BufWriter::new(file)).map_err(mcap_err(path))?;
-        writer
-            .attach(&mcap::Attachment {
-                log_time: time_ns,
-                create_time: time_ns,
-                name: PROTOCOL_ATTACHMENT.into(),
-                media_type: "application/json".into(),
-                data: protocol_text.as_bytes().into(),
-            })
-            .map_err(mcap_err(path))?;
+        let (path, file) = create_unique(path).map_err(io(path))?;
+        match Self::start(Box::new(file), &path, protocol_text, session, time_ns) {
+            Ok(rec) => {
+                crate::private_files::sync_parent(&path);
+                Ok(rec)
+            }
+            Err(e) => {
+                let _ = std::fs::remove_file(&path);
+                Err(e)
+            }
+        }
+    }
+
+    /// The header, schemas, channels, protocol, start record and initial beliefs, in one
+    /// durable commit.
+    fn start(
+        sink: Box<dyn Sink>,
+        path: &Path,
+        protocol_text: &str,
+        session: &Session,
+        time_ns: u64,
+    ) -> Result<Self, RecordError> {
+        let library = format!("handover {}", env!("CARGO_PKG_VERSION"));
+        let mut writer = McapWriter::new(sink, &library).map_err(commit_err(path, 0))?;
         let mut channels = HashMap::new();
         for topic in TOPICS {
             let (name, schema) = schema(topic);
-            let sid = writer.add_schema(name, "jsonschema", schema.to_string().as_bytes()).map_err(mcap_err(path))?;
-            let cid = writer.add_channel(sid, topic, "json", &BTreeMap::new()).map_err(mcap_err(path))?;
-            channels.insert(topic, cid);
+            let sid = writer.add_schema(name, "jsonschema", schema.to_string().as_bytes());
+            channels.insert(topic, writer.add_channel(sid, topic, "json"));
         }
-        let mut rec = Self { path: path.to_path_buf(), writer, sync, channels, next_index: 0 };
-        let mut start = serde_json::to_value(session.start()).expect("serialisable");
+        writer.attach(time_ns, time_ns, PROTOCOL_ATTACHMENT, "application/json", protocol_text.as_bytes());
+        let mut rec = Self { path: path.to_path_buf(), writer, channels, last_index: 0 };
+        let mut start = serde_json::to_value(session.start()).map_err(|e| rec.not_serialisable(e))?;
         start["event_index"] = Value::from(0);
         let mut msgs = vec![("/session/start", start)];
         msgs.extend(messages::initial_beliefs(session));
@@ -122,40 +153,53 @@ impl Recorder {
         Ok(rec)
     }
 
+    #[cfg(test)]
+    fn with_sink(sink: Box<dyn Sink>, protocol_text: &str, session: &Session) -> Result<Self, RecordError> {
+        Self::start(sink, Path::new("test.mcap"), protocol_text, session, 1)
+    }
+
     pub fn path(&self) -> &Path {
         &self.path
     }
 
-    /// Logs one applied event (and what it derived), durably.
+    /// Index of the last event on disk (0: only the start).
+    pub fn last_index(&self) -> usize {
+        self.last_index
+    }
+
+    /// Logs one applied event (and what it derived), durably; on failure nothing of it is
+    /// in the file and the index does not move.
     pub fn record(&mut self, stamped: &Stamped, applied: &Applied, session: &Session) -> Result<(), RecordError> {
-        self.next_index += 1;
-        let index = self.next_index;
+        let index = self.last_index + 1;
         let msgs = messages_for(stamped, index, applied, session);
-        self.write(&msgs, index as u32, stamped.time_ns)
+        self.write(&msgs, index as u32, stamped.time_ns)?;
+        self.last_index = index;
+        Ok(())
+    }
+
+    fn not_serialisable(&self, e: serde_json::Error) -> RecordError {
+        RecordError::Io { path: self.path.clone(), source: std::io::Error::other(e) }
     }
 
     fn write(&mut self, msgs: &[(&'static str, Value)], sequence: u32, time_ns: u64) -> Result<(), RecordError> {
         for (topic, value) in msgs {
-            let header = mcap::records::MessageHeader {
-                channel_id: self.channels[topic],
-                sequence,
-                log_time: time_ns,
-                publish_time: time_ns,
-            };
-            let data = serde_json::to_vec(value).expect("serialisable");
-            self.writer.write_to_known_channel(&header, &data).map_err(mcap_err(&self.path))?;
+            let data = serde_json::to_vec(value).map_err(|e| self.not_serialisable(e))?;
+            let channel = self.channels[topic];
+            self.writer.message(&writer::Message { channel, sequence, log_time: time_ns, data: &data });
         }
-        self.writer.flush().map_err(mcap_err(&self.path))?;
-        self.sync.sync_data().map_err(io(&self.path))?;
-        Ok(())
+        self.writer.commit().map_err(commit_err(&self.path, self.last_index))
     }
 
     /// Writes the summary and footer (a finished file) and syncs.
-    pub fn finish(mut self) -> Result<PathBuf, RecordError> {
-        self.writer.finish().map_err(mcap_err(&self.path))?;
-        self.sync.sync_all().map_err(io(&self.path))?;
-        Ok(self.path)
+    pub fn finish(self) -> Result<PathBuf, RecordError> {
+        let path = self.path;
+        self.writer.finish().map_err(commit_err(&path, self.last_index))?;
+        Ok(path)
     }
+}
+
+fn commit_err(path: &Path, last: usize) -> impl Fn(writer::CommitError) -> RecordError + '_ {
+    move |e| RecordError::Write { path: path.to_path_buf(), last_event: last, restored: e.restored, source: e.source }
 }
 
 /// One message read back from a log.
@@ -185,10 +229,101 @@ pub struct LogContents {
     pub cut_tail: bool,
 }
 
-/// Reads a log up to its last whole message.
+/// The largest log read (a whole study session is well under 10 MiB).
+pub const MAX_LOG_BYTES: u64 = 256 << 20;
+/// The longest note or void detail in a log, in bytes.
+pub const MAX_TEXT_BYTES: usize = 10_000;
+
+/// Checks a log's start record with the same rules as on creation: ids that become file
+/// names, labels, the slot, the times and the simulated truth.
+pub fn validate_start(start: &SessionStart) -> Result<(), String> {
+    crate::participant::validate_id(&start.participant).map_err(|e| format!("participant: {e}"))?;
+    let session_ok = (1..=64).contains(&start.session_id.len())
+        && start.session_id.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-');
+    if !session_ok {
+        return Err(format!(
+            "session_id '{}' is invalid: expected 1 to 64 characters from A–Z, a–z, 0–9 and '-'",
+            start.session_id.escape_debug()
+        ));
+    }
+    let printable = |field: &str, v: &str, max: usize| {
+        if v.len() > max || v.chars().any(char::is_control) {
+            Err(format!("{field} is not a printable text of at most {max} bytes"))
+        } else {
+            Ok(())
+        }
+    };
+    printable("protocol_name", &start.protocol_name, 200)?;
+    printable("software_version", &start.software_version, 64)?;
+    if start.protocol_sha256.len() != 64 || !start.protocol_sha256.bytes().all(|b| b.is_ascii_hexdigit()) {
+        return Err("protocol_sha256 is not 64 hexadecimal digits".into());
+    }
+    for (i, l) in start.program_labels.iter().enumerate() {
+        printable(&format!("program_labels[{i}]"), l, 100)?;
+    }
+    if start.slot >= 2 {
+        return Err(format!("slot is {}, expected 0 or 1 (the orders AB and BA)", start.slot));
+    }
+    if chrono::DateTime::parse_from_rfc3339(&start.started_at).is_err() {
+        return Err(format!("started_at '{}' is not an RFC 3339 time", start.started_at.escape_debug()));
+    }
+    if let Some(name) = &start.resumed_from
+        && !is_log_file_name(name)
+    {
+        return Err(format!(
+            "resumed_from '{}' is not a log file name (A–Z, a–z, 0–9, '-', '_', ending in .mcap)",
+            name.escape_debug()
+        ));
+    }
+    if let Some(t) = &start.simulated_truth {
+        let ok = t.q_star.len() == t.w.len()
+            && t.q_star.len() <= 64
+            && t.q_star.iter().all(|v| v.is_finite() && v.abs() <= 10.0)
+            && t.w.iter().all(|v| v.is_finite() && (0.0..=1e3).contains(v));
+        if !ok {
+            return Err("simulated_truth is not a λ of finite angles (|q*| ≤ 10 rad) and weights in [0, 1000]".into());
+        }
+    }
+    Ok(())
+}
+
+/// Whether `name` is a plain log file name (no directory, no leading dot).
+pub fn is_log_file_name(name: &str) -> bool {
+    name.len() <= 128
+        && name.ends_with(".mcap")
+        && !name.starts_with('.')
+        && name.bytes().all(|b| b.is_ascii_alphanumeric() || matches!(b, b'-' | b'_' | b'.'))
+}
+
+fn validate_event(event: &Event) -> Result<(), String> {
+    let long = |field: &str, v: &str| {
+        if v.len() > MAX_TEXT_BYTES {
+            Err(format!("{field} has {} bytes, expected at most {MAX_TEXT_BYTES}", v.len()))
+        } else {
+            Ok(())
+        }
+    };
+    match event {
+        Event::Note { text } => long("text", text),
+        Event::TrialVoided { detail, .. } => long("detail", detail),
+        Event::Aborted { reason } => long("reason", reason),
+        _ => Ok(()),
+    }
+}
+
+/// Reads a log up to its last whole message. Everything in it is untrusted: the size is
+/// bounded, the start record is validated and every event is checked before use.
 pub fn read_log(path: &Path) -> Result<LogContents, RecordError> {
-    let bytes = std::fs::read(path).map_err(io(path))?;
     let not_log = |why: &str| RecordError::NotALog { path: path.to_path_buf(), why: why.to_string() };
+    let len = std::fs::metadata(path).map_err(io(path))?.len();
+    if len > MAX_LOG_BYTES {
+        return Err(not_log(&format!("it has {len} bytes, over the budget of {MAX_LOG_BYTES} bytes for a log")));
+    }
+    let mut bytes = Vec::new();
+    File::open(path).and_then(|f| f.take(MAX_LOG_BYTES + 1).read_to_end(&mut bytes)).map_err(io(path))?;
+    if bytes.len() as u64 > MAX_LOG_BYTES {
+        return Err(not_log(&format!("it is over the budget of {MAX_LOG_BYTES} bytes for a log")));
+    }
     if !bytes.starts_with(mcap::MAGIC) {
         return Err(not_log("it does not start with the MCAP magic bytes"));
     }
@@ -237,11 +372,13 @@ pub fn read_log(path: &Path) -> Result<LogContents, RecordError> {
     }
     let start: SessionStart =
         serde_json::from_value(start_value).map_err(|e| not_log(&format!("/session/start: {e}")))?;
+    validate_start(&start).map_err(|e| not_log(&format!("/session/start: {e}")))?;
     let mut events = Vec::new();
     for m in messages.iter().filter(|m| EVENT_TOPICS.contains(&m.topic.as_str())) {
         let event = event_from_message(&m.topic, &m.value).ok_or_else(|| {
             not_log(&format!("a {} message (event {}) cannot be read as an event", m.topic, m.sequence))
         })?;
+        validate_event(&event).map_err(|e| not_log(&format!("{} (event {}): {e}", m.topic, m.sequence)))?;
         events.push((m.sequence, Stamped { time_ns: m.log_time, event }));
     }
     events.sort_by_key(|(s, _)| *s);
@@ -406,3 +543,6 @@ pub fn least_filled_slot(root: &Path, slots: usize) -> usize {
     let counts = completed_per_slot(root, slots);
     (0..slots).min_by_key(|&i| (counts[i], i)).unwrap_or(0)
 }
+
+#[cfg(test)]
+mod tests;

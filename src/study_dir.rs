@@ -1,0 +1,126 @@
+//! The study's folders, resolved in one place (a study directory holding `participants/`
+//! and `logs/`), and the advisory lock that allows one live session per participant.
+
+use std::fs::File;
+use std::io::{Read, Seek, Write};
+use std::path::{Path, PathBuf};
+
+/// Where a study keeps its participant records and session logs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StudyDirs {
+    /// The study directory (default: the current directory).
+    pub root: PathBuf,
+    pub participants: PathBuf,
+    pub logs: PathBuf,
+}
+
+impl StudyDirs {
+    /// `root/participants` and `root/logs`, unless given explicitly.
+    pub fn resolve(root: Option<&Path>, participants: Option<&Path>, logs: Option<&Path>) -> Self {
+        let root = root.map_or_else(|| PathBuf::from("."), Path::to_path_buf);
+        Self {
+            participants: participants.map_or_else(|| root.join("participants"), Path::to_path_buf),
+            logs: logs.map_or_else(|| root.join("logs"), Path::to_path_buf),
+            root,
+        }
+    }
+
+    /// The folders that do not exist yet (a new study, or a typo in the path).
+    pub fn missing(&self) -> Vec<&Path> {
+        [self.participants.as_path(), self.logs.as_path()].into_iter().filter(|p| !p.is_dir()).collect()
+    }
+
+    /// A one-line description for screens and messages.
+    pub fn describe(&self) -> String {
+        let mut s = format!("participants {} · logs {}", self.participants.display(), self.logs.display());
+        let missing = self.missing();
+        if !missing.is_empty() {
+            let names: Vec<String> = missing.iter().map(|p| p.display().to_string()).collect();
+            s.push_str(&format!(" (new: {} will be created)", names.join(", ")));
+        }
+        s
+    }
+}
+
+/// Name of the lock file in a participant's log folder.
+pub const LOCK_FILE: &str = ".session.lock";
+
+/// Why a participant's lock was not taken.
+#[derive(Debug, thiserror::Error)]
+pub enum LockError {
+    #[error("participant '{participant}' already has a live session ({holder}); finish or quit it first")]
+    Held { participant: String, holder: String },
+    #[error("{path}: cannot lock the participant's session: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+}
+
+/// One live session per participant: an advisory lock (flock) on `<logs dir>/.session.lock`,
+/// held while the session runs and released on every exit, a crash or a kill included (the
+/// operating system drops it with the process, so a lock never goes stale). The file says
+/// who holds it.
+#[derive(Debug)]
+pub struct ParticipantLock {
+    _file: File,
+    pub path: PathBuf,
+}
+
+impl ParticipantLock {
+    /// Takes the lock of the participant whose logs live in `dir` (created owner-only).
+    pub fn acquire(dir: &Path, participant: &str, what: &str) -> Result<Self, LockError> {
+        let path = dir.join(LOCK_FILE);
+        let err = |source| LockError::Io { path: path.clone(), source };
+        crate::private_files::create_dir(dir).map_err(err)?;
+        let mut o = std::fs::OpenOptions::new();
+        o.read(true).write(true).create(true).truncate(false);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::OpenOptionsExt;
+            o.mode(0o600);
+        }
+        let mut file = o.open(&path).map_err(err)?;
+        match file.try_lock() {
+            Ok(()) => {}
+            Err(std::fs::TryLockError::WouldBlock) => {
+                let mut holder = String::new();
+                let _ = file.take(512).read_to_string(&mut holder);
+                let holder = holder.trim();
+                let holder = if holder.is_empty() { "held by another process".to_string() } else { holder.to_string() };
+                return Err(LockError::Held { participant: participant.to_string(), holder });
+            }
+            Err(std::fs::TryLockError::Error(e)) => return Err(err(e)),
+        }
+        let note = format!(
+            "{what} by process {} since {}",
+            std::process::id(),
+            chrono::Utc::now().to_rfc3339_opts(chrono::SecondsFormat::Secs, true)
+        );
+        file.set_len(0).and_then(|()| file.rewind()).and_then(|()| file.write_all(note.as_bytes())).map_err(err)?;
+        Ok(Self { _file: file, path })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_second_session_of_a_participant_is_refused_and_told_who_holds_it() {
+        let dir = std::env::temp_dir().join(format!("handover-lock-{}", std::process::id()));
+        let first = ParticipantLock::acquire(&dir, "p-1", "console").unwrap();
+        let e = ParticipantLock::acquire(&dir, "p-1", "console").unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.contains("already has a live session") && msg.contains(&std::process::id().to_string()), "{msg}");
+        drop(first);
+        ParticipantLock::acquire(&dir, "p-1", "console").expect("released when dropped");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn folders_resolve_under_the_study_directory() {
+        let d = StudyDirs::resolve(Some(Path::new("/data/study")), None, None);
+        assert_eq!(d.logs, Path::new("/data/study/logs"));
+        assert_eq!(d.participants, Path::new("/data/study/participants"));
+        let d = StudyDirs::resolve(None, None, Some(Path::new("elsewhere")));
+        assert_eq!((d.logs.as_path(), d.participants.as_path()), (Path::new("elsewhere"), Path::new("./participants")));
+    }
+}
