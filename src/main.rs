@@ -10,6 +10,8 @@ fn main() -> ExitCode {
     let args = cli::Cli::parse();
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
+        // A closed standard output (`handover … | head -1`) is not an error.
+        Err(err) if cli::is_broken_pipe(&err) => ExitCode::SUCCESS,
         Err(err) => {
             eprintln!("handover: {err:#}");
             if err.chain().any(|e| e.is::<cli::BadInput>()) { ExitCode::from(2) } else { ExitCode::from(1) }

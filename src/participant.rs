@@ -124,31 +124,63 @@ impl ParticipantRecord {
         Ok(dir.join(format!("{id}.json")))
     }
 
-    /// Writes a new record (owner-readable only); fails if one exists.
+    /// Writes a new record (owner-readable only, synced); fails if one exists, and leaves no
+    /// file behind if the write fails (a full disk, say).
     pub fn create(&self, dir: &std::path::Path) -> Result<std::path::PathBuf, RecordFileError> {
+        self.validate().map_err(|message| RecordFileError::Invalid { path: dir.to_path_buf(), message })?;
         let path = Self::path(dir, &self.id)?;
         let err = |source| RecordFileError::Io { path: path.clone(), source };
         crate::private_files::create_dir(dir).map_err(err)?;
-        let mut f = crate::private_files::create_file(&path).map_err(err)?;
-        use std::io::Write;
-        let text = serde_json::to_string_pretty(self).expect("serialisable");
-        f.write_all(text.as_bytes()).and_then(|_| f.write_all(b"\n")).and_then(|_| f.sync_all()).map_err(err)?;
+        let mut text = serde_json::to_string_pretty(self).map_err(|e| err(std::io::Error::other(e)))?;
+        text.push('\n');
+        crate::private_files::write_new(&path, text.as_bytes()).map_err(err)?;
         Ok(path)
     }
 
-    /// Reads a participant's record.
+    /// Checks every field with the rules used on creation.
+    pub fn validate(&self) -> Result<(), String> {
+        validate_id(&self.id).map_err(|e| format!("id: {e}"))?;
+        if self.slot >= 2 {
+            return Err(format!("slot is {}, expected 0 or 1 (the orders AB and BA)", self.slot));
+        }
+        if chrono::DateTime::parse_from_rfc3339(&self.created_at).is_err() {
+            return Err(format!("created_at '{}' is not an RFC 3339 time", self.created_at.escape_debug()));
+        }
+        if let Some(h) = self.body_height_m
+            && !(BODY_HEIGHT_M.0..=BODY_HEIGHT_M.1).contains(&h)
+        {
+            return Err(format!(
+                "body_height_m is {h}, expected metres from {} to {}",
+                BODY_HEIGHT_M.0, BODY_HEIGHT_M.1
+            ));
+        }
+        Ok(())
+    }
+
+    /// Reads and validates a participant's record (at most 64 KiB).
     pub fn load(dir: &std::path::Path, id: &str) -> Result<Self, RecordFileError> {
+        use std::io::Read;
         let path = Self::path(dir, id)?;
-        let text =
-            std::fs::read_to_string(&path).map_err(|source| RecordFileError::Io { path: path.clone(), source })?;
-        let rec: Self = serde_json::from_str(&text)
-            .map_err(|e| RecordFileError::Invalid { path: path.clone(), message: e.to_string() })?;
+        let io = |source| RecordFileError::Io { path: path.clone(), source };
+        let invalid = |message: String| RecordFileError::Invalid { path: path.clone(), message };
+        let mut text = String::new();
+        std::fs::File::open(&path).and_then(|f| f.take(MAX_RECORD_BYTES + 1).read_to_string(&mut text)).map_err(io)?;
+        if text.len() as u64 > MAX_RECORD_BYTES {
+            return Err(invalid(format!("over {MAX_RECORD_BYTES} bytes, expected a small participant record")));
+        }
+        let rec: Self = serde_json::from_str(&text).map_err(|e| invalid(e.to_string()))?;
+        rec.validate().map_err(invalid)?;
         if rec.id != id {
-            return Err(RecordFileError::Invalid { path, message: format!("id is '{}', expected '{id}'", rec.id) });
+            return Err(invalid(format!("id is '{}', expected '{id}'", rec.id)));
         }
         Ok(rec)
     }
 }
+
+/// The body heights the arm model serves (m), as checked on a record and on the command line.
+pub const BODY_HEIGHT_M: (f64, f64) = (0.5, 2.5);
+/// The largest participant record read.
+pub const MAX_RECORD_BYTES: u64 = 64 << 10;
 
 #[cfg(test)]
 mod id_tests {

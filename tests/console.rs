@@ -7,6 +7,7 @@ use std::time::Duration;
 
 use handover::protocol::{DEFAULT_PROTOCOL, Study};
 use handover::record::read_log;
+use handover::study_dir::StudyDirs;
 use handover::tui::app::Screen;
 use handover::tui::{App, AppConfig, render};
 use ratatui::Terminal;
@@ -30,8 +31,7 @@ fn config(dir: &Path, simulate: bool) -> AppConfig {
     AppConfig {
         study,
         protocol_text: text,
-        logs: dir.join("logs"),
-        participants: dir.join("participants"),
+        dirs: StudyDirs::resolve(Some(dir), None, None),
         participant: "new".into(),
         simulate,
         pace: Duration::ZERO,

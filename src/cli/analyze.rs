@@ -101,7 +101,13 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
     let mut by_session: BTreeMap<String, LogContents> = BTreeMap::new();
     for f in &files {
         match read_log(f) {
-            Err(e) => skipped.push(format!("skipped {e}")),
+            Err(e) => {
+                // A log that cannot be read (or whose ids break the rules) fails --verify.
+                if args.verify {
+                    differences.push(e.to_string());
+                }
+                skipped.push(format!("skipped {e}"));
+            }
             Ok(log) => {
                 let id = log.start.session_id.clone();
                 match by_session.get(&id) {
@@ -131,6 +137,9 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
                 log.events.len(),
                 if log.cut_tail { "; a partial record at the end was ignored" } else { "" }
             ));
+        }
+        if args.verify {
+            differences.extend(log.integrity.iter().map(|p| format!("{}: {p}", log.path.display())));
         }
         match analyse_and_verify(&log, args.verify) {
             Ok((analysis, diffs)) => {
@@ -183,7 +192,7 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
                 warnings: warnings.clone(),
                 differences: differences.clone(),
             };
-            println!("{}", serde_json::to_string_pretty(&out)?);
+            outln!("{}", serde_json::to_string_pretty(&out)?);
         }
         Format::Table => {
             for (label, is_pilot, summary) in
@@ -191,7 +200,7 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
             {
                 let group: Vec<&Analysed> = analysed.iter().filter(|a| a.log.start.pilot == is_pilot).collect();
                 if let Some(s) = summary {
-                    print!("{}", table(label, &group, s));
+                    out!("{}", table(label, &group, s));
                 }
             }
         }

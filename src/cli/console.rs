@@ -8,6 +8,7 @@ use anyhow::Result;
 use clap::Args;
 use handover::participant::validate_id;
 use handover::record::{LogContents, study_of};
+use handover::study_dir::StudyDirs;
 use handover::tui::{App, AppConfig, run_terminal};
 
 use super::input::{bad, load_protocol};
@@ -23,12 +24,16 @@ pub struct RunArgs {
     /// An existing participant's id, or `new` for a new pseudonymous one.
     #[arg(long, value_name = "ID|new", default_value = "new")]
     participant: String,
-    /// Where session logs are written.
-    #[arg(long, value_name = "DIR", default_value = "logs")]
-    logs: PathBuf,
-    /// Where participant records live.
-    #[arg(long, value_name = "DIR", default_value = "participants")]
-    participants: PathBuf,
+    /// The study directory: participant records in DIR/participants, logs in DIR/logs
+    /// (counterbalancing counts the sessions found there).
+    #[arg(long, value_name = "DIR")]
+    study_dir: Option<PathBuf>,
+    /// Where session logs are written (default: STUDY_DIR/logs).
+    #[arg(long, value_name = "DIR")]
+    logs: Option<PathBuf>,
+    /// Where participant records live (default: STUDY_DIR/participants).
+    #[arg(long, value_name = "DIR")]
+    participants: Option<PathBuf>,
     /// Let a simulated participant answer (a rehearsal; the log is flagged pilot).
     #[arg(long)]
     simulate: bool,
@@ -46,8 +51,9 @@ impl RunArgs {
         Self {
             protocol: None,
             participant: "new".into(),
-            logs: PathBuf::from("logs"),
-            participants: PathBuf::from("participants"),
+            study_dir: None,
+            logs: None,
+            participants: None,
             simulate: false,
             pace: 800,
             seed: None,
@@ -75,7 +81,7 @@ fn finish(result: Result<Option<String>, String>) -> Result<()> {
 }
 
 pub fn run(args: RunArgs) -> Result<()> {
-    let RunArgs { protocol, participant, logs, participants, simulate, pace, seed } = args;
+    let RunArgs { protocol, participant, study_dir, logs, participants, simulate, pace, seed } = args;
     if participant != "new" {
         validate_id(&participant).map_err(|e| bad(format!("--participant: {e}")))?;
     }
@@ -84,8 +90,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     let config = AppConfig {
         study,
         protocol_text,
-        logs,
-        participants,
+        dirs: StudyDirs::resolve(study_dir.as_deref(), participants.as_deref(), logs.as_deref()),
         participant,
         simulate,
         pace: Duration::from_millis(pace),
@@ -100,20 +105,29 @@ pub fn run(args: RunArgs) -> Result<()> {
 }
 
 /// The console on an interrupted session's log.
-pub fn resume(old: LogContents, simulate: bool, pace: u64) -> Result<()> {
-    let study = Arc::new(study_of(&old).map_err(|e| bad(e.to_string()))?);
-    let logs = old.path.parent().and_then(|d| d.parent()).map(PathBuf::from).unwrap_or_else(|| PathBuf::from("."));
-    let config = AppConfig {
+fn config_of(old: &LogContents, dirs: StudyDirs, simulate: bool, pace: u64) -> Result<AppConfig> {
+    let study = Arc::new(study_of(old).map_err(|e| bad(e.to_string()))?);
+    Ok(AppConfig {
         study,
         protocol_text: old.protocol_text.clone(),
-        logs,
-        participants: PathBuf::from("participants"),
+        dirs,
         participant: old.start.participant.clone(),
         simulate,
         pace: Duration::from_millis(pace),
         seed: Some(old.start.seed),
-    };
+    })
+}
+
+pub fn resume(old: LogContents, dirs: StudyDirs, simulate: bool, pace: u64) -> Result<()> {
+    let config = config_of(&old, dirs, simulate, pace)?;
     require_terminal()?;
     let app = App::resume(config, &old).map_err(anyhow::Error::msg)?;
     finish(run_terminal(app))
+}
+
+/// A finished session, read-only on the summary screen.
+pub fn summary(old: LogContents, dirs: StudyDirs) -> Result<()> {
+    let config = config_of(&old, dirs, false, 0)?;
+    require_terminal()?;
+    finish(run_terminal(App::summary_of(config, &old)))
 }

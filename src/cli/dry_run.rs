@@ -12,6 +12,7 @@ use handover::ergo::Lambda;
 use handover::protocol::{LambdaSpec, Study};
 use handover::record::{RecordedSession, new_log_path, read_log};
 use handover::session::{Session, program_letter};
+use handover::study_dir::{ParticipantLock, StudyDirs};
 
 use super::input::{bad, load_protocol, parse_json, read_text};
 
@@ -32,9 +33,12 @@ pub struct DryRunArgs {
     /// Seed of the whole dry run (ids, truths, answers).
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Where logs are written (logs/<id>/<id>_<UTC time>.mcap).
-    #[arg(long, value_name = "DIR", default_value = "logs")]
-    logs: PathBuf,
+    /// The study directory (logs in DIR/logs).
+    #[arg(long, value_name = "DIR")]
+    study_dir: Option<PathBuf>,
+    /// Where logs are written, as LOGS/<id>/<id>_<UTC time>.mcap (default: STUDY_DIR/logs).
+    #[arg(long, value_name = "DIR")]
+    logs: Option<PathBuf>,
     /// A ground truth for every participant: {"q_star_deg": [7 angles], "w": [7 weights]}.
     #[arg(long, value_name = "FILE")]
     truth: Option<PathBuf>,
@@ -67,11 +71,13 @@ pub fn run(args: DryRunArgs) -> Result<()> {
         return Err(bad("--participants is 0, expected at least 1"));
     }
     let truth = args.truth.as_deref().map(load_truth).transpose()?;
+    let dirs = StudyDirs::resolve(args.study_dir.as_deref(), None, args.logs.as_deref());
     for i in 0..args.participants {
         let now = chrono::Utc::now();
         let p = plan(&study, args.seed, i, truth.as_ref(), now.to_rfc3339_opts(chrono::SecondsFormat::Millis, true));
         let session = Session::new(Arc::clone(&study), p.start.clone()).map_err(|e| anyhow::anyhow!("{e}"))?;
-        let path = new_log_path(&args.logs, &p.start.participant, now);
+        let path = new_log_path(&dirs.logs, &p.start.participant, now);
+        let _lock = ParticipantLock::acquire(&dirs.logs.join(&p.start.participant), &p.start.participant, "dry-run")?;
         let mut rec = RecordedSession::create(&path, &text, session, now_ns())?;
         drive(&mut rec, &p.participant, Duration::from_millis(args.pace))?;
         let path = rec.finish()?;
@@ -84,7 +90,7 @@ pub fn run(args: DryRunArgs) -> Result<()> {
 pub fn report(study: &Study, path: &std::path::Path) -> Result<()> {
     let log = read_log(path)?;
     let a: SessionAnalysis = analyse(&log).with_context(|| format!("cannot analyse {}", path.display()))?;
-    println!(
+    outln!(
         "{} ({}): log {}",
         a.start.participant,
         if a.completed { "completed" } else { "not completed" },
@@ -93,7 +99,7 @@ pub fn report(study: &Study, path: &std::path::Path) -> Result<()> {
     for r in &a.runs {
         let objects: Vec<&str> = r.trials.iter().map(|t| t.object.as_str()).collect();
         let ll: Vec<String> = r.test_ll_mode.iter().map(|v| format!("{v:.1}")).collect();
-        println!(
+        outln!(
             "  {} = {} ({}): objects [{}]; test log-likelihood by iteration [{}]",
             study
                 .protocol

@@ -3,6 +3,23 @@
 //!
 //! Exit codes: 0 success, 1 the work failed, 2 bad input or usage.
 
+/// `println!` that returns an error instead of panicking when standard output is closed
+/// (`handover … | head -1`); `main` then exits quietly.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($arg)*)?
+    }};
+}
+
+/// `print!` likewise.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        write!(std::io::stdout().lock(), $($arg)*)?
+    }};
+}
+
 mod analyze;
 mod console;
 mod dry_run;
@@ -17,6 +34,18 @@ mod simulate;
 use clap::{Parser, Subcommand};
 
 pub use input::BadInput;
+
+/// Whether an error is a write to a closed standard output (a pipe whose reader left).
+pub fn is_broken_pipe(err: &anyhow::Error) -> bool {
+    err.chain().any(|e| {
+        e.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+            || e.downcast_ref::<serde_json::Error>()
+                .is_some_and(|j| j.io_error_kind() == Some(std::io::ErrorKind::BrokenPipe))
+            || e.downcast_ref::<csv::Error>().is_some_and(
+                |c| matches!(c.kind(), csv::ErrorKind::Io(io) if io.kind() == std::io::ErrorKind::BrokenPipe),
+            )
+    })
+}
 
 /// Learn how a person likes to take objects from a robot, and run the study that measures it.
 #[derive(Debug, Parser)]

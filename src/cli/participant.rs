@@ -4,9 +4,10 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
-use handover::participant::{Handedness, ParticipantRecord, new_id, validate_id};
+use handover::participant::{BODY_HEIGHT_M, Handedness, ParticipantRecord, new_id, validate_id};
 use handover::record::least_filled_slot;
 use handover::session::condition_order;
+use handover::study_dir::StudyDirs;
 
 use super::input::{bad, load_study};
 
@@ -25,12 +26,16 @@ enum ParticipantCommand {
         /// Protocol (default: the embedded protocols/bike-handover.json).
         #[arg(long, value_name = "FILE")]
         protocol: Option<PathBuf>,
-        /// Where participant records live.
-        #[arg(long, value_name = "DIR", default_value = "participants")]
-        participants: PathBuf,
-        /// Where session logs live (to count completed sessions per order).
-        #[arg(long, value_name = "DIR", default_value = "logs")]
-        logs: PathBuf,
+        /// The study directory (records in DIR/participants, logs in DIR/logs).
+        #[arg(long, value_name = "DIR")]
+        study_dir: Option<PathBuf>,
+        /// Where participant records live (default: STUDY_DIR/participants).
+        #[arg(long, value_name = "DIR")]
+        participants: Option<PathBuf>,
+        /// Where session logs live, to count completed sessions per order (default:
+        /// STUDY_DIR/logs).
+        #[arg(long, value_name = "DIR")]
+        logs: Option<PathBuf>,
         /// Body height in metres (for the arm model).
         #[arg(long, value_name = "M")]
         body_height: Option<f64>,
@@ -42,9 +47,12 @@ enum ParticipantCommand {
     Show {
         /// The participant's id.
         id: String,
-        /// Where participant records live.
-        #[arg(long, value_name = "DIR", default_value = "participants")]
-        participants: PathBuf,
+        /// The study directory (records in DIR/participants).
+        #[arg(long, value_name = "DIR")]
+        study_dir: Option<PathBuf>,
+        /// Where participant records live (default: STUDY_DIR/participants).
+        #[arg(long, value_name = "DIR")]
+        participants: Option<PathBuf>,
     },
 }
 
@@ -56,14 +64,21 @@ enum HandArg {
 
 pub fn run(args: ParticipantArgs) -> Result<()> {
     match args.command {
-        ParticipantCommand::New { protocol, participants, logs, body_height, handedness } => {
+        ParticipantCommand::New { protocol, study_dir, participants, logs, body_height, handedness } => {
             let study = load_study(protocol.as_deref())?;
+            let dirs = StudyDirs::resolve(study_dir.as_deref(), participants.as_deref(), logs.as_deref());
             if let Some(h) = body_height
-                && !(0.5..=2.5).contains(&h)
+                && !(BODY_HEIGHT_M.0..=BODY_HEIGHT_M.1).contains(&h)
             {
-                return Err(bad(format!("--body-height is {h}, expected metres between 0.5 and 2.5")));
+                return Err(bad(format!(
+                    "--body-height is {h}, expected metres from {} to {}",
+                    BODY_HEIGHT_M.0, BODY_HEIGHT_M.1
+                )));
             }
-            let slot = least_filled_slot(&logs, 2);
+            for missing in dirs.missing() {
+                eprintln!("note: {} does not exist yet; it will be created", missing.display());
+            }
+            let slot = least_filled_slot(&dirs.logs, 2);
             let record = ParticipantRecord {
                 id: new_id(&mut rand::rng()),
                 slot,
@@ -74,10 +89,10 @@ pub fn run(args: ParticipantArgs) -> Result<()> {
                     HandArg::Right => Handedness::Right,
                 }),
             };
-            let path = record.create(&participants).with_context(|| "cannot create the participant record")?;
+            let path = record.create(&dirs.participants).with_context(|| "cannot create the participant record")?;
             let order: Vec<_> = condition_order(&study, slot).iter().map(|c| c.name()).collect();
             let labels = &study.protocol.session.program_labels;
-            println!("{}", record.id);
+            outln!("{}", record.id);
             eprintln!(
                 "created {} (slot {slot}: {} = {}, {} = {})",
                 path.display(),
@@ -88,10 +103,11 @@ pub fn run(args: ParticipantArgs) -> Result<()> {
             );
             Ok(())
         }
-        ParticipantCommand::Show { id, participants } => {
+        ParticipantCommand::Show { id, study_dir, participants } => {
             validate_id(&id).map_err(|e| bad(e.to_string()))?;
-            let rec = ParticipantRecord::load(&participants, &id).map_err(|e| bad(e.to_string()))?;
-            println!("{}", serde_json::to_string_pretty(&rec)?);
+            let dirs = StudyDirs::resolve(study_dir.as_deref(), participants.as_deref(), None);
+            let rec = ParticipantRecord::load(&dirs.participants, &id).map_err(|e| bad(e.to_string()))?;
+            outln!("{}", serde_json::to_string_pretty(&rec)?);
             Ok(())
         }
     }

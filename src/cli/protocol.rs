@@ -30,7 +30,7 @@ pub fn run(args: ProtocolArgs) -> Result<()> {
     match args.command {
         ProtocolCommand::Check { file } => {
             let study = load_study(Some(&file))?;
-            print!("{}", summary(&study));
+            out!("{}", summary(&study));
             Ok(())
         }
     }

@@ -1,20 +1,24 @@
 //! `handover resume LOG`: continue an interrupted session from its log.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use anyhow::{Context, Result};
 use clap::Args;
 use handover::dryrun::{drive, now_ns};
 use handover::participant::{ScriptedParticipant, SimulatedPerson};
-use handover::record::{RecordedSession, new_log_path, read_log, study_of};
+use handover::record::{LogContents, RecordedSession, is_over, lineage, log_path_in, read_log, study_of};
+use handover::study_dir::{ParticipantLock, StudyDirs};
 
 use super::input::bad;
 
-/// Continue an interrupted session (a crash or a quit) from its log, a truncated file
-/// included. The old file is kept; a new log holds all of its events and the rest of the
-/// session. Without options it reopens the operator console where the session stopped;
-/// with --dry-run a simulated participant continues a dry run headless.
+/// Continue an interrupted session (a crash, a kill or a quit) from its log, a truncated
+/// file included. The old file is kept; a new log beside it holds all of its events and
+/// the rest of the session. A log that was already continued is not continued twice: the
+/// newest continuation is resumed instead (and said so), unless --fork asks to branch from
+/// the given log. A completed or aborted session is opened read-only on its summary.
+/// Without options it reopens the operator console where the session stopped; with
+/// --dry-run a simulated participant continues a dry run headless.
 #[derive(Debug, Args)]
 pub struct ResumeArgs {
     /// The session log (.mcap) to continue.
@@ -25,27 +29,75 @@ pub struct ResumeArgs {
     /// In the console, let the simulated participant of a dry run or rehearsal continue.
     #[arg(long, conflicts_with = "dry_run")]
     simulate: bool,
+    /// Continue this very log even though a newer continuation of it exists (a second
+    /// branch of the session; analysis keeps one log per session).
+    #[arg(long)]
+    fork: bool,
+    /// The study directory whose participants/ holds the participant's record.
+    #[arg(long, value_name = "DIR")]
+    study_dir: Option<PathBuf>,
     /// Milliseconds to wait between simulated actions.
     #[arg(long, value_name = "MS", default_value_t = 0)]
     pace: u64,
 }
 
+/// The log to continue: the given one, or its newest continuation.
+fn choose(given: LogContents, fork: bool) -> LogContents {
+    let family = lineage(&given);
+    match family.newest {
+        Some(newest) if !fork => {
+            eprintln!(
+                "{} was already continued; resuming its newest continuation, {}",
+                given.path.display(),
+                newest.path.display()
+            );
+            newest
+        }
+        Some(newest) => {
+            eprintln!(
+                "{} was already continued (newest: {}); --fork: branching from it as asked",
+                given.path.display(),
+                newest.path.display()
+            );
+            given
+        }
+        None => given,
+    }
+}
+
+/// The folder a resumed log is written to: the one the old log is in, never a path taken
+/// from the log's content.
+pub fn beside(log: &Path) -> PathBuf {
+    log.parent().filter(|d| !d.as_os_str().is_empty()).map_or_else(|| PathBuf::from("."), Path::to_path_buf)
+}
+
 pub fn run(args: ResumeArgs) -> Result<()> {
-    let old = read_log(&args.log).map_err(|e| bad(e.to_string()))?;
+    let given = read_log(&args.log).map_err(|e| bad(e.to_string()))?;
+    let old = choose(given, args.fork);
+    let dirs = StudyDirs::resolve(args.study_dir.as_deref(), None, None);
+    if is_over(&old) {
+        eprintln!("{}: the session is over; opening it read-only (nothing is written)", old.path.display());
+        if args.dry_run {
+            let study = study_of(&old).map_err(|e| bad(e.to_string()))?;
+            return super::dry_run::report(&study, &old.path);
+        }
+        return super::console::summary(old, dirs);
+    }
     if !args.dry_run {
-        return super::console::resume(old, args.simulate, args.pace);
+        return super::console::resume(old, dirs, args.simulate, args.pace);
     }
     let Some(truth) = old.start.simulated_truth.clone() else {
         return Err(bad(format!(
             "{}: not a dry run (no simulated participant); resume it without --dry-run",
-            args.log.display()
+            old.path.display()
         )));
     };
-    let study = study_of(&old)?;
-    let logs = args.log.parent().and_then(|d| d.parent()).map(PathBuf::from).unwrap_or_else(|| PathBuf::from("."));
-    let path = new_log_path(&logs, &old.start.participant, chrono::Utc::now());
+    let study = study_of(&old).map_err(|e| bad(e.to_string()))?;
+    let dir = beside(&old.path);
+    let _lock = ParticipantLock::acquire(&dir, &old.start.participant, "resume --dry-run")?;
+    let path = log_path_in(&dir, &old.start.participant, chrono::Utc::now());
     let mut rec = RecordedSession::resume(&old, &path, now_ns())?;
-    eprintln!("resumed {} ({} events) into {}", args.log.display(), old.events.len(), path.display());
+    eprintln!("resumed {} ({} events) into {}", old.path.display(), old.events.len(), rec.path().display());
     let person = SimulatedPerson { truth, alpha: study.protocol.learning.alpha };
     drive(&mut rec, &ScriptedParticipant { person }, Duration::from_millis(args.pace))?;
     let path = rec.finish().context("cannot finish the log")?;

@@ -250,6 +250,6 @@ pub fn run(args: ScoreArgs) -> Result<()> {
     let text = read_text(&args.file)?;
     let input: Input = parse_json(&text, &name)?;
     let out = score(Config::from_input(input, &name)?)?;
-    println!("{}", serde_json::to_string_pretty(&out)?);
+    outln!("{}", serde_json::to_string_pretty(&out)?);
     Ok(())
 }

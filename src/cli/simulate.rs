@@ -156,7 +156,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     bar.finish_and_clear();
     let elapsed = started.elapsed();
     let summary = summarise(&rows);
-    print_table(scenario.name(), &settings, &summary, elapsed.as_secs_f64(), threads);
+    print_table(scenario.name(), &settings, &summary, elapsed.as_secs_f64(), threads)?;
     if let Some(dir) = &args.out {
         write_csv(&dir.join("metrics.csv"), &rows)?;
         write_csv(&dir.join("summary.csv"), &summary)?;
@@ -191,18 +191,30 @@ fn write_csv<T: serde::Serialize>(path: &Path, rows: &[T]) -> Result<()> {
     Ok(())
 }
 
-fn print_table(name: &str, s: &Settings, summary: &[SummaryRow], seconds: f64, threads: usize) {
-    println!(
+fn print_table(name: &str, s: &Settings, summary: &[SummaryRow], seconds: f64, threads: usize) -> Result<()> {
+    outln!(
         "{name}: learning {}, {} trials × {} iterations, {} particles, menu {}, test set {}, α = {}, seed {} ({seconds:.1} s on {threads} threads)",
-        s.learn, s.trials, s.iterations, s.particles, s.menu, s.test_size, s.alpha, s.seed
+        s.learn,
+        s.trials,
+        s.iterations,
+        s.particles,
+        s.menu,
+        s.test_size,
+        s.alpha,
+        s.seed
     );
     let get = |alg: &str, it: usize, m: &str| {
         summary.iter().find(|r| r.algorithm == alg && r.iteration == it && r.measure == m)
     };
     let cell = |r: Option<&SummaryRow>| r.map_or("—".to_string(), |r| format!("{:.3} ± {:.3}", r.mean, r.se));
-    println!(
+    outln!(
         "{:<12} {:>17} {:>17} {:>20} {:>10} {:>17}",
-        "algorithm", "distance (it 0)", "distance (last)", "test log-lik (last)", "true cost", "log P(λ*) (last)"
+        "algorithm",
+        "distance (it 0)",
+        "distance (last)",
+        "test log-lik (last)",
+        "true cost",
+        "log P(λ*) (last)"
     );
     for k in &s.algorithms {
         let alg = k.name();
@@ -213,7 +225,7 @@ fn print_table(name: &str, s: &Settings, summary: &[SummaryRow], seconds: f64, t
         } else {
             format!("{:.3}", costs.iter().map(|r| r.mean).sum::<f64>() / costs.len() as f64)
         };
-        println!(
+        outln!(
             "{:<12} {:>17} {:>17} {:>20} {:>10} {:>17}",
             alg,
             cell(get(alg, 0, "distance_to_truth")),
@@ -223,6 +235,7 @@ fn print_table(name: &str, s: &Settings, summary: &[SummaryRow], seconds: f64, t
             cell(get(alg, s.iterations, "log_density_at_truth")),
         );
     }
+    Ok(())
 }
 
 fn run_two_sets(args: &SimulateArgs) -> Result<()> {
@@ -231,13 +244,19 @@ fn run_two_sets(args: &SimulateArgs) -> Result<()> {
         return Err(bad(format!("--alpha is {alpha}, expected a positive number")));
     }
     let steps = experiment::two_sets(args.seed, args.iterations.unwrap_or(8), args.particles, alpha);
-    println!("two-sets: set A spreads along joint 1, set B along joint 2; the active selector's choice per iteration");
-    println!(
+    outln!("two-sets: set A spreads along joint 1, set B along joint 2; the active selector's choice per iteration");
+    outln!(
         "{:>9} {:>8} {:>8} {:>6} {:>18} {:>18} {:>8}",
-        "iteration", "I(A)", "I(B)", "chosen", "response", "mean q*", "entropy"
+        "iteration",
+        "I(A)",
+        "I(B)",
+        "chosen",
+        "response",
+        "mean q*",
+        "entropy"
     );
     for s in &steps {
-        println!(
+        outln!(
             "{:>9} {:>8.4} {:>8.4} {:>6} {:>18} {:>18} {:>8.3}",
             s.iteration,
             s.information_gain_a,

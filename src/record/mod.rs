@@ -2,6 +2,7 @@
 //! unchunked and synced to disk after every event, so that a crash loses nothing. Also the
 //! reader (tolerant of a truncated tail) and the replay that rebuilds a session from a log.
 
+mod integrity;
 mod messages;
 mod schemas;
 mod writer;
@@ -227,6 +228,9 @@ pub struct LogContents {
     pub finished: bool,
     /// Whether the file ends in a partial record (cut off by a crash).
     pub cut_tail: bool,
+    /// What the file's CRCs and its schema and channel records say is wrong (reported by
+    /// `analyze --verify`; empty for an intact log).
+    pub integrity: Vec<String>,
 }
 
 /// The largest log read (a whole study session is well under 10 MiB).
@@ -330,6 +334,7 @@ pub fn read_log(path: &Path) -> Result<LogContents, RecordError> {
     let reader = mcap::read::LinearReader::new_with_options(&bytes, mcap::read::Options::IgnoreEndMagic.into())
         .map_err(mcap_err(path))?;
     let mut topics: HashMap<u16, String> = HashMap::new();
+    let mut declared = integrity::Declared::default();
     let mut protocol_text = None;
     let mut messages = Vec::new();
     let mut finished = false;
@@ -341,7 +346,11 @@ pub fn read_log(path: &Path) -> Result<LogContents, RecordError> {
         };
         match record {
             mcap::records::Record::Channel(c) => {
+                declared.channels.push((c.id, c.topic.clone(), c.schema_id, c.message_encoding));
                 topics.insert(c.id, c.topic);
+            }
+            mcap::records::Record::Schema { header, data } => {
+                declared.schemas.push((header.id, header.name, header.encoding, data.into_owned()));
             }
             mcap::records::Record::Attachment { header, data, .. } if header.name == PROTOCOL_ATTACHMENT => {
                 protocol_text = Some(String::from_utf8_lossy(&data).into_owned());
@@ -382,6 +391,8 @@ pub fn read_log(path: &Path) -> Result<LogContents, RecordError> {
         events.push((m.sequence, Stamped { time_ns: m.log_time, event }));
     }
     events.sort_by_key(|(s, _)| *s);
+    let mut problems = integrity::check_crcs(&bytes);
+    problems.extend(integrity::check_declarations(&declared, start.software_version == env!("CARGO_PKG_VERSION")));
     Ok(LogContents {
         path: path.to_path_buf(),
         protocol_text,
@@ -391,6 +402,7 @@ pub fn read_log(path: &Path) -> Result<LogContents, RecordError> {
         messages,
         finished,
         cut_tail: cut,
+        integrity: problems,
     })
 }
 
@@ -497,6 +509,61 @@ impl RecordedSession {
     pub fn finish(self) -> Result<PathBuf, RecordError> {
         self.recorder.finish()
     }
+}
+
+/// Where a log stands among the logs of its session in the same folder.
+#[derive(Debug)]
+pub struct Lineage {
+    /// The newest continuation of the log (following `resumed_from` links), if it was
+    /// resumed; `None` when the log itself is the newest.
+    pub newest: Option<LogContents>,
+    /// How many logs continue this one directly (more than one: it was forked before).
+    pub direct_continuations: usize,
+}
+
+/// Follows the continuations of `log` among the logs beside it (same folder, same session
+/// id): the one to resume is the newest, never a superseded one.
+pub fn lineage(log: &LogContents) -> Lineage {
+    let dir = log.path.parent().unwrap_or(Path::new("."));
+    let Ok(entries) = std::fs::read_dir(dir) else { return Lineage { newest: None, direct_continuations: 0 } };
+    let mut names: Vec<PathBuf> = entries
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "mcap") && p.is_file())
+        .collect();
+    names.sort();
+    let family: Vec<LogContents> = names
+        .iter()
+        .filter(|p| **p != log.path)
+        .filter_map(|p| read_log(p).ok())
+        .filter(|l| l.start.session_id == log.start.session_id && l.start.resumed_from.is_some())
+        .collect();
+    let file_name = |p: &Path| p.file_name().map(|n| n.to_string_lossy().into_owned());
+    let children = |name: &Option<String>| -> Vec<&LogContents> {
+        family.iter().filter(|l| l.start.resumed_from == *name).collect()
+    };
+    let direct = children(&file_name(&log.path)).len();
+    let mut newest: Option<&LogContents> = None;
+    let mut seen = std::collections::HashSet::new();
+    loop {
+        let current = newest.map_or_else(|| file_name(&log.path), |l| file_name(&l.path));
+        // Of several continuations (a fork), the one written last.
+        let next = children(&current)
+            .into_iter()
+            .filter(|l| seen.insert(l.path.clone()))
+            .max_by_key(|l| (l.messages.last().map_or(0, |m| m.log_time), l.path.clone()));
+        match next {
+            Some(l) => newest = Some(l),
+            None => break,
+        }
+    }
+    Lineage { newest: newest.cloned(), direct_continuations: direct }
+}
+
+/// Whether a log's session is over (ended or aborted): such a log is only read, never
+/// continued.
+pub fn is_over(log: &LogContents) -> bool {
+    log.events.iter().any(|e| matches!(e.event, Event::Ended | Event::Aborted { .. }))
 }
 
 /// Every `.mcap` file under `root` (recursively), sorted; a file is itself.

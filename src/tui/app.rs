@@ -16,16 +16,17 @@ use crate::analysis::{SessionAnalysis, analyse};
 use crate::dryrun::{now_ns, plan};
 use crate::participant::{ParticipantRecord, ScriptedParticipant, SimulatedPerson, new_id, validate_id};
 use crate::protocol::{Study, with_body_height};
-use crate::record::{LogContents, RecordedSession, least_filled_slot, new_log_path, read_log};
+use crate::record::{LogContents, RecordedSession, least_filled_slot, log_path_in, new_log_path, read_log};
 use crate::session::{Event, Prompt, Session, SessionStart, Stamped, VoidReason, condition_order};
+use crate::study_dir::{ParticipantLock, StudyDirs};
 
 /// How the console was started.
 #[derive(Clone, Debug)]
 pub struct AppConfig {
     pub study: Arc<Study>,
     pub protocol_text: String,
-    pub logs: PathBuf,
-    pub participants: PathBuf,
+    /// The study's folders (participant records and logs).
+    pub dirs: StudyDirs,
     /// "new" or an existing participant's id.
     pub participant: String,
     /// A simulated participant answers (a rehearsal; the log is flagged pilot).
@@ -89,6 +90,8 @@ pub struct App {
     pub overlay: Option<Overlay>,
     pub plan: Option<Plan>,
     live: Option<RecordedSession>,
+    /// This console's hold on the participant (one live session per participant).
+    lock: Option<ParticipantLock>,
     /// A copy of the session as last shown (kept while the worker has the live one).
     shown: Option<Session>,
     worker: Option<Receiver<WorkDone>>,
@@ -117,11 +120,15 @@ impl App {
         app
     }
 
-    /// Continues an interrupted session in a new log, at the screen where it stopped.
+    /// Continues an interrupted session in a new log beside the old one (never at a path
+    /// taken from the log's content), at the screen where it stopped.
     pub fn resume(config: AppConfig, old: &LogContents) -> Result<Self, String> {
         let mut app = Self::empty(config);
-        let path = new_log_path(&app.config.logs, &old.start.participant, chrono::Utc::now());
+        let dir = old.path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
+        app.lock = Some(ParticipantLock::acquire(dir, &old.start.participant, "console").map_err(|e| e.to_string())?);
+        let path = log_path_in(dir, &old.start.participant, chrono::Utc::now());
         let rec = RecordedSession::resume(old, &path, now_ns()).map_err(|e| e.to_string())?;
+        let path = rec.path().to_path_buf();
         let status = format!(
             "Resumed {} after {} events; continuing in {}",
             old.path.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
@@ -151,8 +158,22 @@ impl App {
         Ok(app)
     }
 
+    /// A finished session's log, read-only on its summary screen.
+    pub fn summary_of(config: AppConfig, log: &LogContents) -> Self {
+        let mut app = Self::empty(config);
+        let (analysis, error) = match analyse(log) {
+            Ok(a) => (Some(a), None),
+            Err(e) => (None, Some(e.to_string())),
+        };
+        let completed = log.events.iter().any(|e| e.event == Event::Ended);
+        app.screen = Screen::Summary(Box::new(SummaryView { log_path: log.path.clone(), completed, analysis, error }));
+        app.status = "Read-only: this session is over; nothing is written".into();
+        app
+    }
+
     fn empty(config: AppConfig) -> Self {
         Self {
+            lock: None,
             config,
             screen: Screen::Setup,
             overlay: None,
@@ -180,7 +201,7 @@ impl App {
         let started_at = now.to_rfc3339_opts(chrono::SecondsFormat::Millis, true);
         if c.simulate {
             let p = plan(study, seed, 0, None, started_at);
-            let log_path = new_log_path(&c.logs, &p.start.participant, now);
+            let log_path = new_log_path(&c.dirs.logs, &p.start.participant, now);
             return Plan {
                 start: p.start,
                 new_record: None,
@@ -194,7 +215,7 @@ impl App {
         let (mut study, mut protocol_text) = (Arc::clone(study), c.protocol_text.clone());
         let (id, slot, new_record, error) = if c.participant == "new" {
             let id = new_id(&mut rand::rng());
-            let slot = least_filled_slot(&c.logs, 2);
+            let slot = least_filled_slot(&c.dirs.logs, 2);
             let rec = ParticipantRecord {
                 id: id.clone(),
                 slot,
@@ -204,7 +225,7 @@ impl App {
             };
             (id, slot, Some(rec), None)
         } else {
-            match ParticipantRecord::load(&c.participants, &c.participant) {
+            match ParticipantRecord::load(&c.dirs.participants, &c.participant) {
                 Ok(r) => match r.body_height_m.map(|h| with_body_height(&c.protocol_text, &study.source_name, h)) {
                     Some(Ok((text, scaled))) => {
                         (study, protocol_text) = (Arc::new(scaled), text);
@@ -231,7 +252,7 @@ impl App {
             simulated_truth: None,
             resumed_from: None,
         };
-        let log_path = if validate_id(&id).is_ok() { new_log_path(&c.logs, &id, now) } else { PathBuf::new() };
+        let log_path = if validate_id(&id).is_ok() { new_log_path(&c.dirs.logs, &id, now) } else { PathBuf::new() };
         Plan { start, new_record, simulated: None, log_path, error, study, protocol_text }
     }
 
@@ -427,11 +448,25 @@ impl App {
             self.status = format!("cannot start: {e}");
             return;
         }
-        if let Some(rec) = &plan.new_record
-            && let Err(e) = rec.create(&self.config.participants)
-        {
-            self.status = format!("cannot create the participant record: {e}");
-            return;
+        if self.lock.is_none() {
+            let dir = plan.log_path.parent().unwrap_or(std::path::Path::new("."));
+            match ParticipantLock::acquire(dir, &plan.start.participant, "console") {
+                Ok(lock) => self.lock = Some(lock),
+                Err(e) => {
+                    self.status = format!("cannot start: {e}");
+                    return;
+                }
+            }
+        }
+        if let Some(rec) = &plan.new_record {
+            if let Err(e) = rec.create(&self.config.dirs.participants) {
+                self.status = format!("cannot create the participant record: {e}");
+                return;
+            }
+            // Made once: a retry after a failed log does not make it again.
+            if let Some(p) = self.plan.as_mut() {
+                p.new_record = None;
+            }
         }
         let session = match Session::new(Arc::clone(&plan.study), plan.start.clone()) {
             Ok(s) => s,
@@ -442,11 +477,11 @@ impl App {
         };
         match RecordedSession::create(&plan.log_path, &plan.protocol_text, session, now_ns()) {
             Ok(rec) => {
+                self.status = format!("Session started; logging to {}", rec.path().display());
                 self.shown = Some(rec.session().clone());
                 self.live = Some(rec);
                 self.screen = Screen::Session;
                 self.session_started_ns = Some(self.now_ns);
-                self.status = format!("Session started; logging to {}", plan.log_path.display());
             }
             Err(e) => self.status = format!("cannot create the log: {e}"),
         }

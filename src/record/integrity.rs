@@ -1,0 +1,108 @@
+//! The checks `analyze --verify` makes of a log's bytes, beyond replaying its events: every
+//! CRC the file carries (attachments, the data section, the summary) and every schema and
+//! channel record against what this version writes.
+
+use super::schemas::{TOPICS, schema};
+
+/// A schema or channel record as read.
+#[derive(Clone, Debug, Default)]
+pub struct Declared {
+    /// Every schema record, the data section's and the summary's copies alike: (id, name,
+    /// encoding, data).
+    pub schemas: Vec<(u16, String, String, Vec<u8>)>,
+    /// Every channel record: (id, topic, schema id, message encoding).
+    pub channels: Vec<(u16, String, u16, String)>,
+}
+
+fn le_u32(b: &[u8]) -> u32 {
+    u32::from_le_bytes(b[..4].try_into().unwrap_or([0; 4]))
+}
+
+fn le_u64(b: &[u8]) -> u64 {
+    u64::from_le_bytes(b[..8].try_into().unwrap_or([0; 8]))
+}
+
+/// Walks the records of an MCAP file and checks its CRCs: each attachment's, the data end's
+/// CRC of the data section and the footer's CRC of the summary (a CRC of 0 means "not
+/// computed", as the format allows). An unfinished file has only attachment CRCs to check.
+pub fn check_crcs(bytes: &[u8]) -> Vec<String> {
+    let mut problems = Vec::new();
+    let mut at = 8usize;
+    while at + 9 <= bytes.len() {
+        let opcode = bytes[at];
+        let len = le_u64(&bytes[at + 1..]);
+        let Some(end) = usize::try_from(len).ok().and_then(|l| (at + 9).checked_add(l)).filter(|&e| e <= bytes.len())
+        else {
+            break; // a cut tail: the reader reports it
+        };
+        let body = &bytes[at + 9..end];
+        match opcode {
+            0x09 if body.len() >= 4 => {
+                let (content, crc) = body.split_at(body.len() - 4);
+                let crc = le_u32(crc);
+                if crc != 0 && crc32fast::hash(content) != crc {
+                    problems.push(format!("the attachment record at byte {at} fails its CRC"));
+                }
+            }
+            0x0F if body.len() >= 4 => {
+                let crc = le_u32(body);
+                if crc != 0 && crc32fast::hash(&bytes[..at]) != crc {
+                    problems.push("the data section fails its CRC (a byte of a record was changed)".into());
+                }
+            }
+            0x02 if body.len() >= 20 => {
+                let summary_start = le_u64(body) as usize;
+                let crc = le_u32(&body[16..]);
+                let upto = at + 9 + 16;
+                if crc != 0 && (summary_start > upto || crc32fast::hash(&bytes[summary_start..upto]) != crc) {
+                    problems.push("the summary section fails its CRC".into());
+                }
+            }
+            _ => {}
+        }
+        at = end;
+    }
+    problems
+}
+
+/// Checks that every channel is one of this program's topics, in JSON, with that topic's
+/// schema; for a log written by this version, that every schema is byte for byte the one
+/// this version writes (a log of another version: that it is JSON).
+pub fn check_declarations(d: &Declared, same_version: bool) -> Vec<String> {
+    let mut problems = Vec::new();
+    for (id, topic, schema_id, encoding) in &d.channels {
+        if !TOPICS.contains(&topic.as_str()) {
+            problems.push(format!("channel {id} has the unknown topic '{}'", topic.escape_debug()));
+            continue;
+        }
+        if encoding != "json" {
+            problems.push(format!("channel {topic}: message encoding '{}', expected 'json'", encoding.escape_debug()));
+        }
+        let copies: Vec<_> = d.schemas.iter().filter(|s| s.0 == *schema_id).collect();
+        if copies.is_empty() {
+            problems.push(format!("channel {topic}: schema {schema_id} is not in the log"));
+        }
+        let (want_name, want) = schema(topic);
+        for (_, name, schema_encoding, data) in copies {
+            if schema_encoding != "jsonschema" {
+                problems.push(format!(
+                    "{topic}: schema encoding '{}', expected 'jsonschema'",
+                    schema_encoding.escape_debug()
+                ));
+            }
+            if name != want_name {
+                problems.push(format!("{topic}: schema name '{}', expected '{want_name}'", name.escape_debug()));
+            }
+            if same_version {
+                if data.as_slice() != want.to_string().as_bytes() {
+                    problems.push(format!("{topic}: the schema differs from the one this version writes"));
+                }
+            } else if serde_json::from_slice::<serde_json::Value>(data).map_or(true, |v| !v.is_object()) {
+                problems.push(format!("{topic}: the schema is not a JSON object"));
+            }
+        }
+    }
+    problems.sort();
+    problems.dedup();
+    problems
+}
