@@ -13,15 +13,24 @@ pub fn bad(msg: impl Into<String>) -> anyhow::Error {
     BadInput(msg.into()).into()
 }
 
-/// The text of `path`, or of standard input for `-`.
+/// The most bytes read from any input file (or standard input): a budget, so that
+/// `/dev/zero` or a runaway file is refused instead of exhausting memory.
+pub const MAX_INPUT_BYTES: u64 = 64 << 20;
+
+/// The text of `path`, or of standard input for `-`, up to [`MAX_INPUT_BYTES`].
 pub fn read_text(path: &Path) -> anyhow::Result<String> {
-    let mut text = String::new();
-    if path == Path::new("-") {
-        std::io::stdin().read_to_string(&mut text).map_err(|e| bad(format!("<stdin>: cannot read: {e}")))?;
+    let name = if path == Path::new("-") { "<stdin>".to_string() } else { path.display().to_string() };
+    let mut bytes = Vec::new();
+    let read = if path == Path::new("-") {
+        std::io::stdin().lock().take(MAX_INPUT_BYTES + 1).read_to_end(&mut bytes)
     } else {
-        text = std::fs::read_to_string(path).map_err(|e| bad(format!("{}: cannot read: {e}", path.display())))?;
+        std::fs::File::open(path).and_then(|f| f.take(MAX_INPUT_BYTES + 1).read_to_end(&mut bytes))
+    };
+    read.map_err(|e| bad(format!("{name}: cannot read: {e}")))?;
+    if bytes.len() as u64 > MAX_INPUT_BYTES {
+        return Err(bad(format!("{name}: over the input budget of {MAX_INPUT_BYTES} bytes")));
     }
-    Ok(text)
+    String::from_utf8(bytes).map_err(|e| bad(format!("{name}: not UTF-8 text ({e})")))
 }
 
 /// Parses JSON into `T`, naming the file on error.

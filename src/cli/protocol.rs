@@ -8,7 +8,9 @@ use handover::belief::ResamplePolicy;
 use handover::protocol::Study;
 use handover::select::OutcomeModel;
 
-use super::input::load_study;
+use handover::session::check_runs;
+
+use super::input::{bad, load_study};
 
 /// Work with protocol files.
 #[derive(Debug, Args)]
@@ -29,7 +31,10 @@ enum ProtocolCommand {
 pub fn run(args: ProtocolArgs) -> Result<()> {
     match args.command {
         ProtocolCommand::Check { file } => {
-            let study = load_study(Some(&file))?;
+            let study = std::sync::Arc::new(load_study(Some(&file))?);
+            // What a session builds, and one learning step: an accepted protocol runs.
+            check_runs(std::sync::Arc::clone(&study))
+                .map_err(|e| bad(format!("{}: the protocol does not run: {e}", file.display())))?;
             out!("{}", summary(&study));
             Ok(())
         }

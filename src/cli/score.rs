@@ -100,6 +100,12 @@ struct Config {
     observation: Option<(usize, Observation)>,
 }
 
+/// Budgets of one `score` input: joints, queries, and particle–configuration pairs (each
+/// costs a few nanoseconds per selection).
+const MAX_DIM: usize = 64;
+const MAX_QUERIES: usize = 10_000;
+const MAX_PAIRS: f64 = 1e9;
+
 fn check_finite(v: &[f64], field: &str, name: &str) -> Result<()> {
     match v.iter().position(|x| !x.is_finite()) {
         Some(i) => Err(bad(format!("{name}: {field}[{i}] is {}, expected a finite number", v[i]))),
@@ -116,8 +122,22 @@ impl Config {
             return Err(bad(format!("{name}: particles is empty, expected at least one particle")));
         }
         let dim = input.particles[0].q_star.len();
-        if dim == 0 {
-            return Err(bad(format!("{name}: particles[0].q_star is empty, expected one angle per joint")));
+        if dim == 0 || dim > MAX_DIM {
+            return Err(bad(format!(
+                "{name}: particles[0].q_star has {dim} components, expected 1 to {MAX_DIM} (one angle per joint)"
+            )));
+        }
+        if input.menu.len() > MAX_QUERIES {
+            return Err(bad(format!(
+                "{name}: menu has {} queries, over the budget of {MAX_QUERIES}",
+                input.menu.len()
+            )));
+        }
+        let pairs = input.particles.len() as f64 * input.menu.iter().map(|q| q.configs.len() as f64).sum::<f64>();
+        if pairs > MAX_PAIRS {
+            return Err(bad(format!(
+                "{name}: particles × menu configurations = {pairs} pairs, over the budget of {MAX_PAIRS}"
+            )));
         }
         let mut lambdas = Vec::with_capacity(input.particles.len());
         let mut weights = Vec::with_capacity(input.particles.len());
@@ -130,6 +150,12 @@ impl Config {
                     )));
                 }
                 check_finite(v, &format!("particles[{i}].{field}"), name)?;
+            }
+            if let Some(d) = p.w.iter().position(|w| *w < 0.0) {
+                return Err(bad(format!(
+                    "{name}: particles[{i}].w[{d}] is {}, expected a non-negative weight (a cost is never negative)",
+                    p.w[d]
+                )));
             }
             if !(p.weight.is_finite() && p.weight >= 0.0) {
                 return Err(bad(format!(
@@ -149,6 +175,7 @@ impl Config {
             return Err(bad(format!("{name}: menu is empty, expected at least one query")));
         }
         let mut seen = HashSet::new();
+        let mut reach = vec![0.0f64; dim];
         let mut ids = Vec::new();
         let mut menu = Vec::new();
         for (k, q) in input.menu.into_iter().enumerate() {
@@ -163,12 +190,26 @@ impl Config {
                     return Err(bad(format!("{name}: menu[{k}].configs[{j}] has {} joints, expected {dim}", c.len())));
                 }
                 check_finite(c, &format!("menu[{k}].configs[{j}]"), name)?;
+                for (r, v) in reach.iter_mut().zip(c) {
+                    *r = r.max(v.abs());
+                }
             }
             let set = ConfigSet::from_rows(&q.configs).map_err(|e| bad(format!("{name}: menu[{k}].configs: {e}")))?;
             ids.push(q.id);
             menu.push(FeasibleSet::new(set));
         }
 
+        // Every α·C(q; λ) must be a finite number: bound it by Σ w (|q*| + max |q|)².
+        for (i, l) in lambdas.iter().enumerate() {
+            let bound: f64 =
+                l.q_star.iter().zip(&l.w).zip(&reach).map(|((qs, w), r)| w * (qs.abs() + r).powi(2)).sum::<f64>();
+            if !(input.alpha * bound).is_finite() {
+                return Err(bad(format!(
+                    "{name}: particles[{i}]: alpha × cost is not a finite number for some configuration \
+                     (q_star or w too large for the menu), expected finite costs"
+                )));
+            }
+        }
         let grid = match input.grid_cell {
             None => None,
             Some(widths) => {

@@ -92,18 +92,47 @@ impl Tsr {
             }
         }
     }
+
+    /// How many samples [`Tsr::discretise`] makes, computed without making them (a
+    /// protocol's budget is checked before any work); infinite for bounds that are not
+    /// finite.
+    pub fn sample_count(&self, res: &Resolution) -> f64 {
+        self.bw
+            .iter()
+            .enumerate()
+            .map(|(i, &[lo, hi])| {
+                let step = if i < 3 { res.translation_m } else { res.rotation_deg };
+                row_count(lo, hi, step, i >= 3)
+            })
+            .product()
+    }
+}
+
+/// Samples of one row: 1 for a fixed row, a full turn without its repeated endpoint,
+/// otherwise both ends and every `step` between (at least 2). Not finite for bounds or
+/// steps that are not.
+fn row_count(lo: f64, hi: f64, step: f64, rotation: bool) -> f64 {
+    if !(lo.is_finite() && hi.is_finite() && step.is_finite() && step > 0.0) {
+        return f64::INFINITY;
+    }
+    if hi <= lo {
+        return 1.0;
+    }
+    if rotation && hi - lo >= 360.0 - 1e-9 {
+        return (360.0 / step).ceil().max(1.0);
+    }
+    ((hi - lo) / step).ceil().max(1.0) + 1.0
 }
 
 fn row_values(lo: f64, hi: f64, step: f64, rotation: bool) -> Vec<f64> {
-    if hi <= lo {
+    let n = row_count(lo, hi, step, rotation);
+    if !n.is_finite() || n <= 1.0 {
         return vec![lo];
     }
-    let full_turn = rotation && hi - lo >= 360.0 - 1e-9;
-    if full_turn {
-        let n = (360.0 / step).ceil().max(1.0) as usize;
+    let n = n as usize;
+    if rotation && hi - lo >= 360.0 - 1e-9 {
         return (0..n).map(|k| lo + 360.0 * k as f64 / n as f64).collect();
     }
-    let n = ((hi - lo) / step).ceil().max(1.0) as usize + 1;
     (0..n).map(|k| lo + (hi - lo) * k as f64 / (n - 1) as f64).collect()
 }
 

@@ -10,7 +10,7 @@ use crate::ergo::{Lambda, LearnMask};
 use crate::kinematics::{ArmFeasibleSet, Discretisation, HumanArm, JOINTS, Object, Pose};
 use crate::select::{OutcomeModel, SelectorKind};
 
-pub use validate::{Problem, ProtocolError};
+pub use validate::{Problem, ProtocolError, limits};
 
 /// The default study, embedded so that a bare `handover` runs.
 pub const DEFAULT_PROTOCOL: &str = include_str!("../../protocols/bike-handover.json");
@@ -237,6 +237,19 @@ pub struct ResolvedQuery {
 impl Study {
     /// Parses and validates protocol text; `name` is used in messages.
     pub fn from_json(text: &str, name: &str) -> Result<Self, ProtocolError> {
+        if text.len() > validate::limits::PROTOCOL_BYTES {
+            return Err(ProtocolError::new(
+                name,
+                vec![Problem {
+                    path: String::new(),
+                    message: format!(
+                        "has {} bytes, over the budget of {} bytes for a protocol",
+                        text.len(),
+                        validate::limits::PROTOCOL_BYTES
+                    ),
+                }],
+            ));
+        }
         let de = &mut serde_json::Deserializer::from_str(text);
         let protocol: Protocol = serde_path_to_error::deserialize(de).map_err(|e| {
             let path = e.path().to_string();

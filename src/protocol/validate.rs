@@ -43,6 +43,57 @@ impl fmt::Display for ProtocolError {
     }
 }
 
+/// The finite range of every number in a protocol and the budgets of the work it implies
+/// (documented in docs/protocol-limits.md). A protocol over a budget is refused with the
+/// field and the budget named, before any of that work starts.
+pub mod limits {
+    /// Bytes of protocol text.
+    pub const PROTOCOL_BYTES: usize = 4 << 20;
+    /// Characters of a name, id or label.
+    pub const TEXT: usize = 200;
+    /// Characters of a description or statement.
+    pub const LONG_TEXT: usize = 4000;
+    /// |position| of a pose or TSR frame, m.
+    pub const POSITION_M: f64 = 5.0;
+    /// |angle| of any orientation, bound, limit or prior, degrees.
+    pub const ANGLE_DEG: f64 = 360.0;
+    /// |translation bound| of a TSR, m.
+    pub const TSR_TRANSLATION_M: f64 = 1.0;
+    /// TSR translation sampling step, m.
+    pub const TRANSLATION_STEP_M: (f64, f64) = (0.001, 1.0);
+    /// TSR rotation sampling and swivel steps, degrees.
+    pub const ANGLE_STEP_DEG: (f64, f64) = (1.0, 360.0);
+    /// Duplicate tolerance of feasible configurations, rad.
+    pub const DUPLICATE_TOLERANCE_RAD: (f64, f64) = (1e-9, 0.1);
+    pub const OBJECTS: usize = 32;
+    /// Grip regions per object (the console's keys 1–9).
+    pub const REGIONS: usize = 9;
+    /// Queries in the training menu, and in the test set.
+    pub const QUERIES: usize = 200;
+    /// Samples of one region's TSR.
+    pub const GRASPS_PER_REGION: f64 = 20_000.0;
+    /// Inverse-kinematics evaluations (grasps × swivel angles) for one query, and for the
+    /// whole protocol.
+    pub const IK_PER_QUERY: f64 = 1_000_000.0;
+    pub const IK_PER_PROTOCOL: f64 = 5_000_000.0;
+    /// Distinct feasible configurations of one query.
+    pub const CONFIGS_PER_QUERY: usize = 20_000;
+    pub const PARTICLES: usize = 100_000;
+    /// Particle–configuration pairs of one learning step (particles × every configuration
+    /// of the training menu), and likewise for the test set.
+    pub const PAIRS_PER_STEP: f64 = 1e8;
+    pub const ALPHA: f64 = 1000.0;
+    /// Largest cost weight w.
+    pub const WEIGHT: f64 = 1000.0;
+    pub const GRID_BOXES: usize = 1000;
+    pub const HYBRID_BETA: f64 = 1e6;
+    pub const TRIALS_PER_CONDITION: usize = 200;
+    /// Points of the Likert scale (keys 1–9), and their |value|.
+    pub const SCALE_POINTS: usize = 9;
+    pub const SCALE_VALUE: i64 = 1000;
+    pub const ITEMS: usize = 50;
+}
+
 #[derive(Default)]
 struct Problems(Vec<Problem>);
 
@@ -51,11 +102,38 @@ impl Problems {
         self.0.push(Problem { path: path.into(), message: message.into() });
     }
 
-    fn finite(&mut self, path: &str, v: &[f64]) {
-        if let Some(i) = v.iter().position(|x| !x.is_finite()) {
-            self.add(format!("{path}[{i}]"), format!("is {}, expected a finite number", v[i]));
+    /// Every value finite and within ±`bound` (`unit` names it in the message).
+    fn within(&mut self, path: &str, v: &[f64], bound: f64, unit: &str) {
+        if let Some(i) = v.iter().position(|x| !(x.is_finite() && x.abs() <= bound)) {
+            self.add(format!("{path}[{i}]"), format!("is {}, expected a number from -{bound} to {bound} {unit}", v[i]));
         }
     }
+
+    /// A value in [lo, hi].
+    fn range(&mut self, path: &str, v: f64, (lo, hi): (f64, f64), what: &str) {
+        if !(v.is_finite() && (lo..=hi).contains(&v)) {
+            self.add(path, format!("is {v}, expected {what} from {lo} to {hi}"));
+        }
+    }
+
+    /// A count of at most `max`.
+    fn count(&mut self, path: &str, n: usize, max: usize, what: &str) {
+        if n > max {
+            self.add(path, format!("has {n} {what}, over the budget of {max}"));
+        }
+    }
+
+    fn text(&mut self, path: &str, v: &str, max: usize) {
+        let n = v.chars().count();
+        if n > max {
+            self.add(path, format!("has {n} characters, expected at most {max}"));
+        }
+    }
+}
+
+fn pose_fields(path: &str, pose: &crate::kinematics::Pose, p: &mut Problems) {
+    p.within(&format!("{path}.position"), &pose.position, limits::POSITION_M, "m");
+    p.within(&format!("{path}.rpy_deg"), &pose.rpy_deg, limits::ANGLE_DEG, "degrees");
 }
 
 fn arm(spec: &ArmSpec, p: &mut Problems) -> Option<HumanArm> {
@@ -79,10 +157,11 @@ fn arm(spec: &ArmSpec, p: &mut Problems) -> Option<HumanArm> {
     arm.hand = spec.hand_m.unwrap_or(arm.hand);
     if let Some(limits) = spec.limits_deg {
         for (d, [lo, hi]) in limits.iter().copied().enumerate() {
-            if !(lo.is_finite() && hi.is_finite()) || lo > hi {
+            let a = limits::ANGLE_DEG;
+            if !(lo.is_finite() && hi.is_finite()) || lo > hi || lo < -a || hi > a {
                 p.add(
                     format!("arm.limits_deg[{d}]"),
-                    format!("{} limits are [{lo}, {hi}], expected finite min ≤ max", JOINT_NAMES[d]),
+                    format!("{} limits are [{lo}, {hi}], expected min ≤ max within ±{a} degrees", JOINT_NAMES[d]),
                 );
             }
         }
@@ -97,10 +176,11 @@ fn arm(spec: &ArmSpec, p: &mut Problems) -> Option<HumanArm> {
     }
 }
 
-fn objects(objects: &[Object], p: &mut Problems) {
+fn objects(objects: &[Object], res: &crate::kinematics::Resolution, p: &mut Problems) {
     if objects.is_empty() {
         p.add("objects", "is empty, expected at least one object");
     }
+    p.count("objects", objects.len(), limits::OBJECTS, "objects");
     let mut ids = HashSet::new();
     for (i, o) in objects.iter().enumerate() {
         let path = format!("objects[{i}]");
@@ -110,21 +190,41 @@ fn objects(objects: &[Object], p: &mut Problems) {
         if o.regions.is_empty() {
             p.add(format!("{path}.regions"), "is empty, expected at least one grip region");
         }
+        p.count(&format!("{path}.regions"), o.regions.len(), limits::REGIONS, "grip regions");
+        p.text(&format!("{path}.id"), &o.id, limits::TEXT);
+        p.text(&format!("{path}.label"), &o.label, limits::TEXT);
         let mut rids = HashSet::new();
         for (k, r) in o.regions.iter().enumerate() {
             let rpath = format!("{path}.regions[{k}]");
             if !rids.insert(r.id.as_str()) {
                 p.add(format!("{rpath}.id"), format!("duplicate id '{}', expected unique region ids", r.id));
             }
+            p.text(&format!("{rpath}.id"), &r.id, limits::TEXT);
+            p.text(&format!("{rpath}.label"), &r.label, limits::TEXT);
+            let mut bounds_ok = true;
             for (row, [lo, hi]) in r.tsr.bw.iter().copied().enumerate() {
-                if !(lo.is_finite() && hi.is_finite()) || lo > hi {
-                    p.add(format!("{rpath}.tsr.Bw[{row}]"), format!("is [{lo}, {hi}], expected finite min ≤ max"));
+                let (bound, unit) =
+                    if row < 3 { (limits::TSR_TRANSLATION_M, "m") } else { (limits::ANGLE_DEG, "degrees") };
+                if !(lo.is_finite() && hi.is_finite()) || lo > hi || lo.abs() > bound || hi.abs() > bound {
+                    bounds_ok = false;
+                    p.add(
+                        format!("{rpath}.tsr.Bw[{row}]"),
+                        format!("is [{lo}, {hi}], expected min ≤ max within ±{bound} {unit}"),
+                    );
                 }
             }
-            p.finite(&format!("{rpath}.tsr.T0_w.position"), &r.tsr.t0_w.position);
-            p.finite(&format!("{rpath}.tsr.T0_w.rpy_deg"), &r.tsr.t0_w.rpy_deg);
-            p.finite(&format!("{rpath}.tsr.Tw_e.position"), &r.tsr.tw_e.position);
-            p.finite(&format!("{rpath}.tsr.Tw_e.rpy_deg"), &r.tsr.tw_e.rpy_deg);
+            pose_fields(&format!("{rpath}.tsr.T0_w"), &r.tsr.t0_w, p);
+            pose_fields(&format!("{rpath}.tsr.Tw_e"), &r.tsr.tw_e, p);
+            let samples = r.tsr.sample_count(res);
+            if bounds_ok && samples > limits::GRASPS_PER_REGION {
+                p.add(
+                    format!("{rpath}.tsr"),
+                    format!(
+                        "discretises into {samples} grasps at this resolution, over the budget of {} per region",
+                        limits::GRASPS_PER_REGION
+                    ),
+                );
+            }
         }
     }
 }
@@ -134,20 +234,40 @@ fn lambda_spec(path: &str, l: &LambdaSpec, p: &mut Problems) {
         if v.len() != JOINTS {
             p.add(format!("{path}.{field}"), format!("has {} values, expected {JOINTS} (one per joint)", v.len()));
         }
-        p.finite(&format!("{path}.{field}"), v);
     }
-    if let Some(i) = l.w.iter().position(|w| *w < 0.0) {
-        p.add(format!("{path}.w[{i}]"), format!("is {}, expected a non-negative weight", l.w[i]));
+    p.within(&format!("{path}.q_star_deg"), &l.q_star_deg, limits::ANGLE_DEG, "degrees");
+    if let Some(i) = l.w.iter().position(|w| !(w.is_finite() && (0.0..=limits::WEIGHT).contains(w))) {
+        p.add(format!("{path}.w[{i}]"), format!("is {}, expected a weight from 0 to {}", l.w[i], limits::WEIGHT));
+    }
+}
+
+/// Every number of a component prior within ±`bound` (and a weight's support within
+/// [0, `bound`]).
+fn prior_ranges(path: &str, priors: &[crate::belief::ComponentPrior], bound: f64, weight: bool, p: &mut Problems) {
+    use crate::belief::ComponentPrior as C;
+    for (d, c) in priors.iter().enumerate() {
+        let values: Vec<f64> = match *c {
+            C::Fixed { value } => vec![value],
+            C::Uniform { min, max } => vec![min, max],
+            C::Gaussian { mean, sd, min, max } => vec![mean, sd, min, max],
+        };
+        let (lo, _) = c.support();
+        if values.iter().any(|v| !(v.is_finite() && v.abs() <= bound)) || (weight && lo < 0.0) {
+            let range = if weight { format!("0 to {bound}") } else { format!("-{bound} to {bound}") };
+            p.add(format!("{path}[{d}]"), format!("has a number outside {range}: {c:?}"));
+        }
     }
 }
 
 fn learning(l: &LearningSpec, p: &mut Problems) {
-    if l.particles == 0 || l.particles > 1_000_000 {
-        p.add("learning.particles", format!("is {}, expected a count from 1 to 1000000", l.particles));
+    if l.particles == 0 || l.particles > limits::PARTICLES {
+        p.add("learning.particles", format!("is {}, expected a count from 1 to {}", l.particles, limits::PARTICLES));
     }
-    if !(l.alpha.is_finite() && l.alpha > 0.0) {
-        p.add("learning.alpha", format!("is {}, expected a positive number", l.alpha));
+    if !(l.alpha.is_finite() && l.alpha > 0.0 && l.alpha <= limits::ALPHA) {
+        p.add("learning.alpha", format!("is {}, expected a positive number up to {}", l.alpha, limits::ALPHA));
     }
+    prior_ranges("learning.prior.q_star_deg", &l.prior.q_star_deg, limits::ANGLE_DEG, false, p);
+    prior_ranges("learning.prior.w", &l.prior.w, limits::WEIGHT, true, p);
     for (field, v) in [("q_star_deg", &l.prior.q_star_deg), ("w", &l.prior.w)] {
         if v.len() != JOINTS {
             p.add(
@@ -177,17 +297,15 @@ fn learning(l: &LearningSpec, p: &mut Problems) {
     {
         p.add("learning.resampling.fraction", format!("is {fraction}, expected a fraction in (0, 1]"));
     }
-    for (field, v) in [("q_star_deg", l.jitter.q_star_deg), ("w", l.jitter.w)] {
-        if !(v.is_finite() && v >= 0.0) {
-            p.add(format!("learning.jitter.{field}"), format!("is {v}, expected a non-negative number"));
-        }
+    p.range("learning.jitter.q_star_deg", l.jitter.q_star_deg, (0.0, limits::ANGLE_DEG), "degrees");
+    p.range("learning.jitter.w", l.jitter.w, (0.0, limits::WEIGHT), "a weight");
+    if l.grid_boxes == 0 || l.grid_boxes > limits::GRID_BOXES {
+        p.add(
+            "learning.grid_boxes",
+            format!("is {}, expected 1 to {} cells per prior range", l.grid_boxes, limits::GRID_BOXES),
+        );
     }
-    if l.grid_boxes == 0 {
-        p.add("learning.grid_boxes", "is 0, expected at least 1 cell per prior range");
-    }
-    if !(l.hybrid_beta.is_finite() && l.hybrid_beta >= 0.0) {
-        p.add("learning.hybrid_beta", format!("is {}, expected a non-negative number", l.hybrid_beta));
-    }
+    p.range("learning.hybrid_beta", l.hybrid_beta, (0.0, limits::HYBRID_BETA), "a number");
 }
 
 fn resolve(
@@ -196,10 +314,15 @@ fn resolve(
     protocol: &Protocol,
     arm: Option<&HumanArm>,
     ids: &mut HashSet<String>,
+    ik_total: &mut f64,
     p: &mut Problems,
 ) -> Vec<ResolvedQuery> {
     if queries.is_empty() {
         p.add(list, "is empty, expected at least one query");
+    }
+    if queries.len() > limits::QUERIES {
+        p.count(list, queries.len(), limits::QUERIES, "queries");
+        return Vec::new();
     }
     let mut out = Vec::new();
     for (i, q) in queries.iter().enumerate() {
@@ -210,8 +333,9 @@ fn resolve(
                 format!("duplicate id '{}', expected ids unique across training_menu and test_set", q.id),
             );
         }
-        p.finite(&format!("{path}.pose.position"), &q.pose.position);
-        p.finite(&format!("{path}.pose.rpy_deg"), &q.pose.rpy_deg);
+        pose_fields(&format!("{path}.pose"), &q.pose, p);
+        p.text(&format!("{path}.id"), &q.id, limits::TEXT);
+        p.text(&format!("{path}.label"), &q.label, limits::TEXT);
         let Some(oi) = protocol.objects.iter().position(|o| o.id == q.object) else {
             let known: Vec<_> = protocol.objects.iter().map(|o| o.id.as_str()).collect();
             p.add(
@@ -249,10 +373,48 @@ fn resolve(
                 v
             }
         };
-        let (Some(arm), true) = (arm, q.pose.position.iter().chain(&q.pose.rpy_deg).all(|v| v.is_finite())) else {
+        let pose_ok = q.pose.position.iter().all(|v| v.is_finite() && v.abs() <= limits::POSITION_M)
+            && q.pose.rpy_deg.iter().all(|v| v.is_finite() && v.abs() <= limits::ANGLE_DEG);
+        let (Some(arm), true) = (arm, pose_ok) else {
             continue;
         };
-        let feasible = feasible_set(arm, object, &q.pose.to_isometry(), &regions, &protocol.discretisation);
+        // The work this query implies, before any of it is done.
+        let d = &protocol.discretisation;
+        let swivels = (360.0 / d.swivel_step_deg).round().max(1.0);
+        let ik: f64 = regions.iter().map(|&r| object.regions[r].tsr.sample_count(&d.resolution) * swivels).sum();
+        if ik > limits::IK_PER_QUERY {
+            p.add(
+                path.clone(),
+                format!(
+                    "needs {ik} inverse-kinematics evaluations (grasps × swivel angles), over the budget of {} per query",
+                    limits::IK_PER_QUERY
+                ),
+            );
+            continue;
+        }
+        *ik_total += ik;
+        if *ik_total > limits::IK_PER_PROTOCOL {
+            p.add(
+                path.clone(),
+                format!(
+                    "brings the protocol to {ik_total} inverse-kinematics evaluations, over the budget of {}",
+                    limits::IK_PER_PROTOCOL
+                ),
+            );
+            return out;
+        }
+        let feasible = feasible_set(arm, object, &q.pose.to_isometry(), &regions, d);
+        if feasible.configs.len() > limits::CONFIGS_PER_QUERY {
+            p.add(
+                path.clone(),
+                format!(
+                    "has {} feasible configurations, over the budget of {} per query (coarsen the discretisation)",
+                    feasible.configs.len(),
+                    limits::CONFIGS_PER_QUERY
+                ),
+            );
+            continue;
+        }
         for (k, &n) in feasible.per_region.iter().enumerate() {
             if n == 0 {
                 p.add(
@@ -279,8 +441,11 @@ fn session(s: &SessionSpec, q: &QuestionnaireSpec, p: &mut Problems) {
     } else if s.conditions[0] == s.conditions[1] {
         p.add("session.conditions", "names the same condition twice, expected two different selectors");
     }
-    if s.trials_per_condition == 0 {
-        p.add("session.trials_per_condition", "is 0, expected a positive count");
+    if s.trials_per_condition == 0 || s.trials_per_condition > limits::TRIALS_PER_CONDITION {
+        p.add(
+            "session.trials_per_condition",
+            format!("is {}, expected a count from 1 to {}", s.trials_per_condition, limits::TRIALS_PER_CONDITION),
+        );
     }
     if s.program_labels.len() != s.conditions.len() {
         p.add(
@@ -293,6 +458,23 @@ fn session(s: &SessionSpec, q: &QuestionnaireSpec, p: &mut Problems) {
         if l.trim().is_empty() || !seen.insert(l.as_str()) {
             p.add(format!("session.program_labels[{i}]"), format!("'{l}' must be non-empty and unique"));
         }
+        p.text(&format!("session.program_labels[{i}]"), l, 100);
+    }
+    p.count("questionnaire.scale", q.scale.len(), limits::SCALE_POINTS, "points");
+    p.count("questionnaire.items", q.items.len(), limits::ITEMS, "statements");
+    p.text("questionnaire.forced_choice", &q.forced_choice, limits::LONG_TEXT);
+    for (i, pt) in q.scale.iter().enumerate() {
+        if pt.value.abs() > limits::SCALE_VALUE {
+            p.add(
+                format!("questionnaire.scale[{i}].value"),
+                format!("is {}, expected a value within ±{}", pt.value, limits::SCALE_VALUE),
+            );
+        }
+        p.text(&format!("questionnaire.scale[{i}].label"), &pt.label, limits::TEXT);
+    }
+    for (i, it) in q.items.iter().enumerate() {
+        p.text(&format!("questionnaire.items[{i}].id"), &it.id, limits::TEXT);
+        p.text(&format!("questionnaire.items[{i}].statement"), &it.statement, limits::LONG_TEXT);
     }
     if q.scale.len() < 2 {
         p.add("questionnaire.scale", format!("has {} points, expected at least 2", q.scale.len()));
@@ -333,36 +515,41 @@ pub(super) fn study(protocol: Protocol, name: &str, sha256: String) -> Result<St
         p.add("name", "is empty, expected the protocol's name");
     }
     let arm = arm(&protocol.arm, &mut p);
+    p.text("name", &protocol.name, limits::TEXT);
+    p.text("description", &protocol.description, limits::LONG_TEXT);
     let d = &protocol.discretisation;
-    if !(d.resolution.translation_m.is_finite() && d.resolution.translation_m > 0.0) {
-        p.add(
-            "discretisation.resolution.translation_m",
-            format!("is {}, expected a positive length", d.resolution.translation_m),
-        );
-    }
-    if !(d.resolution.rotation_deg.is_finite() && d.resolution.rotation_deg > 0.0) {
-        p.add(
-            "discretisation.resolution.rotation_deg",
-            format!("is {}, expected a positive angle", d.resolution.rotation_deg),
-        );
-    }
-    if !(d.swivel_step_deg.is_finite() && d.swivel_step_deg > 0.0 && d.swivel_step_deg <= 360.0) {
-        p.add("discretisation.swivel_step_deg", format!("is {}, expected an angle in (0, 360]", d.swivel_step_deg));
-    }
-    if !(d.duplicate_tolerance_rad.is_finite() && d.duplicate_tolerance_rad > 0.0) {
-        p.add(
-            "discretisation.duplicate_tolerance_rad",
-            format!("is {}, expected a positive angle", d.duplicate_tolerance_rad),
-        );
-    }
-    objects(&protocol.objects, &mut p);
+    p.range("discretisation.resolution.translation_m", d.resolution.translation_m, limits::TRANSLATION_STEP_M, "m");
+    p.range("discretisation.resolution.rotation_deg", d.resolution.rotation_deg, limits::ANGLE_STEP_DEG, "degrees");
+    p.range("discretisation.swivel_step_deg", d.swivel_step_deg, limits::ANGLE_STEP_DEG, "degrees");
+    p.range(
+        "discretisation.duplicate_tolerance_rad",
+        d.duplicate_tolerance_rad,
+        limits::DUPLICATE_TOLERANCE_RAD,
+        "rad",
+    );
+    objects(&protocol.objects, &d.resolution, &mut p);
     learning(&protocol.learning, &mut p);
     session(&protocol.session, &protocol.questionnaire, &mut p);
     // Feasible sets are computed only for a discretisation that makes sense.
     let arm = if p.0.is_empty() { arm } else { None };
     let mut ids = HashSet::new();
-    let training = resolve("training_menu", &protocol.training_menu, &protocol, arm.as_ref(), &mut ids, &mut p);
-    let test = resolve("test_set", &protocol.test_set, &protocol, arm.as_ref(), &mut ids, &mut p);
+    let mut ik = 0.0;
+    let training =
+        resolve("training_menu", &protocol.training_menu, &protocol, arm.as_ref(), &mut ids, &mut ik, &mut p);
+    let test = resolve("test_set", &protocol.test_set, &protocol, arm.as_ref(), &mut ids, &mut ik, &mut p);
+    let particles = protocol.learning.particles as f64;
+    for (list, queries) in [("training_menu", &training), ("test_set", &test)] {
+        let pairs = particles * queries.iter().map(|q| q.feasible.configs.len() as f64).sum::<f64>();
+        if pairs > limits::PAIRS_PER_STEP {
+            p.add(
+                list,
+                format!(
+                    "learning.particles × its feasible configurations = {pairs} pairs per learning step, over the budget of {}",
+                    limits::PAIRS_PER_STEP
+                ),
+            );
+        }
+    }
     match (p.0.is_empty(), arm) {
         (true, Some(arm)) => Ok(Study { protocol, source_name: name.to_string(), sha256, arm, training, test }),
         _ => Err(ProtocolError::new(name, p.0)),

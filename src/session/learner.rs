@@ -90,12 +90,21 @@ impl Learner {
     }
 
     /// Updates with one observation, resamples by the policy and suggests the next query.
-    pub fn learn(&mut self, set: &FeasibleSet, obs: &Observation, menu: &[FeasibleSet], ctx: &LearningContext) {
-        self.belief.update(set, ctx.alpha, obs).expect("an offered configuration has positive likelihood");
+    /// A degenerate update (every particle gives the observation zero likelihood) is an
+    /// error, and the learner is left as it was.
+    pub fn learn(
+        &mut self,
+        set: &FeasibleSet,
+        obs: &Observation,
+        menu: &[FeasibleSet],
+        ctx: &LearningContext,
+    ) -> Result<(), crate::belief::BeliefError> {
+        self.belief.update(set, ctx.alpha, obs)?;
         self.belief.maybe_resample(ctx.policy, &ctx.jitter, &mut self.rng);
         self.iteration += 1;
         self.summary = BeliefSummary::of(&self.belief, self.iteration, &ctx.grid);
         self.entropies.push(self.summary.entropy);
         self.suggest(menu, ctx);
+        Ok(())
     }
 }

@@ -54,6 +54,8 @@ pub enum SessionError {
     UnknownProgram(usize),
     #[error("the session start does not fit the protocol: {0}")]
     BadStart(String),
+    #[error("the belief cannot learn from this grasp at query '{query}': {why}")]
+    Degenerate { query: String, why: String },
 }
 
 /// The two phases with trials.
@@ -445,8 +447,9 @@ impl Session {
                     QueryRef::Training(i) => &self.menu[i],
                     QueryRef::Test(i) => &self.tests[i],
                 };
-                let config =
-                    most_likely_in_region(set, r, &self.ctx.label_model).expect("validated: every region is feasible");
+                let degenerate = |why: String| SessionError::Degenerate { query: q.query.id.clone(), why };
+                let config = most_likely_in_region(set, r, &self.ctx.label_model)
+                    .ok_or_else(|| degenerate(format!("region '{region}' has no feasible configuration")))?;
                 let record = TrialRecord {
                     phase: view.phase,
                     run: view.program,
@@ -458,12 +461,14 @@ impl Session {
                 let mut undo = UndoPoint { stage: self.stage.clone(), learner: None };
                 let belief = match view.program {
                     Some(run) => {
-                        undo.learner = Some((run, self.learners[run].clone()));
                         let obs = match self.ctx.observation {
                             OutcomeModel::Configuration => Observation::Config(config),
                             OutcomeModel::Region => Observation::Region(set.regions()[r].clone().collect()),
                         };
-                        self.learners[run].learn(set, &obs, &self.menu, &self.ctx);
+                        // Learn on a copy: a degenerate update leaves the session unchanged.
+                        let mut learner = self.learners[run].clone();
+                        learner.learn(set, &obs, &self.menu, &self.ctx).map_err(|e| degenerate(e.to_string()))?;
+                        undo.learner = Some((run, std::mem::replace(&mut self.learners[run], learner)));
                         Some(self.learners[run].summary.clone())
                     }
                     None => None,
@@ -573,6 +578,37 @@ impl Session {
             self.learners[run].summary.clone()
         })
     }
+}
+
+/// Builds what a session of `study` builds (the prior's particles, both learners' first
+/// suggestions over every feasible set) and takes one learning step, so that a protocol
+/// `protocol check` accepts is known to run.
+pub fn check_runs(study: Arc<Study>) -> Result<(), SessionError> {
+    let start = SessionStart {
+        session_id: "protocol-check".into(),
+        participant: "protocol-check".into(),
+        protocol_name: study.protocol.name.clone(),
+        protocol_sha256: study.sha256.clone(),
+        seed: 0,
+        condition_order: condition_order(&study, 0),
+        program_labels: study.protocol.session.program_labels.clone(),
+        software_version: env!("CARGO_PKG_VERSION").into(),
+        pilot: true,
+        slot: 0,
+        started_at: "1970-01-01T00:00:00Z".into(),
+        simulated_truth: None,
+        resumed_from: None,
+    };
+    let mut session = Session::new(study, start)?;
+    let Prompt::Present(view) = session.prompt() else {
+        return Err(SessionError::BadStart("the session does not start with a trial".into()));
+    };
+    let q = session.query(view.query);
+    let query = q.query.id.clone();
+    let region = session.study().object(q).regions[q.regions[0]].id.clone();
+    session.apply(&Event::QueryPresented { query })?;
+    session.apply(&Event::GraspRecorded { region })?;
+    Ok(())
 }
 
 /// The event's name, for messages.
