@@ -8,6 +8,7 @@ use std::time::Duration;
 use handover::protocol::{DEFAULT_PROTOCOL, Study};
 use handover::record::read_log;
 use handover::study_dir::StudyDirs;
+use handover::tui::app::Overlay;
 use handover::tui::app::Screen;
 use handover::tui::{App, AppConfig, render};
 use ratatui::Terminal;
@@ -224,13 +225,38 @@ fn aborting_ends_the_session_for_good() {
     let mut a = app(&dir);
     press(&mut a, KeyCode::Enter);
     trials(&mut a, 2, '1');
+    // `q` then `a` asks once more, for a reason; Esc goes back, and no reason is no abort.
     keys(&mut a, "qa");
+    assert!(matches!(a.overlay, Some(Overlay::AbortReason(_))), "{:?}", a.overlay);
+    press(&mut a, KeyCode::Esc);
+    assert!(matches!(a.screen, Screen::Session) && a.overlay.is_none());
+    keys(&mut a, "qa");
+    press(&mut a, KeyCode::Enter);
+    assert!(matches!(a.screen, Screen::Session), "an empty reason does not abort");
+    keys(&mut a, "participant withdrew");
+    press(&mut a, KeyCode::Enter);
     a.wait_idle();
     let Screen::Summary(view) = &a.screen else { panic!("expected the summary screen") };
     assert!(!view.completed);
     let log = read_log(&view.log_path).unwrap();
     let end = log.messages.iter().find(|m| m.topic == "/session/end").unwrap();
     assert_eq!(end.value["status"], "aborted");
+    assert_eq!(end.value["reason"], "participant withdrew");
+}
+
+#[test]
+fn keys_are_ignored_while_the_terminal_is_too_small() {
+    let dir = tmpdir("hidden");
+    let mut a = app(&dir);
+    press(&mut a, KeyCode::Enter);
+    a.visible = false;
+    press(&mut a, KeyCode::Enter);
+    press(&mut a, KeyCode::Char('1'));
+    assert!(a.session().unwrap().trials().is_empty(), "no grasp recorded behind a hidden screen");
+    a.visible = true;
+    press(&mut a, KeyCode::Enter);
+    press(&mut a, KeyCode::Char('1'));
+    assert_eq!(a.session().unwrap().trials().len(), 1);
 }
 
 #[test]

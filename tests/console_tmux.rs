@@ -115,3 +115,107 @@ fn the_console_runs_a_session_in_a_real_terminal() {
     assert_eq!(end.value["status"], "completed");
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// The command line of a console whose exit status and terminal modes afterwards are
+/// written to `status` (the shell prints `stty -a` after the console returns).
+fn console_cmd(dir: &Path, proto: &Path, extra: &str, status: &Path) -> String {
+    format!(
+        "{} run --protocol {} --study-dir {} {extra}; echo \"exit=$?\" > {}; stty -a >> {}; sleep 30",
+        env!("CARGO_BIN_EXE_handover"),
+        proto.display(),
+        dir.display(),
+        status.display(),
+        status.display()
+    )
+}
+
+fn wait_file(path: &Path) -> String {
+    let t0 = Instant::now();
+    loop {
+        if let Ok(s) = std::fs::read_to_string(path)
+            && s.contains("icanon")
+        {
+            return s;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(30), "{} never written", path.display());
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// The console's own process id (the child of the tmux pane's shell).
+fn console_pid(name: &str) -> String {
+    let shell = tmux(&["display-message", "-p", "-t", name, "#{pane_pid}"]).trim().to_string();
+    let out = Command::new("pgrep").args(["-P", &shell]).output().expect("pgrep runs");
+    String::from_utf8_lossy(&out.stdout).lines().next().expect("the console runs").trim().to_string()
+}
+
+#[test]
+fn signals_restore_the_terminal_and_leave_the_session_resumable() {
+    if !has_tmux() {
+        assert!(std::env::var_os("CI").is_none(), "CI must install tmux (.ci/run does)");
+        eprintln!("tmux is not installed: skipping");
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("handover-signal-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let proto = small_protocol(&dir);
+    for (k, (signal, number)) in [("TERM", 15), ("HUP", 1), ("INT", 2)].into_iter().enumerate() {
+        let status = dir.join(format!("status-{signal}"));
+        let name = format!("handover-sig-{}-{k}", std::process::id());
+        tmux(&[
+            "new-session",
+            "-d",
+            "-s",
+            &name,
+            "-x",
+            "100",
+            "-y",
+            "30",
+            &console_cmd(&dir, &proto, "--seed 5", &status),
+        ]);
+        let _guard = Session(name.clone());
+        wait_for(&name, "Press Enter to start the session.");
+        send(&name, &["Enter"]);
+        wait_for(&name, "trial 1/5");
+        send(&name, &["Enter", "1"]);
+        wait_for(&name, "trial 2/5");
+        let pid = console_pid(&name);
+        // A second console for the same participant is refused while this one runs.
+        if k == 0 {
+            let logs = mcap_files(&dir.join("logs"));
+            let participant = read_log(&logs[0]).unwrap().start.participant;
+            let second = format!("{name}-2");
+            let status2 = dir.join("status-second");
+            tmux(&[
+                "new-session",
+                "-d",
+                "-s",
+                &second,
+                "-x",
+                "100",
+                "-y",
+                "30",
+                &console_cmd(&dir, &proto, &format!("--participant {participant}"), &status2),
+            ]);
+            let _g2 = Session(second.clone());
+            wait_for(&second, "Press Enter to start the session.");
+            send(&second, &["Enter"]);
+            let screen = wait_for(&second, "already has a live session");
+            assert!(screen.contains(&format!("process {pid}")), "says who holds it:\n{screen}");
+        }
+        Command::new("kill").args([&format!("-{signal}"), &pid]).status().unwrap();
+        let after = wait_file(&status);
+        assert!(after.contains(&format!("exit={}", 128 + number)), "SIG{signal}: {after}");
+        assert!(after.contains(" icanon") && after.contains(" echo"), "SIG{signal}: the terminal is restored: {after}");
+    }
+    // Every interrupted session is whole on disk and resumable: one grasp each.
+    let logs = mcap_files(&dir.join("logs"));
+    assert_eq!(logs.len(), 3, "{logs:?}");
+    for l in &logs {
+        let log = read_log(l).unwrap();
+        assert!(log.finished && !log.cut_tail, "{}", l.display());
+        assert_eq!(log.messages.iter().filter(|m| m.topic == "/trial/response").count(), 1);
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}

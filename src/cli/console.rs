@@ -9,7 +9,7 @@ use clap::Args;
 use handover::participant::validate_id;
 use handover::record::{LogContents, study_of};
 use handover::study_dir::StudyDirs;
-use handover::tui::{App, AppConfig, run_terminal};
+use handover::tui::{App, AppConfig, Outcome, run_terminal};
 
 use super::input::{bad, load_protocol};
 
@@ -69,15 +69,16 @@ fn require_terminal() -> Result<()> {
     Ok(())
 }
 
-fn finish(result: Result<Option<String>, String>) -> Result<()> {
-    match result {
-        Ok(Some(msg)) => {
-            eprintln!("{msg}");
-            Ok(())
-        }
-        Ok(None) => Ok(()),
-        Err(e) => Err(anyhow::anyhow!("console: {e}")),
+fn finish(result: Result<Outcome, String>) -> Result<()> {
+    let outcome = result.map_err(|e| anyhow::anyhow!("console: {e}"))?;
+    if let Some(msg) = outcome.message {
+        eprintln!("{msg}");
     }
+    if let Some(sig) = outcome.signal {
+        eprintln!("handover: stopped by signal {sig}; the terminal is restored and the session can be resumed");
+        std::process::exit(128 + sig);
+    }
+    Ok(())
 }
 
 pub fn run(args: RunArgs) -> Result<()> {

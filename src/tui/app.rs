@@ -16,7 +16,9 @@ use crate::analysis::{SessionAnalysis, analyse};
 use crate::dryrun::{now_ns, plan};
 use crate::participant::{ParticipantRecord, ScriptedParticipant, SimulatedPerson, new_id, validate_id};
 use crate::protocol::{Study, with_body_height};
-use crate::record::{LogContents, RecordedSession, least_filled_slot, log_path_in, new_log_path, read_log};
+use crate::record::{
+    LogContents, RecordError, RecordedSession, SubmitError, least_filled_slot, log_path_in, new_log_path, read_log,
+};
 use crate::session::{Event, Prompt, Session, SessionStart, Stamped, VoidReason, condition_order};
 use crate::study_dir::{ParticipantLock, StudyDirs};
 
@@ -62,6 +64,13 @@ pub enum Overlay {
     VoidReason,
     Note(String),
     ParticipantId(String),
+    /// The reason for ending the session for good, asked after `q` then `a`.
+    AbortReason(String),
+    /// The log could not be written: nothing moves on until the event is retried (`r`).
+    WriteFailed {
+        message: String,
+        last_event: usize,
+    },
 }
 
 /// What a new session will be (shown on the setup screen).
@@ -78,8 +87,16 @@ pub struct Plan {
     pub protocol_text: String,
 }
 
+/// Why a submitted event did not take effect.
+enum Failure {
+    /// The session refused it (nothing was logged).
+    Rejected(String),
+    /// The log could not be written; the event is kept to be retried.
+    Log { message: String, last_event: usize, event: Stamped },
+}
+
 enum WorkDone {
-    Submitted(Box<RecordedSession>, Result<(), String>),
+    Submitted(Box<RecordedSession>, Result<(), Failure>),
     Finished(Box<SummaryView>),
 }
 
@@ -96,6 +113,10 @@ pub struct App {
     shown: Option<Session>,
     worker: Option<Receiver<WorkDone>>,
     pending: VecDeque<KeyEvent>,
+    /// The event whose log write failed, waiting for a retry.
+    unwritten: Option<Stamped>,
+    /// Whether the terminal is large enough to show the screen (keys are ignored otherwise).
+    pub visible: bool,
     /// The last message for the operator.
     pub status: String,
     /// Which pair of joints the particle view shows.
@@ -182,6 +203,8 @@ impl App {
             shown: None,
             worker: None,
             pending: VecDeque::new(),
+            unwritten: None,
+            visible: true,
             status: String::new(),
             joint_pair: 0,
             cursor: 0,
@@ -284,7 +307,8 @@ impl App {
             Some(Overlay::Help) => return Mode::Help,
             Some(Overlay::ConfirmQuit) => return Mode::ConfirmQuit,
             Some(Overlay::VoidReason) => return Mode::VoidReason,
-            Some(Overlay::Note(_) | Overlay::ParticipantId(_)) => return Mode::LineEdit,
+            Some(Overlay::Note(_) | Overlay::ParticipantId(_) | Overlay::AbortReason(_)) => return Mode::LineEdit,
+            Some(Overlay::WriteFailed { .. }) => return Mode::WriteFailed,
             None => {}
         }
         match &self.screen {
@@ -300,8 +324,12 @@ impl App {
         }
     }
 
-    /// A key press: applied now, or queued while work is under way.
+    /// A key press: applied now, or queued while work is under way; ignored while the
+    /// terminal is too small to show what it would do.
     pub fn key(&mut self, key: KeyEvent) {
+        if !self.visible {
+            return;
+        }
         if self.busy() {
             self.pending.push_back(key);
             return;
@@ -376,8 +404,21 @@ impl App {
                 self.shown = Some(rec.session().clone());
                 self.live = Some(*rec);
                 match result {
-                    Ok(()) => self.after_event(),
-                    Err(e) => self.status = e,
+                    Ok(()) => {
+                        self.unwritten = None;
+                        if matches!(self.overlay, Some(Overlay::WriteFailed { .. })) {
+                            self.overlay = None;
+                        }
+                        self.after_event();
+                    }
+                    Err(Failure::Rejected(e)) => self.status = e,
+                    Err(Failure::Log { message, last_event, event }) => {
+                        self.unwritten = Some(event);
+                        // Keys typed after the failed event must not act on a state that
+                        // does not have it.
+                        self.pending.clear();
+                        self.overlay = Some(Overlay::WriteFailed { message, last_event });
+                    }
                 }
             }
             WorkDone::Finished(view) => self.screen = Screen::Summary(view),
@@ -386,11 +427,23 @@ impl App {
 
     /// Sends an event to the session through the recorder, off the drawing loop.
     fn submit(&mut self, event: Event) {
+        self.submit_stamped(Stamped { time_ns: now_ns(), event });
+    }
+
+    fn submit_stamped(&mut self, stamped: Stamped) {
         let Some(mut live) = self.live.take() else { return };
         let (tx, rx) = channel();
-        let time_ns = now_ns();
         std::thread::spawn(move || {
-            let result = live.submit(Stamped { time_ns, event }).map(|_| ()).map_err(|e| e.to_string());
+            let result = live.submit(stamped.clone()).map(|_| ()).map_err(|e| match e {
+                SubmitError::Rejected(e) => Failure::Rejected(e.to_string()),
+                SubmitError::Log(e) => {
+                    let last_event = match &e {
+                        RecordError::Write { last_event, .. } => *last_event,
+                        _ => live.session().event_count(),
+                    };
+                    Failure::Log { message: e.to_string(), last_event, event: stamped }
+                }
+            });
             let _ = tx.send(WorkDone::Submitted(Box::new(live), result));
         });
         self.worker = Some(rx);
@@ -490,16 +543,45 @@ impl App {
     fn quit_now(&mut self) {
         if let Some(live) = self.live.take() {
             let done = matches!(live.session().prompt(), Prompt::Done { .. });
+            let path = live.path().to_path_buf();
+            let lost = self.unwritten.as_ref().map_or(String::new(), |_| {
+                " (the last event could not be written and is not in it: record it again after resuming)".to_string()
+            });
             match live.finish() {
                 Ok(path) if !done => {
-                    self.exit_message =
-                        Some(format!("Session left unfinished; continue it with: handover resume {}", path.display()))
+                    self.exit_message = Some(format!(
+                        "Session left unfinished; continue it with: handover resume {}{lost}",
+                        path.display()
+                    ))
                 }
                 Ok(_) => {}
-                Err(e) => self.exit_message = Some(format!("could not finish the log: {e}")),
+                // The events on disk are whole: the log replays without its summary.
+                Err(e) => {
+                    self.exit_message = Some(format!(
+                        "could not finish the log ({e}); everything acknowledged is in it: continue it with: \
+                         handover resume {}{lost}",
+                        path.display()
+                    ))
+                }
             }
         }
         self.quit = true;
+    }
+
+    /// A termination signal: let the worker finish the event it is writing, then leave as
+    /// `q` then `y` does (the session stays resumable).
+    pub fn interrupt(&mut self) {
+        self.wait_idle_worker();
+        self.pending.clear();
+        self.quit_now();
+    }
+
+    fn wait_idle_worker(&mut self) {
+        while let Some(rx) = self.worker.take() {
+            if let Ok(done) = rx.recv() {
+                self.finish_work(done);
+            }
+        }
     }
 
     /// Applies an operator's intent.
@@ -509,35 +591,49 @@ impl App {
             (_, Action::Help) => self.overlay = Some(Overlay::Help),
             (Mode::Help, Action::Cancel) => self.overlay = None,
             (Mode::Setup, Action::Quit) | (Mode::Summary, Action::Quit) => self.quit_now(),
-            (_, Action::Quit) if mode != Mode::LineEdit => self.overlay = Some(Overlay::ConfirmQuit),
+            (_, Action::Quit) if !matches!(mode, Mode::LineEdit | Mode::WriteFailed) => {
+                self.overlay = Some(Overlay::ConfirmQuit)
+            }
             (Mode::ConfirmQuit, Action::Yes) => {
                 self.overlay = None;
                 self.quit_now();
             }
             (Mode::ConfirmQuit, Action::No) => self.overlay = None,
             (Mode::ConfirmQuit, Action::Abort) => {
-                self.overlay = None;
-                if self.live.is_some() {
-                    self.submit(Event::Aborted { reason: "ended early by the operator".into() });
+                self.overlay = if self.live.is_some() { Some(Overlay::AbortReason(String::new())) } else { None };
+            }
+            (Mode::WriteFailed, Action::Retry) => {
+                if let Some(event) = self.unwritten.clone() {
+                    self.submit_stamped(event);
                 }
             }
+            (Mode::WriteFailed, Action::Quit) => self.quit_now(),
             (Mode::Setup, Action::Confirm) => self.start(),
             (Mode::Setup, Action::EditParticipant) if !self.config.simulate => {
                 self.overlay = Some(Overlay::ParticipantId(String::new()))
             }
             (Mode::LineEdit, Action::Char(c)) => {
-                if let Some(Overlay::Note(t) | Overlay::ParticipantId(t)) = &mut self.overlay {
+                if let Some(Overlay::Note(t) | Overlay::ParticipantId(t) | Overlay::AbortReason(t)) = &mut self.overlay
+                {
                     t.push(c);
                 }
             }
             (Mode::LineEdit, Action::Backspace) => {
-                if let Some(Overlay::Note(t) | Overlay::ParticipantId(t)) = &mut self.overlay {
+                if let Some(Overlay::Note(t) | Overlay::ParticipantId(t) | Overlay::AbortReason(t)) = &mut self.overlay
+                {
                     t.pop();
                 }
             }
             (Mode::LineEdit | Mode::VoidReason, Action::Cancel) => self.overlay = None,
             (Mode::LineEdit, Action::Confirm) => match self.overlay.take() {
                 Some(Overlay::Note(text)) if !text.trim().is_empty() => self.submit(Event::Note { text }),
+                Some(Overlay::AbortReason(text)) if !text.trim().is_empty() => {
+                    self.submit(Event::Aborted { reason: text.trim().to_string() })
+                }
+                Some(Overlay::AbortReason(text)) => {
+                    self.status = "A reason is needed to end the session for good (Esc goes back)".into();
+                    self.overlay = Some(Overlay::AbortReason(text));
+                }
                 Some(Overlay::ParticipantId(id)) => {
                     let id = id.trim().to_string();
                     if id == "new" || validate_id(&id).is_ok() {

@@ -16,8 +16,10 @@ pub enum Mode {
     Help,
     ConfirmQuit,
     VoidReason,
-    /// A line editor (a note, or the participant id on the setup screen).
+    /// A line editor (a note, the participant id on the setup screen, an abort's reason).
     LineEdit,
+    /// The log could not be written: retry or quit.
+    WriteFailed,
 }
 
 /// An operator's intent.
@@ -49,6 +51,8 @@ pub enum Action {
     Char(char),
     Backspace,
     Cancel,
+    /// Write the event that failed to be logged again.
+    Retry,
 }
 
 fn digit(c: char, max: usize) -> Option<usize> {
@@ -82,6 +86,11 @@ pub fn action_for(mode: Mode, key: KeyEvent) -> Option<Action> {
             K::Char('y') | K::Enter => Some(A::Yes),
             K::Char('n') | K::Esc => Some(A::No),
             K::Char('a') => Some(A::Abort),
+            _ => None,
+        },
+        Mode::WriteFailed => match key.code {
+            K::Char('r') => Some(A::Retry),
+            K::Char('q') => Some(A::Quit),
             _ => None,
         },
         Mode::VoidReason => match key.code {

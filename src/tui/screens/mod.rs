@@ -47,6 +47,13 @@ pub fn render(app: &App, frame: &mut Frame) {
         Some(Overlay::ParticipantId(text)) => {
             overlays::line_editor(frame, area, "Participant id, or 'new' (Enter confirms, Esc cancels)", text)
         }
+        Some(Overlay::AbortReason(text)) => overlays::line_editor(
+            frame,
+            area,
+            "End the session for good? Reason (e.g. participant withdrew); Enter ends it, Esc goes back",
+            text,
+        ),
+        Some(Overlay::WriteFailed { message, last_event }) => overlays::write_failed(frame, area, message, *last_event),
         None => {}
     }
 }
@@ -109,6 +116,7 @@ fn key_hints(app: &App) -> Line<'static> {
         Mode::ConfirmQuit => &[("y", "quit"), ("n", "stay"), ("a", "abort session")],
         Mode::VoidReason => &[("1–4", "reason"), ("Esc", "cancel")],
         Mode::LineEdit => &[("Enter", "save"), ("Esc", "cancel")],
+        Mode::WriteFailed => &[("r", "retry the write"), ("q", "quit (resumable)")],
     };
     Line::from(
         pairs

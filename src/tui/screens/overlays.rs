@@ -93,7 +93,19 @@ pub fn too_small(frame: &mut Frame, area: Rect) {
     let text = vec![
         Line::from(Span::styled("Terminal too small", theme::warning())),
         Line::from(format!("need {}×{}, have {}×{}", theme::MIN_WIDTH, theme::MIN_HEIGHT, area.width, area.height)),
-        Line::from("Enlarge the window; nothing is lost."),
+        Line::from("Enlarge the window; nothing is lost. Keys are ignored until then."),
     ];
     frame.render_widget(Paragraph::new(text).wrap(Wrap { trim: false }), area);
+}
+
+/// The log could not be written: a blocking dialog until the write is retried.
+pub fn write_failed(frame: &mut Frame, area: Rect, message: &str, last_event: usize) {
+    let lines = vec![
+        Line::from(Span::styled("The log could not be written.", theme::warning())),
+        Line::from(message.to_string()),
+        Line::from(""),
+        Line::from(format!("Nothing after event {last_event} is recorded, and nothing moves on until it is.")),
+        Line::from("Free space (or fix the disk), then press r to retry; q quits and leaves the session resumable."),
+    ];
+    dialog(frame, area, " Log write failed ", lines, 78);
 }
