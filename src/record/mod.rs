@@ -45,10 +45,10 @@ pub enum RecordError {
     #[error("{path}: {source}")]
     Io { path: PathBuf, source: std::io::Error },
     #[error(
-        "{path}: the log could not be written: {source}; nothing after event {last_event} is recorded{}",
+        "{path}: the log could not be written: {cause}; nothing after event {last_event} is recorded{}",
         if *restored { "" } else { " (and the file could not be cut back: do not write to it again)" }
     )]
-    Write { path: PathBuf, last_event: usize, restored: bool, source: std::io::Error },
+    Write { path: PathBuf, last_event: usize, restored: bool, cause: std::io::Error },
     #[error("{path}: MCAP: {message}")]
     Mcap { path: PathBuf, message: String },
     #[error("{path}: not a handover session log: {why}")]
@@ -200,7 +200,7 @@ impl Recorder {
 }
 
 fn commit_err(path: &Path, last: usize) -> impl Fn(writer::CommitError) -> RecordError + '_ {
-    move |e| RecordError::Write { path: path.to_path_buf(), last_event: last, restored: e.restored, source: e.source }
+    move |e| RecordError::Write { path: path.to_path_buf(), last_event: last, restored: e.restored, cause: e.source }
 }
 
 /// One message read back from a log.
