@@ -363,14 +363,15 @@ fn hostile_protocols_are_refused_with_the_field_or_run() {
 fn hostile_score_inputs_exit_2_naming_the_field() {
     let dir = tmpdir("score");
     let base: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(example_score()).unwrap()).unwrap();
-    let cases: Vec<(&str, Box<dyn Fn(&mut serde_json::Value)>, &str)> = vec![
-        ("huge-q-star", Box::new(|v| v["particles"][0]["q_star"][0] = 1e308.into()), "particles[0]"),
-        ("negative-w", Box::new(|v| v["particles"][1]["w"][0] = (-1.0).into()), "particles[1].w[0]"),
-        ("huge-config", Box::new(|v| v["menu"][0]["configs"][0][0] = 1e300.into()), "alpha × cost"),
-        ("zero-alpha", Box::new(|v| v["alpha"] = 0.0.into()), "alpha"),
-        ("no-menu", Box::new(|v| v["menu"] = serde_json::json!([])), "menu"),
-        ("bad-observation", Box::new(|v| v["observation"]["config"] = 99.into()), "observation"),
-        ("huge-dim", Box::new(|v| v["particles"][0]["q_star"] = serde_json::json!(vec![0.0; 100])), "q_star"),
+    type Case = (&'static str, fn(&mut serde_json::Value), &'static str);
+    let cases: Vec<Case> = vec![
+        ("huge-q-star", |v| v["particles"][0]["q_star"][0] = 1e308.into(), "particles[0]"),
+        ("negative-w", |v| v["particles"][1]["w"][0] = (-1.0).into(), "particles[1].w[0]"),
+        ("huge-config", |v| v["menu"][0]["configs"][0][0] = 1e300.into(), "alpha × cost"),
+        ("zero-alpha", |v| v["alpha"] = 0.0.into(), "alpha"),
+        ("no-menu", |v| v["menu"] = serde_json::json!([]), "menu"),
+        ("bad-observation", |v| v["observation"]["config"] = 99.into(), "observation"),
+        ("huge-dim", |v| v["particles"][0]["q_star"] = serde_json::json!(vec![0.0; 100]), "q_star"),
     ];
     for (name, edit, field) in &cases {
         let mut v = base.clone();
