@@ -184,3 +184,79 @@ fn a_full_disk_names_its_cause_and_leaves_only_whole_files() {
     drop(_unmount);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn the_console_blocks_on_a_failed_write_until_it_is_retried() {
+    use handover::protocol::Study;
+    use handover::study_dir::StudyDirs;
+    use handover::tui::app::{Overlay, Screen};
+    use handover::tui::{App, AppConfig};
+    use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+    let dir = tmpdir("console-full");
+    let disk = dir.join("disk");
+    if !mount_small(&disk, 256) {
+        eprintln!("cannot mount a small tmpfs here (not root?): skipping");
+        return;
+    }
+    let _unmount = Unmount(disk.clone());
+    let mut v: serde_json::Value = serde_json::from_str(handover::protocol::DEFAULT_PROTOCOL).unwrap();
+    v["learning"]["particles"] = 150.into();
+    let text = v.to_string();
+    let study = std::sync::Arc::new(Study::from_json(&text, "small").unwrap());
+    let config = AppConfig {
+        study,
+        protocol_text: text,
+        dirs: StudyDirs::resolve(Some(&disk), None, None),
+        participant: "new".into(),
+        simulate: false,
+        pace: std::time::Duration::ZERO,
+        seed: Some(3),
+    };
+    let mut a = App::new(config);
+    let press = |a: &mut App, c: KeyCode| {
+        a.key(KeyEvent::new(c, KeyModifiers::NONE));
+        a.wait_idle();
+    };
+    press(&mut a, KeyCode::Enter);
+    assert!(matches!(a.screen, Screen::Session), "{}", a.status);
+    let log_path = a.log_path().unwrap();
+    fill(&disk);
+    // The log file's last page may still take an event or two; trials go on until a write
+    // meets the full disk.
+    for k in 0..10 {
+        press(&mut a, KeyCode::Enter);
+        if a.overlay.is_some() {
+            break;
+        }
+        press(&mut a, KeyCode::Char(if k % 2 == 0 { '1' } else { '2' }));
+        if a.overlay.is_some() {
+            break;
+        }
+    }
+    let Some(Overlay::WriteFailed { message, last_event }) = a.overlay.clone() else { panic!("{:?}", a.overlay) };
+    assert!(message.contains("No space left on device"), "{message}");
+    let applied = a.session().unwrap().event_count();
+    assert_eq!(last_event, applied, "the overlay names the last event on disk");
+    // Nothing moves on behind the overlay.
+    press(&mut a, KeyCode::Char('1'));
+    press(&mut a, KeyCode::Enter);
+    assert!(matches!(a.overlay, Some(Overlay::WriteFailed { .. })));
+    assert_eq!(a.session().unwrap().event_count(), applied);
+    // Space is freed: r writes the event, once, and the session goes on.
+    std::fs::remove_file(disk.join("filler")).unwrap();
+    press(&mut a, KeyCode::Char('r'));
+    assert!(a.overlay.is_none(), "{:?}", a.overlay);
+    assert_eq!(a.session().unwrap().event_count(), applied + 1);
+    let log = read_log(&log_path).unwrap();
+    assert_eq!(log.events.len(), applied + 1, "each event once");
+    let indices: Vec<u64> = log
+        .messages
+        .iter()
+        .filter(|m| handover::record::EVENT_TOPICS.contains(&m.topic.as_str()))
+        .map(|m| m.value["event_index"].as_u64().unwrap())
+        .collect();
+    assert_eq!(indices, (1..=applied as u64 + 1).collect::<Vec<_>>());
+    drop(a);
+    drop(_unmount);
+    let _ = std::fs::remove_dir_all(&dir);
+}

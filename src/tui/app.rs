@@ -85,6 +85,9 @@ pub struct Plan {
     /// The protocol as this session runs it: the participant's body height scales the arm.
     pub study: Arc<Study>,
     pub protocol_text: String,
+    /// The study's folders, and which of them are new (read once, when planned).
+    pub folders: String,
+    pub new_folders: bool,
 }
 
 /// Why a submitted event did not take effect.
@@ -168,6 +171,8 @@ impl App {
                 error: None,
                 study: Arc::clone(&app.config.study),
                 protocol_text: app.config.protocol_text.clone(),
+                folders: app.config.dirs.describe(),
+                new_folders: false,
             });
         }
         app.shown = Some(rec.session().clone());
@@ -233,6 +238,8 @@ impl App {
                 error: None,
                 study: Arc::clone(study),
                 protocol_text: c.protocol_text.clone(),
+                folders: c.dirs.describe(),
+                new_folders: !c.dirs.missing().is_empty(),
             };
         }
         let (mut study, mut protocol_text) = (Arc::clone(study), c.protocol_text.clone());
@@ -276,7 +283,17 @@ impl App {
             resumed_from: None,
         };
         let log_path = if validate_id(&id).is_ok() { new_log_path(&c.dirs.logs, &id, now) } else { PathBuf::new() };
-        Plan { start, new_record, simulated: None, log_path, error, study, protocol_text }
+        Plan {
+            start,
+            new_record,
+            simulated: None,
+            log_path,
+            error,
+            study,
+            protocol_text,
+            folders: c.dirs.describe(),
+            new_folders: !c.dirs.missing().is_empty(),
+        }
     }
 
     /// The session as currently shown.

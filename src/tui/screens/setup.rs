@@ -47,6 +47,16 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
                 Span::styled("Log: ", theme::title()),
                 Span::raw(plan.log_path.display().to_string()),
             ]));
+            lines.push(Line::from(vec![
+                Span::styled("Study folders: ", theme::title()),
+                Span::styled(plan.folders.clone(), if plan.new_folders { theme::warning() } else { theme::dim() }),
+            ]));
+            if plan.new_folders {
+                lines.push(Line::from(Span::styled(
+                    "  New study folders: counterbalancing starts afresh. Is this the study directory you meant?",
+                    theme::warning(),
+                )));
+            }
             if let Some(e) = &plan.error {
                 lines.push(Line::from(Span::styled(format!("Cannot start: {e}"), theme::warning())));
             }
