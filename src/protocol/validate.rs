@@ -555,3 +555,45 @@ pub(super) fn study(protocol: Protocol, name: &str, sha256: String) -> Result<St
         _ => Err(ProtocolError::new(name, p.0)),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::limits;
+
+    /// docs/protocol-limits.md states every limit with the value the code uses.
+    #[test]
+    fn the_documented_limits_are_the_enforced_ones() {
+        let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/protocol-limits.md")).unwrap();
+        let row = |name: &str, value: String| {
+            let line = doc.lines().find(|l| l.starts_with(&format!("| `{name}` |"))).unwrap_or_else(|| panic!("{name}"));
+            assert!(line.contains(&format!("| {value} |")), "{name}: the doc says {line}, the code {value}");
+        };
+        let range = |(a, b): (f64, f64)| format!("{a} to {b}");
+        row("PROTOCOL_BYTES", limits::PROTOCOL_BYTES.to_string());
+        row("TEXT", limits::TEXT.to_string());
+        row("LONG_TEXT", limits::LONG_TEXT.to_string());
+        row("POSITION_M", limits::POSITION_M.to_string());
+        row("ANGLE_DEG", limits::ANGLE_DEG.to_string());
+        row("TSR_TRANSLATION_M", limits::TSR_TRANSLATION_M.to_string());
+        row("TRANSLATION_STEP_M", range(limits::TRANSLATION_STEP_M));
+        row("ANGLE_STEP_DEG", range(limits::ANGLE_STEP_DEG));
+        row("DUPLICATE_TOLERANCE_RAD", range(limits::DUPLICATE_TOLERANCE_RAD));
+        row("OBJECTS", limits::OBJECTS.to_string());
+        row("REGIONS", limits::REGIONS.to_string());
+        row("QUERIES", limits::QUERIES.to_string());
+        row("GRASPS_PER_REGION", limits::GRASPS_PER_REGION.to_string());
+        row("IK_PER_QUERY", limits::IK_PER_QUERY.to_string());
+        row("IK_PER_PROTOCOL", limits::IK_PER_PROTOCOL.to_string());
+        row("CONFIGS_PER_QUERY", limits::CONFIGS_PER_QUERY.to_string());
+        row("PARTICLES", limits::PARTICLES.to_string());
+        row("PAIRS_PER_STEP", limits::PAIRS_PER_STEP.to_string());
+        row("ALPHA", limits::ALPHA.to_string());
+        row("WEIGHT", limits::WEIGHT.to_string());
+        row("GRID_BOXES", limits::GRID_BOXES.to_string());
+        row("HYBRID_BETA", limits::HYBRID_BETA.to_string());
+        row("TRIALS_PER_CONDITION", limits::TRIALS_PER_CONDITION.to_string());
+        row("SCALE_POINTS", limits::SCALE_POINTS.to_string());
+        row("SCALE_VALUE", limits::SCALE_VALUE.to_string());
+        row("ITEMS", limits::ITEMS.to_string());
+    }
+}
