@@ -565,7 +565,8 @@ mod tests {
     fn the_documented_limits_are_the_enforced_ones() {
         let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/protocol-limits.md")).unwrap();
         let row = |name: &str, value: String| {
-            let line = doc.lines().find(|l| l.starts_with(&format!("| `{name}` |"))).unwrap_or_else(|| panic!("{name}"));
+            let line =
+                doc.lines().find(|l| l.starts_with(&format!("| `{name}` |"))).unwrap_or_else(|| panic!("{name}"));
             assert!(line.contains(&format!("| {value} |")), "{name}: the doc says {line}, the code {value}");
         };
         let range = |(a, b): (f64, f64)| format!("{a} to {b}");
