@@ -142,6 +142,17 @@ fn wait_file(path: &Path) -> String {
     }
 }
 
+/// Waits until a process has exited (a console must not outlive its terminal).
+fn wait_gone(pid: &str) {
+    let t0 = Instant::now();
+    while Path::new(&format!("/proc/{pid}")).exists()
+        && !std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default().contains(") Z")
+    {
+        assert!(t0.elapsed() < Duration::from_secs(10), "process {pid} outlived its terminal");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
 /// The console's own process id (the child of the tmux pane's shell).
 fn console_pid(name: &str) -> String {
     let shell = tmux(&["display-message", "-p", "-t", name, "#{pane_pid}"]).trim().to_string();
@@ -198,11 +209,15 @@ fn signals_restore_the_terminal_and_leave_the_session_resumable() {
                 "30",
                 &console_cmd(&dir, &proto, &format!("--participant {participant}"), &status2),
             ]);
-            let _g2 = Session(second.clone());
+            let g2 = Session(second.clone());
             wait_for(&second, "Press Enter to start the session.");
             send(&second, &["Enter"]);
             let screen = wait_for(&second, "already has a live session");
             assert!(screen.contains(&format!("process {pid}")), "says who holds it:\n{screen}");
+            // Its window is closed: the console goes with its terminal.
+            let second_pid = console_pid(&second);
+            drop(g2);
+            wait_gone(&second_pid);
         }
         Command::new("kill").args([&format!("-{signal}"), &pid]).status().unwrap();
         let after = wait_file(&status);

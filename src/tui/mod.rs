@@ -31,17 +31,21 @@ pub struct Outcome {
     pub signal: Option<i32>,
 }
 
-/// The loop: draw, wait for a key (or a tick), update; until the app quits or a signal
-/// arrives (`signal` holds its number, 0 for none). Generic over the backend so the same
-/// loop runs on a terminal or a test backend.
-pub fn run_loop<B: Backend>(terminal: &mut Terminal<B>, app: &mut App, signal: &AtomicUsize) -> Result<(), String>
+/// The loop: draw, wait for a key (or a tick), update; until the app quits or `stop` names
+/// a signal to stop for (then the app leaves as a quit does). Generic over the backend so
+/// the same loop runs on a terminal or a test backend.
+pub fn run_loop<B: Backend>(
+    terminal: &mut Terminal<B>,
+    app: &mut App,
+    stop: &dyn Fn() -> Option<i32>,
+) -> Result<Option<i32>, String>
 where
     B::Error: std::fmt::Display,
 {
     while !app.quit {
-        if signal.load(Ordering::SeqCst) != 0 {
+        if let Some(sig) = stop() {
             app.interrupt();
-            break;
+            return Ok(Some(sig));
         }
         app.tick(crate::dryrun::now_ns());
         let size = terminal.size().map_err(|e| e.to_string())?;
@@ -50,32 +54,66 @@ where
         let ready = match event::poll(Duration::from_millis(50)) {
             Ok(ready) => ready,
             // A signal can interrupt the wait; it is handled at the top of the loop.
-            Err(_) if signal.load(Ordering::SeqCst) != 0 => continue,
+            Err(_) if stop().is_some() => continue,
             Err(e) => return Err(e.to_string()),
         };
         if ready {
             match event::read() {
                 Ok(TermEvent::Key(k)) => app.key(k),
                 Ok(_) => {}
-                Err(_) if signal.load(Ordering::SeqCst) != 0 => continue,
+                Err(_) if stop().is_some() => continue,
                 Err(e) => return Err(e.to_string()),
             }
         }
     }
-    Ok(())
+    Ok(None)
+}
+
+/// How long the loop has to leave by itself after a signal or a vanished terminal.
+const WATCHDOG_GRACE: Duration = Duration::from_secs(3);
+
+/// Ends the process if the loop cannot: crossterm's `event::poll` never returns once the
+/// terminal is gone (crossterm-rs/crossterm#793: its reader retries a read that returns 0
+/// forever), which would leave the console spinning with its signal unanswered. Every
+/// acknowledged event is already on disk, so leaving without the log's summary loses
+/// nothing: the log replays and `handover resume` continues it.
+fn watchdog(stop: impl Fn() -> Option<i32> + Send + 'static) {
+    std::thread::spawn(move || {
+        loop {
+            std::thread::sleep(Duration::from_millis(200));
+            if let Some(sig) = stop() {
+                std::thread::sleep(WATCHDOG_GRACE);
+                ratatui::restore();
+                eprintln!("handover: stopped by signal {sig}; every event recorded is on disk; resume the session");
+                std::process::exit(128 + sig);
+            }
+        }
+    });
 }
 
 /// Runs the console on the real terminal; the terminal is restored on every exit path: a
-/// quit, an error, a panic (ratatui's hook) and SIGTERM, SIGHUP or SIGINT (which end the
-/// session as a quit does, resumable).
+/// quit, an error, a panic (ratatui's hook), SIGTERM, SIGHUP or SIGINT, and a terminal that
+/// goes away without a signal (treated as SIGHUP); each ends the session as a quit does,
+/// resumable.
 pub fn run_terminal(mut app: App) -> Result<Outcome, String> {
     let signal = Arc::new(AtomicUsize::new(0));
     for sig in TERMINATING_SIGNALS {
         signal_hook::flag::register_usize(sig, Arc::clone(&signal), sig as usize).map_err(|e| e.to_string())?;
     }
+    let stop = {
+        let signal = Arc::clone(&signal);
+        move || -> Option<i32> {
+            use std::io::IsTerminal;
+            match signal.load(Ordering::SeqCst) {
+                0 if !std::io::stdin().is_terminal() => Some(signal_hook::consts::SIGHUP),
+                0 => None,
+                sig => Some(sig as i32),
+            }
+        }
+    };
+    watchdog(stop.clone());
     let mut terminal = ratatui::init();
-    let result = run_loop(&mut terminal, &mut app, &signal);
+    let result = run_loop(&mut terminal, &mut app, &stop);
     ratatui::restore();
-    let caught = signal.load(Ordering::SeqCst);
-    result.map(|()| Outcome { message: app.exit_message.take(), signal: (caught != 0).then_some(caught as i32) })
+    result.map(|signal| Outcome { message: app.exit_message.take(), signal })
 }
