@@ -17,6 +17,7 @@ pub mod protocol;
 pub mod record;
 pub mod select;
 pub mod session;
+pub mod stats;
 pub mod study_dir;
 pub mod tui;
 

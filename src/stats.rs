@@ -1,4 +1,5 @@
-//! Descriptive statistics and the Wilcoxon signed-rank test for the questionnaire.
+//! Descriptive statistics, confidence intervals and the Wilcoxon signed-rank test, shared by
+//! the analysis of logs and the simulation studies.
 
 /// Mean; NaN for no values.
 pub fn mean(v: &[f64]) -> f64 {
@@ -31,6 +32,30 @@ pub fn quantile(v: &[f64], p: f64) -> f64 {
 
 pub fn median(v: &[f64]) -> f64 {
     quantile(v, 0.5)
+}
+
+/// The 0.975 quantile of Student's t with `df` degrees of freedom (two-sided 95 %), from
+/// the standard table for df ≤ 30 and the normal value beyond; NaN for df = 0.
+pub fn t_975(df: usize) -> f64 {
+    const TABLE: [f64; 30] = [
+        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160, 2.145, 2.131,
+        2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056, 2.052, 2.048, 2.045, 2.042,
+    ];
+    match df {
+        0 => f64::NAN,
+        1..=30 => TABLE[df - 1],
+        31..=60 => 2.000 + (2.042 - 2.000) * (60 - df) as f64 / 30.0,
+        61..=120 => 1.980 + (2.000 - 1.980) * (120 - df) as f64 / 60.0,
+        _ => 1.960,
+    }
+}
+
+/// The mean of `v` with its 95 % confidence interval (Student's t); the interval is NaN for
+/// fewer than two values.
+pub fn mean_ci95(v: &[f64]) -> (f64, f64, f64) {
+    let m = mean(v);
+    let h = t_975(v.len().saturating_sub(1)) * standard_error(v);
+    (m, m - h, m + h)
 }
 
 /// The result of a Wilcoxon signed-rank test on paired differences.
@@ -127,6 +152,19 @@ fn standard_normal_cdf(z: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn t_quantiles_and_intervals() {
+        assert_eq!(t_975(4), 2.776);
+        assert_eq!(t_975(1000), 1.96);
+        assert!(t_975(0).is_nan());
+        let (m, lo, hi) = mean_ci95(&[1.0, 2.0, 3.0]);
+        // se = 1/√3, t(2) = 4.303.
+        assert!(
+            (m - 2.0).abs() < 1e-12 && (hi - m - 4.303 / 3f64.sqrt()).abs() < 1e-9 && (m - lo - (hi - m)).abs() < 1e-12
+        );
+        assert!(mean_ci95(&[1.0]).1.is_nan());
+    }
 
     #[test]
     fn quartiles_match_r_type_7() {

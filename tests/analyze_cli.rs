@@ -73,7 +73,9 @@ fn writes_tidy_csv_plots_and_table_one_keeping_pilots_apart() {
     let mut t = csv::Reader::from_path(out.join("pilot/test_log_likelihood.csv")).unwrap();
     assert_eq!(t.records().count(), 3 * 2 * 6, "session × condition × iteration 0..=5");
     let mut b = csv::Reader::from_path(out.join("pilot/beliefs.csv")).unwrap();
-    assert!(b.headers().unwrap().iter().any(|h| h == "mode_q_star_deg_elbow_flexion"));
+    for h in ["mean_q_star_deg_elbow_flexion", "map_q_star_deg_elbow_flexion", "ci_low_q_star_deg_elbow_flexion"] {
+        assert!(b.headers().unwrap().iter().any(|x| x == h), "{h}");
+    }
     assert_eq!(b.records().count(), 3 * 2 * 6, "the replayed belief after each iteration");
     let mut s = csv::Reader::from_path(out.join("sessions.csv")).unwrap();
     let rows: Vec<_> = s.records().map(|r| r.unwrap()).collect();

@@ -48,29 +48,67 @@ fn same_seed_gives_byte_identical_csv_for_any_thread_count() {
 }
 
 #[test]
-fn active_learns_faster_and_passive_is_more_comfortable() {
+fn active_learns_faster_and_passive_is_more_comfortable_over_seeds() {
+    let dir = std::env::temp_dir().join(format!("handover-sim-seeds-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
     let (code, out, err) = handover(&[
         "simulate",
         "planar2",
         "--trials",
-        "16",
+        "12",
         "--test-size",
         "100",
         "--particles",
-        "500",
+        "400",
         "--algorithms",
         "active,passive",
+        "--seeds",
+        "3",
+        "--out",
+        dir.to_str().unwrap(),
     ]);
     assert_eq!(code, 0, "{err}");
-    // Columns: algorithm, distance it0 (mean ± se), distance last, test LL last, mean true cost, …
-    let row = |alg: &str| -> Vec<String> {
-        out.lines().find(|l| l.starts_with(alg)).unwrap().split_whitespace().map(String::from).collect()
+    assert!(out.contains("seeds 0–2") && out.contains("confidence interval over seeds"), "{out}");
+    // summary.csv: the mean over 3 seeds × 12 trials, with a 95 % interval over the seeds.
+    let mut r = csv::Reader::from_path(dir.join("summary.csv")).unwrap();
+    let h = r.headers().unwrap().clone();
+    let col = |name: &str| h.iter().position(|c| c == name).unwrap();
+    let (alg, it, m, mean, n, seeds, lo, hi) = (
+        col("algorithm"),
+        col("iteration"),
+        col("measure"),
+        col("mean"),
+        col("n"),
+        col("seeds"),
+        col("ci_low"),
+        col("ci_high"),
+    );
+    let rows: Vec<csv::StringRecord> = r.records().map(|x| x.unwrap()).collect();
+    let get = |a: &str, i: &str, measure: &str| -> (f64, f64, f64) {
+        let row = rows.iter().find(|x| &x[alg] == a && &x[it] == i && &x[m] == measure).unwrap();
+        assert_eq!((&row[n], &row[seeds]), ("36", "3"));
+        (row[mean].parse().unwrap(), row[lo].parse().unwrap(), row[hi].parse().unwrap())
     };
-    let (a, p) = (row("active "), row("passive"));
-    let num = |r: &Vec<String>, i: usize| r[i].parse::<f64>().unwrap();
-    assert!(num(&a, 4) < num(&p, 4), "active ends closer to the truth:\n{out}");
-    assert!(num(&a, 7) > num(&p, 7), "active predicts the test set better:\n{out}");
-    assert!(num(&p, 10) < num(&a, 10), "passive costs the person less:\n{out}");
+    let (ad, alo, ahi) = get("active", "5", "distance_to_truth");
+    assert!(alo < ad && ad < ahi);
+    assert!(ad < get("passive", "5", "distance_to_truth").0, "active ends closer to the truth:\n{out}");
+    assert!(
+        get("active", "5", "test_log_likelihood").0 > get("passive", "5", "test_log_likelihood").0,
+        "active predicts the test set better:\n{out}"
+    );
+    assert!(get("passive", "3", "true_cost").0 < get("active", "3", "true_cost").0, "passive costs less:\n{out}");
+    // tests.csv: passive against active, paired over the same trials of every seed.
+    let mut t = csv::Reader::from_path(dir.join("tests.csv")).unwrap();
+    let th = t.headers().unwrap().clone();
+    for c in ["measure", "algorithm", "against", "n", "mean_difference", "ci_low", "ci_high", "p_value", "seeds"] {
+        assert!(th.iter().any(|x| x == c), "{c}");
+    }
+    let tests: Vec<csv::StringRecord> = t.records().map(|x| x.unwrap()).collect();
+    assert_eq!(tests.len(), 3, "one per compared measure");
+    assert!(tests.iter().all(|x| &x[th.iter().position(|c| c == "n").unwrap()] == "36"));
+    let mut metrics = csv::Reader::from_path(dir.join("metrics.csv")).unwrap();
+    assert!(metrics.headers().unwrap().iter().any(|c| c == "seed"));
+    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -90,6 +128,8 @@ fn bad_arguments_exit_2() {
         vec!["simulate", "planar2", "--alpha", "-1"],
         vec!["simulate", "planar2", "--learn", "elbows"],
         vec!["simulate", "planar2", "--threads", "0"],
+        vec!["simulate", "planar2", "--seeds", "0"],
+        vec!["simulate", "planar2", "--estimate", "median"],
         vec!["simulate", "hexapod"],
     ] {
         let (code, _, err) = handover(&args);

@@ -212,3 +212,32 @@ fn a_killed_dry_run_resumes_to_the_same_events() {
         assert_eq!(std::fs::read(&crashed[0]).unwrap(), before, "the crashed file is kept");
     }
 }
+
+#[test]
+fn a_dry_run_over_seeds_reports_intervals_and_paired_differences() {
+    let dir = tmpdir("seeds");
+    let proto = small_protocol(&dir);
+    let logs = dir.join("logs");
+    let (code, out, err) = handover(&[
+        "dry-run",
+        "--protocol",
+        proto.to_str().unwrap(),
+        "--participants",
+        "3",
+        "--seeds",
+        "2",
+        "--seed",
+        "7",
+        "--logs",
+        logs.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(logs_in(&logs).len(), 6, "3 participants × 2 seeds, each logged");
+    assert!(out.contains("3 participants × 2 seed(s) (seeds 7–8)"), "{out}");
+    assert!(out.contains("active offered:") && out.contains("passive offered:"), "{out}");
+    // Iteration 0 is the same prior for both conditions: no difference, so no test.
+    let row0 = out.lines().find(|l| l.trim_start().starts_with("0 ")).unwrap();
+    assert!(row0.contains("no difference"), "{row0}");
+    assert!(out.contains("paired difference") && out.contains("p="), "{out}");
+    assert!(out.contains("distance of the posterior mean to the true q* (degrees)"), "{out}");
+}

@@ -1,7 +1,7 @@
 //! Post-hoc analysis of session logs: each session replayed from its events, the belief
 //! after every training iteration scored on the session's own test responses.
 
-mod stats;
+mod seeds;
 mod summary;
 mod verify;
 
@@ -13,10 +13,9 @@ use crate::record::{LogContents, RecordError, replay_with, study_of};
 use crate::select::OutcomeModel;
 use crate::session::{Applied, BeliefSummary, Phase, Session, SessionStart};
 
-pub use stats::{Wilcoxon, mean, median, quantile, standard_error, wilcoxon_signed_rank};
-pub use summary::{
-    CurvePoint, DISTINCT_Q_STAR_TOLERANCE_DEG, ItemTest, LikertSummary, StudySummary, distinct_q_star, summarise,
-};
+pub use crate::stats::{Wilcoxon, mean, median, quantile, standard_error, wilcoxon_signed_rank};
+pub use seeds::{OverSeeds, Paired, SEED_MEASURES, SeedRun, object_shares, over_seeds, paired_over_seeds};
+pub use summary::{CurvePoint, ItemTest, LikertSummary, StudySummary, distinct_q_star, summarise};
 pub use verify::Difference;
 use verify::Verifier;
 
@@ -35,11 +34,12 @@ pub struct RunAnalysis {
     pub program: usize,
     pub condition: String,
     pub trials: Vec<TrainingTrial>,
-    /// Test-set log-likelihood of the belief's mode after each iteration 0..=N (the paper's measure).
-    pub test_ll_mode: Vec<f64>,
+    /// Test-set log-likelihood of the belief's posterior-mean estimate after each iteration
+    /// 0..=N (the paper's measure used its gridded mode, which in 7-D is grid noise).
+    pub test_ll_estimate: Vec<f64>,
     /// Posterior-predictive test-set log-likelihood after each iteration 0..=N.
     pub test_ll_predictive: Vec<f64>,
-    /// The mode's q* after the last iteration (radians).
+    /// The posterior mean's q* after the last iteration (radians).
     pub learned_q_star: Vec<f64>,
     /// The belief after each iteration 0..=N, recomputed by replaying the events.
     pub beliefs: Vec<BeliefSummary>,
@@ -117,8 +117,8 @@ pub fn analyse_and_verify(log: &LogContents, verify: bool) -> Result<(SessionAna
     let mut out_runs = Vec::with_capacity(runs);
     for (run, points) in snapshots.into_iter().enumerate() {
         let (beliefs, summaries): (Vec<Belief>, Vec<BeliefSummary>) = points.into_iter().unzip();
-        let modes: Vec<_> = summaries.iter().map(|b| b.mode.clone()).collect();
-        let (test_ll_mode, test_ll_predictive) = if tests.is_empty() {
+        let modes: Vec<_> = summaries.iter().map(|b| b.mean.clone()).collect();
+        let (test_ll_estimate, test_ll_predictive) = if tests.is_empty() {
             (Vec::new(), Vec::new())
         } else {
             (
@@ -147,7 +147,7 @@ pub fn analyse_and_verify(log: &LogContents, verify: bool) -> Result<(SessionAna
             program: run,
             condition: session.learners()[run].condition.name().to_string(),
             trials,
-            test_ll_mode,
+            test_ll_estimate,
             test_ll_predictive,
             learned_q_star: modes.last().map(|m| m.q_star.clone()).unwrap_or_default(),
             beliefs: summaries,

@@ -5,15 +5,14 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::SessionAnalysis;
-use super::stats::{Wilcoxon, mean, median, quantile, standard_error, wilcoxon_signed_rank};
+use crate::stats::{Wilcoxon, mean, median, quantile, standard_error, wilcoxon_signed_rank};
 
-/// Two learned q* are "the same" when every joint differs by at most this (5°).
-pub const DISTINCT_Q_STAR_TOLERANCE_DEG: f64 = 5.0;
-
-/// Groups of learned q*: single-linkage clusters in which neighbours differ by at most
-/// `tolerance` (radians) in every joint; returns the number of clusters.
-pub fn distinct_q_star(q: &[Vec<f64>], tolerance: f64) -> usize {
-    let n = q.len();
+/// Groups of learned q*: two participants are "the same" when their 90 % credible intervals
+/// overlap in every joint (a definition that resampling noise does not move, unlike the
+/// distance between point estimates); groups are single-linkage clusters of that relation.
+/// `intervals` holds each participant's (low, high) per joint; returns the number of groups.
+pub fn distinct_q_star(intervals: &[(Vec<f64>, Vec<f64>)]) -> usize {
+    let n = intervals.len();
     let mut parent: Vec<usize> = (0..n).collect();
     fn find(p: &mut [usize], i: usize) -> usize {
         if p[i] != i {
@@ -22,9 +21,12 @@ pub fn distinct_q_star(q: &[Vec<f64>], tolerance: f64) -> usize {
         }
         p[i]
     }
+    let overlap = |a: &(Vec<f64>, Vec<f64>), b: &(Vec<f64>, Vec<f64>)| {
+        a.0.iter().zip(&a.1).zip(b.0.iter().zip(&b.1)).all(|((alo, ahi), (blo, bhi))| alo <= bhi && blo <= ahi)
+    };
     for i in 0..n {
         for j in i + 1..n {
-            if q[i].iter().zip(&q[j]).all(|(a, b)| (a - b).abs() <= tolerance) {
+            if overlap(&intervals[i], &intervals[j]) {
                 let (a, b) = (find(&mut parent, i), find(&mut parent, j));
                 parent[a] = b;
             }
@@ -39,8 +41,8 @@ pub struct CurvePoint {
     pub condition: String,
     pub iteration: usize,
     pub n: usize,
-    pub mode_mean: f64,
-    pub mode_se: f64,
+    pub estimate_mean: f64,
+    pub estimate_se: f64,
     pub predictive_mean: f64,
     pub predictive_se: f64,
 }
@@ -77,7 +79,7 @@ pub struct StudySummary {
     pub sessions: usize,
     pub completed: usize,
     pub fig10: Vec<CurvePoint>,
-    /// condition → distinct learned q* (see DISTINCT_Q_STAR_TOLERANCE_DEG).
+    /// condition → distinct learned q* (see [`distinct_q_star`]).
     pub distinct_q_star: BTreeMap<String, usize>,
     /// condition → object → times offered in training.
     pub objects: BTreeMap<String, BTreeMap<String, usize>>,
@@ -100,26 +102,27 @@ pub fn summarise(sessions: &[SessionAnalysis], conditions: &[String], items: &[(
     let mut objects: BTreeMap<String, BTreeMap<String, usize>> = BTreeMap::new();
     for c in conditions {
         let runs: Vec<_> = sessions.iter().flat_map(|s| s.runs.iter().filter(|r| &r.condition == c)).collect();
-        let iterations = runs.iter().map(|r| r.test_ll_mode.len()).max().unwrap_or(0);
+        let iterations = runs.iter().map(|r| r.test_ll_estimate.len()).max().unwrap_or(0);
         for it in 0..iterations {
-            let mode: Vec<f64> = runs.iter().filter_map(|r| r.test_ll_mode.get(it).copied()).collect();
+            let mode: Vec<f64> = runs.iter().filter_map(|r| r.test_ll_estimate.get(it).copied()).collect();
             let pred: Vec<f64> = runs.iter().filter_map(|r| r.test_ll_predictive.get(it).copied()).collect();
             fig10.push(CurvePoint {
                 condition: c.clone(),
                 iteration: it,
                 n: mode.len(),
-                mode_mean: mean(&mode),
-                mode_se: standard_error(&mode),
+                estimate_mean: mean(&mode),
+                estimate_se: standard_error(&mode),
                 predictive_mean: mean(&pred),
                 predictive_se: standard_error(&pred),
             });
         }
-        let learned: Vec<Vec<f64>> = runs
+        let learned: Vec<(Vec<f64>, Vec<f64>)> = runs
             .iter()
-            .filter(|r| !r.learned_q_star.is_empty() && !r.trials.is_empty())
-            .map(|r| r.learned_q_star.clone())
+            .filter(|r| !r.trials.is_empty())
+            .filter_map(|r| r.beliefs.last())
+            .map(|b| (b.ci_low.q_star.clone(), b.ci_high.q_star.clone()))
             .collect();
-        distinct.insert(c.clone(), distinct_q_star(&learned, DISTINCT_Q_STAR_TOLERANCE_DEG.to_radians()));
+        distinct.insert(c.clone(), distinct_q_star(&learned));
         let counts = objects.entry(c.clone()).or_default();
         for r in &runs {
             for t in &r.trials {
@@ -200,11 +203,15 @@ mod tests {
     use super::*;
 
     #[test]
-    fn distinct_learned_q_star_by_tolerance() {
-        let d = 1f64.to_radians();
-        let q = vec![vec![0.0, 0.0], vec![3.0 * d, 0.0], vec![6.0 * d, 0.0], vec![20.0 * d, 0.0]];
-        assert_eq!(distinct_q_star(&q, 5.0 * d), 2, "chained within 5° form one group");
-        assert_eq!(distinct_q_star(&q, 1.0 * d), 4);
-        assert_eq!(distinct_q_star(&[], 1.0), 0);
+    fn participants_are_distinct_when_their_credible_intervals_are_disjoint() {
+        let iv = |lo: f64, hi: f64| (vec![lo, 0.0], vec![hi, 1.0]);
+        // [0, 2] overlaps [1, 3], which overlaps [2.5, 4]: one chain; [10, 11] stands apart.
+        let q = vec![iv(0.0, 2.0), iv(1.0, 3.0), iv(2.5, 4.0), iv(10.0, 11.0)];
+        assert_eq!(distinct_q_star(&q), 2);
+        // Disjoint in one joint is enough.
+        let a = (vec![0.0, 0.0], vec![1.0, 1.0]);
+        let b = (vec![0.5, 2.0], vec![1.5, 3.0]);
+        assert_eq!(distinct_q_star(&[a, b]), 2);
+        assert_eq!(distinct_q_star(&[]), 0);
     }
 }

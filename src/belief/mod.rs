@@ -1,5 +1,6 @@
 //! The robot's belief over λ = [q*, w]: weighted particles (section III-C).
 
+mod estimates;
 mod grid;
 mod metrics;
 mod prior;
@@ -11,6 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::ergo::{FeasibleSet, Lambda, Observation, ObservationError, SetPass, log_sum_exp};
 
+pub use estimates::{CREDIBLE, Estimate, MAP_TIE, Observed};
 pub use grid::{CellIndex, Grid};
 pub use metrics::{TestExample, posterior_predictive_log_likelihood, test_log_likelihood, true_cost};
 pub use prior::{ComponentPrior, Prior, PriorError};

@@ -155,6 +155,33 @@ impl Prior {
     pub fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> Vec<f64> {
         self.components.iter().map(|c| c.sample(rng)).collect()
     }
+
+    /// log p(λ) up to a constant (the same for every λ): 0 inside a uniform component's
+    /// range, −½((x − μ)/σ)² inside a truncated Gaussian's, −∞ outside a support; fixed
+    /// components contribute nothing.
+    pub fn log_density_unnormalised(&self, lambda: &[f64]) -> f64 {
+        self.components
+            .iter()
+            .zip(lambda)
+            .map(|(c, &x)| match *c {
+                ComponentPrior::Fixed { .. } => 0.0,
+                ComponentPrior::Uniform { min, max } => {
+                    if (min..=max).contains(&x) {
+                        0.0
+                    } else {
+                        f64::NEG_INFINITY
+                    }
+                }
+                ComponentPrior::Gaussian { mean, sd, min, max } => {
+                    if (min..=max).contains(&x) {
+                        -0.5 * ((x - mean) / sd).powi(2)
+                    } else {
+                        f64::NEG_INFINITY
+                    }
+                }
+            })
+            .sum()
+    }
 }
 
 #[cfg(test)]

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
-use handover::analysis::{DISTINCT_Q_STAR_TOLERANCE_DEG, SessionAnalysis, StudySummary, analyse_and_verify, summarise};
+use handover::analysis::{SessionAnalysis, StudySummary, analyse_and_verify, summarise};
 use handover::plot::{Series, bar_chart, mean_se_plot};
 use handover::record::{LogContents, mcap_files, read_log, study_of};
 use handover::session::program_letter;
@@ -69,7 +69,7 @@ struct JsonRun<'a> {
     program: String,
     condition: &'a str,
     queries: Vec<(&'a str, &'a str, &'a str)>,
-    test_log_likelihood_mode: &'a [f64],
+    test_log_likelihood_estimate: &'a [f64],
     test_log_likelihood_predictive: &'a [f64],
     learned_q_star_deg: Vec<f64>,
     beliefs: &'a [handover::session::BeliefSummary],
@@ -250,7 +250,7 @@ fn json_session(a: &Analysed) -> JsonSession<'_> {
                 program: program_letter(r.program),
                 condition: &r.condition,
                 queries: r.trials.iter().map(|t| (t.query.as_str(), t.object.as_str(), t.region.as_str())).collect(),
-                test_log_likelihood_mode: &r.test_ll_mode,
+                test_log_likelihood_estimate: &r.test_ll_estimate,
                 test_log_likelihood_predictive: &r.test_ll_predictive,
                 learned_q_star_deg: deg(&r.learned_q_star),
                 beliefs: &r.beliefs,
@@ -278,7 +278,7 @@ fn table(label: &str, group: &[&Analysed], s: &StudySummary) -> String {
                     program_letter(r.program),
                     r.condition,
                     objs.join(""),
-                    r.test_ll_mode.last().map_or("—".into(), |v| format!("{v:.1}"))
+                    r.test_ll_estimate.last().map_or("—".into(), |v| format!("{v:.1}"))
                 )
             })
             .collect();
@@ -296,8 +296,8 @@ fn table(label: &str, group: &[&Analysed], s: &StudySummary) -> String {
             x.choice.map_or(String::new(), |p| format!("; prefers {}", program_letter(p)))
         );
     }
-    o += "  (objects: H handlebars, L lock; LL: test log-likelihood of the mode after the last iteration)\n";
-    o += "\nFig. 10 — test-set log-likelihood of the mode (mean ± s.e.) by iteration:\n";
+    o += "  (objects: H handlebars, L lock; LL: test log-likelihood of the posterior mean after the last iteration)\n";
+    o += "\nFig. 10 — test-set log-likelihood of the posterior-mean estimate (mean ± s.e.) by iteration:\n";
     let conditions: Vec<String> = s.distinct_q_star.keys().cloned().collect();
     let iterations = s.fig10.iter().map(|p| p.iteration).max().map_or(0, |m| m + 1);
     o += &format!("  {:>9}", "iteration");
@@ -309,13 +309,13 @@ fn table(label: &str, group: &[&Analysed], s: &StudySummary) -> String {
         o += &format!("  {it:>9}");
         for c in &conditions {
             match s.fig10.iter().find(|p| &p.condition == c && p.iteration == it) {
-                Some(p) => o += &format!(" {:>22}", format!("{:.1} ± {:.1}", p.mode_mean, p.mode_se)),
+                Some(p) => o += &format!(" {:>22}", format!("{:.1} ± {:.1}", p.estimate_mean, p.estimate_se)),
                 None => o += &format!(" {:>22}", "—"),
             }
         }
         o += "\n";
     }
-    o += &format!("\nDistinct learned q* (joints within {DISTINCT_Q_STAR_TOLERANCE_DEG}°): ");
+    o += "\nDistinct learned q* (participants whose 90 % credible intervals are disjoint in some learned joint): ";
     o += &s.distinct_q_star.iter().map(|(c, n)| format!("{c} {n}")).collect::<Vec<_>>().join(", ");
     o += "\nObjects offered in training: ";
     o += &s
@@ -469,13 +469,13 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary) -> Result<()
         "condition",
         "program",
         "iteration",
-        "log_likelihood_mode",
+        "log_likelihood_mean",
         "log_likelihood_predictive",
     ])?;
     for a in group {
         let x = &a.analysis;
         for r in &x.runs {
-            for (it, (m, p)) in r.test_ll_mode.iter().zip(&r.test_ll_predictive).enumerate() {
+            for (it, (m, p)) in r.test_ll_estimate.iter().zip(&r.test_ll_predictive).enumerate() {
                 w.write_record([
                     x.start.session_id.clone(),
                     x.start.participant.clone(),
@@ -493,8 +493,9 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary) -> Result<()
     let joints = handover::kinematics::JOINT_NAMES;
     let mut header: Vec<String> =
         ["session_id", "participant", "condition", "program", "iteration", "entropy", "ess"].map(String::from).to_vec();
-    for part in ["mode_q_star_deg", "mean_q_star_deg", "mode_w", "mean_w"] {
-        header.extend(joints.iter().map(|j| format!("{part}_{j}")));
+    for part in ["mean", "map", "ci_low", "ci_high", "grid_mode"] {
+        header.extend(joints.iter().map(|j| format!("{part}_q_star_deg_{j}")));
+        header.extend(joints.iter().map(|j| format!("{part}_w_{j}")));
     }
     w.write_record(&header)?;
     for a in group {
@@ -510,10 +511,10 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary) -> Result<()
                     b.entropy.to_string(),
                     b.ess.to_string(),
                 ];
-                row.extend(b.mode.q_star.iter().map(|v| v.to_degrees().to_string()));
-                row.extend(b.mean.q_star.iter().map(|v| v.to_degrees().to_string()));
-                row.extend(b.mode.w.iter().map(|v| v.to_string()));
-                row.extend(b.mean.w.iter().map(|v| v.to_string()));
+                for l in [&b.mean, &b.map, &b.ci_low, &b.ci_high, &b.grid_mode] {
+                    row.extend(l.q_star.iter().map(|v| v.to_degrees().to_string()));
+                    row.extend(l.w.iter().map(|v| v.to_string()));
+                }
                 w.write_record(&row)?;
             }
         }
@@ -552,14 +553,17 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary) -> Result<()
                         if predictive {
                             (p.iteration as f64, p.predictive_mean, p.predictive_se)
                         } else {
-                            (p.iteration as f64, p.mode_mean, p.mode_se)
+                            (p.iteration as f64, p.estimate_mean, p.estimate_se)
                         }
                     })
                     .collect(),
             })
             .collect();
-        let y =
-            if predictive { "posterior-predictive test log-likelihood" } else { "test-set log-likelihood of the mode" };
+        let y = if predictive {
+            "posterior-predictive test log-likelihood"
+        } else {
+            "test-set log-likelihood of the posterior mean"
+        };
         mean_se_plot(&dir.join(file), &format!("Fig. 10 — {} sessions", s.sessions), "training iteration", y, &series)
             .map_err(anyhow::Error::msg)?;
     }

@@ -6,7 +6,9 @@ use std::time::Duration;
 
 use anyhow::{Context, Result};
 use clap::Args;
-use handover::analysis::{SessionAnalysis, analyse};
+use handover::analysis::{
+    SEED_MEASURES, SeedRun, SessionAnalysis, analyse, object_shares, over_seeds, paired_over_seeds,
+};
 use handover::dryrun::{drive, now_ns, plan};
 use handover::ergo::Lambda;
 use handover::protocol::{LambdaSpec, Study};
@@ -33,6 +35,11 @@ pub struct DryRunArgs {
     /// Seed of the whole dry run (ids, truths, answers).
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Run N seeds (SEED, SEED+1, …) of --participants each, and report every measure as the
+    /// mean with a 95 % confidence interval over the seeds' means, and the conditions'
+    /// paired differences (the same participants) per iteration.
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    seeds: u64,
     /// The study directory (logs in DIR/logs).
     #[arg(long, value_name = "DIR")]
     study_dir: Option<PathBuf>,
@@ -71,25 +78,144 @@ pub fn run(args: DryRunArgs) -> Result<()> {
         return Err(bad("--participants is 0, expected at least 1"));
     }
     let truth = args.truth.as_deref().map(load_truth).transpose()?;
+    if !(1..=1000).contains(&args.seeds) {
+        return Err(bad(format!("--seeds is {}, expected 1 to 1000", args.seeds)));
+    }
     let dirs = StudyDirs::resolve(args.study_dir.as_deref(), None, args.logs.as_deref());
-    for i in 0..args.participants {
-        let now = chrono::Utc::now();
-        let p = plan(&study, args.seed, i, truth.as_ref(), now.to_rfc3339_opts(chrono::SecondsFormat::Millis, true));
-        let session = Session::new(Arc::clone(&study), p.start.clone()).map_err(|e| anyhow::anyhow!("{e}"))?;
-        let path = new_log_path(&dirs.logs, &p.start.participant, now);
-        let _lock = ParticipantLock::acquire(&dirs.logs.join(&p.start.participant), &p.start.participant, "dry-run")?;
-        let mut rec = RecordedSession::create(&path, &text, session, now_ns())?;
-        drive(&mut rec, &p.participant, Duration::from_millis(args.pace))?;
-        let path = rec.finish()?;
-        report(&study, &path)?;
+    let bar = if args.seeds > 1 {
+        let bar = indicatif::ProgressBar::new(args.seeds * args.participants as u64);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "dry runs [{bar:40}] {pos}/{len} sessions, {elapsed} elapsed, ETA {eta}",
+            )
+            .map_err(|e| anyhow::anyhow!("{e}"))?
+            .progress_chars("=> "),
+        );
+        bar
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let mut runs = Vec::new();
+    for k in 0..args.seeds {
+        let seed = args.seed + k;
+        let mut sessions = Vec::new();
+        for i in 0..args.participants {
+            let now = chrono::Utc::now();
+            let p = plan(&study, seed, i, truth.as_ref(), now.to_rfc3339_opts(chrono::SecondsFormat::Millis, true));
+            let session = Session::new(Arc::clone(&study), p.start.clone()).map_err(|e| anyhow::anyhow!("{e}"))?;
+            let path = new_log_path(&dirs.logs, &p.start.participant, now);
+            let _lock =
+                ParticipantLock::acquire(&dirs.logs.join(&p.start.participant), &p.start.participant, "dry-run")?;
+            let mut rec = RecordedSession::create(&path, &text, session, now_ns())?;
+            drive(&mut rec, &p.participant, Duration::from_millis(args.pace))?;
+            let path = rec.finish()?;
+            let analysis = analysed(&path)?;
+            if args.seeds == 1 {
+                report(&study, &path, &analysis)?;
+            }
+            sessions.push(analysis);
+            bar.inc(1);
+        }
+        runs.push(SeedRun { seed, sessions });
+    }
+    bar.finish_and_clear();
+    if args.seeds > 1 || args.participants > 1 {
+        print_over_seeds(&runs, args.seed, args.seeds, args.participants)?;
+    }
+    Ok(())
+}
+
+/// The replayed results of a finished log.
+fn analysed(path: &std::path::Path) -> Result<SessionAnalysis> {
+    let log = read_log(path)?;
+    analyse(&log).with_context(|| format!("cannot analyse {}", path.display()))
+}
+
+/// Every measure over seeds, and the conditions' paired differences.
+fn print_over_seeds(runs: &[SeedRun], seed: u64, seeds: u64, participants: usize) -> Result<()> {
+    let rows = over_seeds(runs);
+    let tests = paired_over_seeds(runs);
+    let over = if seeds > 1 { "over the seeds' means" } else { "over participants" };
+    outln!(
+        "\n{participants} participants × {seeds} seed(s) ({}): mean [95 % confidence interval {over}]",
+        if seeds > 1 { format!("seeds {seed}–{}", seed + seeds - 1) } else { format!("seed {seed}") }
+    );
+    for (c, objects) in object_shares(runs) {
+        let parts: Vec<String> = objects
+            .iter()
+            .map(|(o, (m, lo, hi))| {
+                // A share's interval is cut to [0, 100] %.
+                if lo.is_finite() {
+                    format!("{o} {:.0} % [{:.0}, {:.0}]", 100.0 * m, 100.0 * lo.max(0.0), 100.0 * hi.min(1.0))
+                } else {
+                    format!("{o} {:.0} %", 100.0 * m)
+                }
+            })
+            .collect();
+        outln!("  {c} offered: {}", parts.join(", "));
+    }
+    for measure in SEED_MEASURES {
+        let label = match measure {
+            "test_log_likelihood" => "test log-likelihood of the posterior mean",
+            _ => "distance of the posterior mean to the true q* (degrees)",
+        };
+        outln!("  {label}, by iteration:");
+        let conditions: Vec<&str> = {
+            let mut v: Vec<&str> = Vec::new();
+            for r in rows.iter().filter(|r| r.measure == measure) {
+                if !v.contains(&r.condition.as_str()) {
+                    v.push(&r.condition);
+                }
+            }
+            v
+        };
+        let mut head = format!("  {:>9}", "iteration");
+        for c in &conditions {
+            head += &format!(" {:>26}", c);
+        }
+        head += &format!(" {:>34}", "paired difference (p)");
+        outln!("{head}");
+        let iterations = rows.iter().filter(|r| r.measure == measure).map(|r| r.iteration).max().unwrap_or(0);
+        for it in 0..=iterations {
+            let mut line = format!("  {it:>9}");
+            for c in &conditions {
+                line += &match rows.iter().find(|r| r.measure == measure && r.condition == *c && r.iteration == it) {
+                    Some(r) if r.ci_low.is_finite() => {
+                        format!(" {:>26}", format!("{:.1} [{:.1}, {:.1}]", r.mean, r.ci_low, r.ci_high))
+                    }
+                    Some(r) => format!(" {:>26}", format!("{:.1}", r.mean)),
+                    None => format!(" {:>26}", "—"),
+                };
+            }
+            if let Some(t) = tests.iter().find(|t| t.measure == measure && t.iteration == it) {
+                let p = t.p_value.map_or("no difference".to_string(), |p| format!("p={p:.3}"));
+                line += &format!(
+                    " {:>34}",
+                    format!("{:+.1} [{:+.1}, {:+.1}] ({p})", t.mean_difference, t.ci_low, t.ci_high)
+                );
+            }
+            outln!("{line}");
+        }
+        if let Some(first) = tests.iter().find(|t| t.measure == measure) {
+            let last = tests.iter().rfind(|t| t.measure == measure).unwrap_or(first);
+            if seeds > 1 {
+                outln!(
+                    "  ({} − {}; at the last iteration the difference alone is significant in {} seed(s) with {} higher, {} with it lower, of {})",
+                    first.first,
+                    first.second,
+                    last.seeds_first_higher,
+                    first.first,
+                    last.seeds_first_lower,
+                    last.seeds
+                );
+            }
+        }
     }
     Ok(())
 }
 
 /// Prints a participant's condition order, objects chosen and test log-likelihoods.
-pub fn report(study: &Study, path: &std::path::Path) -> Result<()> {
-    let log = read_log(path)?;
-    let a: SessionAnalysis = analyse(&log).with_context(|| format!("cannot analyse {}", path.display()))?;
+pub fn report(study: &Study, path: &std::path::Path, a: &SessionAnalysis) -> Result<()> {
     outln!(
         "{} ({}): log {}",
         a.start.participant,
@@ -98,7 +224,7 @@ pub fn report(study: &Study, path: &std::path::Path) -> Result<()> {
     );
     for r in &a.runs {
         let objects: Vec<&str> = r.trials.iter().map(|t| t.object.as_str()).collect();
-        let ll: Vec<String> = r.test_ll_mode.iter().map(|v| format!("{v:.1}")).collect();
+        let ll: Vec<String> = r.test_ll_estimate.iter().map(|v| format!("{v:.1}")).collect();
         outln!(
             "  {} = {} ({}): objects [{}]; test log-likelihood by iteration [{}]",
             study

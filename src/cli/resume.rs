@@ -79,7 +79,8 @@ pub fn run(args: ResumeArgs) -> Result<()> {
         eprintln!("{}: the session is over; opening it read-only (nothing is written)", old.path.display());
         if args.dry_run {
             let study = study_of(&old).map_err(|e| bad(e.to_string()))?;
-            return super::dry_run::report(&study, &old.path);
+            let a = handover::analysis::analyse(&old)?;
+            return super::dry_run::report(&study, &old.path, &a);
         }
         return super::console::summary(old, dirs);
     }
@@ -101,5 +102,6 @@ pub fn run(args: ResumeArgs) -> Result<()> {
     let person = SimulatedPerson { truth, alpha: study.protocol.learning.alpha };
     drive(&mut rec, &ScriptedParticipant { person }, Duration::from_millis(args.pace))?;
     let path = rec.finish().context("cannot finish the log")?;
-    super::dry_run::report(&study, &path)
+    let a = handover::analysis::analyse(&read_log(&path)?)?;
+    super::dry_run::report(&study, &path, &a)
 }

@@ -5,8 +5,9 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
+use handover::belief::Estimate;
 use handover::ergo::LearnMask;
-use handover::experiment::{self, Arm7, Planar2, Scenario, Settings, SummaryRow, summarise};
+use handover::experiment::{self, Arm7, PairedTest, Planar2, Scenario, Settings, SummaryRow, paired_tests, summarise};
 use handover::plot::{Series, mean_se_plot};
 use handover::select::{DEFAULT_HYBRID_BETA, SelectorKind};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -55,9 +56,19 @@ pub struct SimulateArgs {
     /// β of `hybrid` (maximises information gain − β · expected cost).
     #[arg(long, default_value_t = DEFAULT_HYBRID_BETA)]
     beta: f64,
+    /// The point estimate that distance and test log-likelihood are measured on: the
+    /// posterior mean, the MAP particle (exact unnormalised posterior), or the paper's
+    /// gridded mode (to reproduce its figures; grid noise in 7-D).
+    #[arg(long, default_value = "mean")]
+    estimate: Estimate,
     /// Seed of every random draw; the same seed gives byte-identical CSV for any --threads.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Run N seeds (SEED, SEED+1, …): every measure is then reported as the mean with a 95 %
+    /// confidence interval over the seeds' means, and each algorithm is compared with
+    /// `active` by a paired test (same truth, menu and test set), in tests.csv.
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    seeds: u64,
     /// Worker threads [default: all cores].
     #[arg(long)]
     threads: Option<usize>,
@@ -77,8 +88,8 @@ enum ScenarioName {
 const PLOTTED: [(&str, &str); 5] = [
     ("density_at_truth", "P(λ*) (kernel density of the belief at the truth)"),
     ("log_density_at_truth", "log P(λ*)"),
-    ("distance_to_truth", "‖mode − λ*‖"),
-    ("test_log_likelihood", "test-set log-likelihood of the mode"),
+    ("distance_to_truth", "‖estimate − λ*‖"),
+    ("test_log_likelihood", "test-set log-likelihood of the estimate"),
     ("true_cost", "true cost of the chosen query"),
 ];
 
@@ -111,6 +122,9 @@ fn check(a: &SimulateArgs) -> Result<Checked> {
     if !(a.beta.is_finite() && a.beta >= 0.0) {
         return Err(bad(format!("--beta is {}, expected a non-negative number", a.beta)));
     }
+    if !(1..=1000).contains(&a.seeds) {
+        return Err(bad(format!("--seeds is {}, expected 1 to 1000", a.seeds)));
+    }
     if a.threads == Some(0) {
         return Err(bad("--threads is 0, expected at least 1"));
     }
@@ -130,6 +144,7 @@ fn check(a: &SimulateArgs) -> Result<Checked> {
         grid_boxes: 10,
         jitter_fraction: 0.01,
         bandwidth_fraction: 0.05,
+        estimate: a.estimate,
     };
     Ok(Checked { scenario, settings })
 }
@@ -144,22 +159,28 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
-    let bar = ProgressBar::new(settings.trials as u64);
+    let bar = ProgressBar::new(settings.trials as u64 * args.seeds);
     bar.set_style(
-        ProgressStyle::with_template("{prefix} [{bar:40}] {pos}/{len} trials, {elapsed} elapsed, ETA {eta}")
+        ProgressStyle::with_template("{prefix} [{bar:40}] {pos}/{len} trials × seeds, {elapsed} elapsed, ETA {eta}")
             .expect("valid template")
             .progress_chars("=> "),
     );
     bar.set_prefix(format!("{} {}", scenario.name(), settings.learn));
     let started = Instant::now();
-    let rows = pool.install(|| experiment::simulate(scenario.as_ref(), &settings, &|| bar.inc(1)));
+    let mut rows = Vec::new();
+    for k in 0..args.seeds {
+        let run = Settings { seed: settings.seed + k, ..settings.clone() };
+        rows.extend(pool.install(|| experiment::simulate(scenario.as_ref(), &run, &|| bar.inc(1))));
+    }
     bar.finish_and_clear();
     let elapsed = started.elapsed();
     let summary = summarise(&rows);
-    print_table(scenario.name(), &settings, &summary, elapsed.as_secs_f64(), threads)?;
+    let tests = paired_tests(&rows, "active", settings.iterations, &COMPARED);
+    print_table(scenario.name(), &settings, args.seeds, &summary, &tests, elapsed.as_secs_f64(), threads)?;
     if let Some(dir) = &args.out {
         write_csv(&dir.join("metrics.csv"), &rows)?;
         write_csv(&dir.join("summary.csv"), &summary)?;
+        write_csv(&dir.join("tests.csv"), &tests)?;
         for (measure, label) in PLOTTED {
             let series: Vec<Series> = settings
                 .algorithms
@@ -169,15 +190,22 @@ pub fn run(args: SimulateArgs) -> Result<()> {
                     points: summary
                         .iter()
                         .filter(|r| r.algorithm == k.name() && r.measure == measure)
-                        .map(|r| (r.iteration as f64, r.mean, r.se))
+                        .map(|r| (r.iteration as f64, r.mean, ci_half_width(r)))
                         .collect(),
                 })
                 .collect();
-            let title = format!("{} — learning {}, {} trials", scenario.name(), settings.learn, settings.trials);
+            let title = format!(
+                "{} — learning {}, {} trials × {} seeds, estimate {} (band: 95 % CI)",
+                scenario.name(),
+                settings.learn,
+                settings.trials,
+                args.seeds,
+                settings.estimate.name()
+            );
             mean_se_plot(&dir.join(format!("{measure}.svg")), &title, "iteration", label, &series)
                 .map_err(anyhow::Error::msg)?;
         }
-        eprintln!("wrote {}/{{metrics,summary}}.csv and one SVG per measure", dir.display());
+        eprintln!("wrote {}/{{metrics,summary,tests}}.csv and one SVG per measure", dir.display());
     }
     Ok(())
 }
@@ -191,9 +219,28 @@ fn write_csv<T: serde::Serialize>(path: &Path, rows: &[T]) -> Result<()> {
     Ok(())
 }
 
-fn print_table(name: &str, s: &Settings, summary: &[SummaryRow], seconds: f64, threads: usize) -> Result<()> {
+/// The measures compared with `active` by paired tests at the last iteration.
+const COMPARED: [&str; 3] = ["distance_to_truth", "test_log_likelihood", "true_cost"];
+
+/// Half the width of a row's 95 % confidence interval (0 where it is not defined).
+fn ci_half_width(r: &SummaryRow) -> f64 {
+    let h = (r.ci_high - r.ci_low) / 2.0;
+    if h.is_finite() { h } else { 0.0 }
+}
+
+fn print_table(
+    name: &str,
+    s: &Settings,
+    seeds: u64,
+    summary: &[SummaryRow],
+    tests: &[PairedTest],
+    seconds: f64,
+    threads: usize,
+) -> Result<()> {
+    let seed_text =
+        if seeds > 1 { format!("seeds {}–{}", s.seed, s.seed + seeds - 1) } else { format!("seed {}", s.seed) };
     outln!(
-        "{name}: learning {}, {} trials × {} iterations, {} particles, menu {}, test set {}, α = {}, seed {} ({seconds:.1} s on {threads} threads)",
+        "{name}: learning {}, {} trials × {} iterations, {} particles, menu {}, test set {}, α = {}, estimate {}, {seed_text} ({seconds:.1} s on {threads} threads)",
         s.learn,
         s.trials,
         s.iterations,
@@ -201,39 +248,89 @@ fn print_table(name: &str, s: &Settings, summary: &[SummaryRow], seconds: f64, t
         s.menu,
         s.test_size,
         s.alpha,
-        s.seed
+        s.estimate.name(),
+    );
+    let over = if seeds > 1 { "over seeds" } else { "over trials" };
+    outln!(
+        "mean [95 % confidence interval {over}] at the last iteration; p: paired Wilcoxon signed-rank against active"
     );
     let get = |alg: &str, it: usize, m: &str| {
         summary.iter().find(|r| r.algorithm == alg && r.iteration == it && r.measure == m)
     };
-    let cell = |r: Option<&SummaryRow>| r.map_or("—".to_string(), |r| format!("{:.3} ± {:.3}", r.mean, r.se));
-    outln!(
-        "{:<12} {:>17} {:>17} {:>20} {:>10} {:>17}",
-        "algorithm",
-        "distance (it 0)",
-        "distance (last)",
-        "test log-lik (last)",
-        "true cost",
-        "log P(λ*) (last)"
-    );
-    for k in &s.algorithms {
-        let alg = k.name();
+    let cell = |r: Option<&SummaryRow>| {
+        r.map_or("—".to_string(), |r| {
+            if r.ci_low.is_finite() {
+                format!("{:.3} [{:.3}, {:.3}]", r.mean, r.ci_low, r.ci_high)
+            } else {
+                format!("{:.3}", r.mean)
+            }
+        })
+    };
+    let p = |alg: &str, m: &str| {
+        tests
+            .iter()
+            .find(|t| t.algorithm == alg && t.measure == m)
+            .map_or("".to_string(), |t| t.p_value.map_or("—".to_string(), |p| format!("p={p:.2e}")))
+    };
+    let iterations = s.iterations;
+    let cost_last = |alg: &str| {
+        // The mean true cost over the iterations 1..=N of the chosen queries.
         let costs: Vec<&SummaryRow> =
             summary.iter().filter(|r| r.algorithm == alg && r.measure == "true_cost").collect();
-        let mean_cost = if costs.is_empty() {
+        if costs.is_empty() {
             "—".to_string()
         } else {
             format!("{:.3}", costs.iter().map(|r| r.mean).sum::<f64>() / costs.len() as f64)
-        };
+        }
+    };
+    outln!(
+        "{:<12} {:>8} {:>28} {:>10} {:>34} {:>10} {:>10} {:>10}",
+        "algorithm",
+        "dist(0)",
+        "distance (last)",
+        "p",
+        "test log-lik (last)",
+        "p",
+        "true cost",
+        "p"
+    );
+    for k in &s.algorithms {
+        let alg = k.name();
         outln!(
-            "{:<12} {:>17} {:>17} {:>20} {:>10} {:>17}",
+            "{:<12} {:>8.3} {:>28} {:>10} {:>34} {:>10} {:>10} {:>10}",
             alg,
-            cell(get(alg, 0, "distance_to_truth")),
-            cell(get(alg, s.iterations, "distance_to_truth")),
-            cell(get(alg, s.iterations, "test_log_likelihood")),
-            mean_cost,
-            cell(get(alg, s.iterations, "log_density_at_truth")),
+            get(alg, 0, "distance_to_truth").map_or(f64::NAN, |r| r.mean),
+            cell(get(alg, iterations, "distance_to_truth")),
+            p(alg, "distance_to_truth"),
+            cell(get(alg, iterations, "test_log_likelihood")),
+            p(alg, "test_log_likelihood"),
+            cost_last(alg),
+            p(alg, "true_cost"),
         );
+    }
+    if seeds > 1 {
+        outln!(
+            "seeds in which the paired difference from active alone is significant (p < .05), better / worse than active:"
+        );
+        for k in s.algorithms.iter().filter(|k| k.name() != "active") {
+            let alg = k.name();
+            let part = |m: &str, lower_is_better: bool| {
+                tests.iter().find(|t| t.algorithm == alg && t.measure == m).map_or("—".to_string(), |t| {
+                    let (better, worse) = if lower_is_better {
+                        (t.seeds_significant_negative, t.seeds_significant_positive)
+                    } else {
+                        (t.seeds_significant_positive, t.seeds_significant_negative)
+                    };
+                    format!("{better}/{worse} of {}", t.seeds)
+                })
+            };
+            outln!(
+                "  {alg:<12} distance {:>10}   test log-lik {:>10}   true cost {:>10}",
+                part("distance_to_truth", true),
+                part("test_log_likelihood", false),
+                part("true_cost", true)
+            );
+        }
     }
     Ok(())
 }

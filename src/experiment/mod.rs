@@ -10,7 +10,7 @@ mod two_sets;
 use rand::SeedableRng;
 use rayon::prelude::*;
 
-use crate::belief::{Belief, CellIndex, Grid, Prior, ResamplePolicy, TestExample, true_cost};
+use crate::belief::{Belief, CellIndex, Estimate, Grid, Observed, Prior, ResamplePolicy, TestExample, true_cost};
 use crate::ergo::{FeasibleSet, Lambda, LearnMask, Observation};
 use crate::participant::SimulatedPerson;
 use crate::select::{OutcomeModel, Problem, SelectorKind};
@@ -18,7 +18,7 @@ use crate::{SeededRng, derive_seed};
 
 pub use arm7::Arm7;
 pub use planar2::Planar2;
-pub use summary::{MEASURES, SummaryRow, summarise};
+pub use summary::{MEASURES, PairedTest, SummaryRow, paired_tests, summarise};
 pub use two_sets::{TwoSetsStep, two_sets};
 
 /// A simulated setting: an arm, a prior and a source of random queries.
@@ -53,12 +53,16 @@ pub struct Settings {
     pub jitter_fraction: f64,
     /// Kernel bandwidth of the density at λ*, as a fraction of each prior range.
     pub bandwidth_fraction: f64,
+    /// The point estimate that distance and test log-likelihood are measured on.
+    pub estimate: Estimate,
 }
 
 /// The measures of one algorithm in one trial after one iteration (0 = the prior).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct MetricRow {
     pub algorithm: &'static str,
+    /// The run's seed (`simulate --seeds N` runs N seeds).
+    pub seed: u64,
     pub trial: usize,
     pub iteration: usize,
     pub density_at_truth: f64,
@@ -135,25 +139,38 @@ fn run_trial(scenario: &dyn Scenario, s: &Settings, prior: &Prior, trial: usize)
         let mut person_rng = rng(s.seed, trial, purpose::PERSON);
         let mut resample_rng = rng(s.seed, trial, purpose::RESAMPLE);
         let mut select_rng = rng(s.seed, trial, purpose::SELECT);
-        let measure = |belief: &Belief, iteration: usize, query: Option<usize>, cost: Option<f64>| {
+        let mut history: Vec<(usize, Observation)> = Vec::new();
+        let measure = |belief: &Belief,
+                       history: &[(usize, Observation)],
+                       iteration: usize,
+                       query: Option<usize>,
+                       cost: Option<f64>| {
             let cells = CellIndex::new(belief, &grid);
-            let mode = cells.mode(belief);
+            let estimate = match s.estimate {
+                Estimate::Mean => belief.mean(),
+                Estimate::GridMode => cells.mode(belief),
+                Estimate::Map => {
+                    let observed: Vec<Observed> = history.iter().map(|(q, o)| (&t.menu[*q], o)).collect();
+                    belief.map_estimate(prior, &observed, s.alpha).expect("observations index their own sets")
+                }
+            };
             let log_density = belief.log_density_at(&t.truth, &bandwidth);
             MetricRow {
                 algorithm: kind.name(),
+                seed: s.seed,
                 trial,
                 iteration,
                 density_at_truth: log_density.exp(),
                 log_density_at_truth: log_density,
-                distance_to_truth: belief.distance(&mode, &t.truth),
-                test_log_likelihood: crate::belief::test_log_likelihood(&mode, &t.tests, s.alpha)
+                distance_to_truth: belief.distance(&estimate, &t.truth),
+                test_log_likelihood: crate::belief::test_log_likelihood(&estimate, &t.tests, s.alpha)
                     .expect("test observations index their own sets"),
                 true_cost: cost,
                 query,
                 entropy: cells.entropy(belief.weights()),
             }
         };
-        rows.push(measure(&belief, 0, None, None));
+        rows.push(measure(&belief, &history, 0, None, None));
         for iteration in 1..=s.iterations {
             let problem =
                 Problem { belief: &belief, menu: &t.menu, alpha: s.alpha, outcomes: OutcomeModel::Configuration };
@@ -161,9 +178,11 @@ fn run_trial(scenario: &dyn Scenario, s: &Settings, prior: &Prior, trial: usize)
             let set = &t.menu[chosen];
             let cost = true_cost(set, &t.truth, s.alpha);
             let choice = person.choose(set, &mut person_rng);
-            belief.update(set, s.alpha, &Observation::Config(choice)).expect("a drawn choice has positive likelihood");
+            let observation = Observation::Config(choice);
+            belief.update(set, s.alpha, &observation).expect("a drawn choice has positive likelihood");
             belief.maybe_resample(ResamplePolicy::EveryUpdate, &jitter, &mut resample_rng);
-            rows.push(measure(&belief, iteration, Some(chosen), Some(cost)));
+            history.push((chosen, observation));
+            rows.push(measure(&belief, &history, iteration, Some(chosen), Some(cost)));
         }
     }
     rows

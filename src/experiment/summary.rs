@@ -1,6 +1,7 @@
 //! Mean and standard error per algorithm × iteration × measure.
 
 use super::MetricRow;
+use crate::stats::{mean, mean_ci95, standard_error, wilcoxon_signed_rank};
 
 /// The measures summarised, as named in metrics.csv.
 pub const MEASURES: [&str; 6] =
@@ -24,10 +25,27 @@ pub struct SummaryRow {
     pub algorithm: &'static str,
     pub iteration: usize,
     pub measure: &'static str,
+    /// Values: trials × seeds.
     pub n: usize,
     pub mean: f64,
-    /// Standard error of the mean (sample standard deviation / √n; 0 for n = 1).
+    /// Standard error of the mean over all values (sample standard deviation / √n; 0 for n = 1).
     pub se: f64,
+    pub seeds: usize,
+    /// 95 % confidence interval of the mean: over the per-seed means (Student's t, seeds − 1
+    /// degrees of freedom) when there are several seeds, else over the trials.
+    pub ci_low: f64,
+    pub ci_high: f64,
+}
+
+/// The seeds of rows, in order of appearance.
+fn seeds_of(rows: &[MetricRow]) -> Vec<u64> {
+    let mut seeds = Vec::new();
+    for r in rows {
+        if !seeds.contains(&r.seed) {
+            seeds.push(r.seed);
+        }
+    }
+    seeds
 }
 
 /// Summarises rows in the order algorithms and iterations first appear.
@@ -38,25 +56,140 @@ pub fn summarise(rows: &[MetricRow]) -> Vec<SummaryRow> {
             keys.push((r.algorithm, r.iteration));
         }
     }
+    let seeds = seeds_of(rows);
     let mut out = Vec::new();
     for (algorithm, iteration) in keys {
+        let these: Vec<&MetricRow> =
+            rows.iter().filter(|r| r.algorithm == algorithm && r.iteration == iteration).collect();
         for measure in MEASURES {
-            let v: Vec<f64> = rows
-                .iter()
-                .filter(|r| r.algorithm == algorithm && r.iteration == iteration)
-                .filter_map(|r| value(r, measure))
-                .collect();
+            let v: Vec<f64> = these.iter().filter_map(|r| value(r, measure)).collect();
             if v.is_empty() {
                 continue;
             }
-            let n = v.len();
-            let mean = v.iter().sum::<f64>() / n as f64;
-            let se = if n > 1 {
-                (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt() / (n as f64).sqrt()
-            } else {
-                0.0
-            };
-            out.push(SummaryRow { algorithm, iteration, measure, n, mean, se });
+            let (_, mut ci_low, mut ci_high) = mean_ci95(&v);
+            if seeds.len() > 1 {
+                let per_seed: Vec<f64> = seeds
+                    .iter()
+                    .map(|&seed| {
+                        mean(
+                            &these
+                                .iter()
+                                .filter(|r| r.seed == seed)
+                                .filter_map(|r| value(r, measure))
+                                .collect::<Vec<_>>(),
+                        )
+                    })
+                    .collect();
+                (_, ci_low, ci_high) = mean_ci95(&per_seed);
+            }
+            out.push(SummaryRow {
+                algorithm,
+                iteration,
+                measure,
+                n: v.len(),
+                mean: mean(&v),
+                se: standard_error(&v),
+                seeds: seeds.len(),
+                ci_low,
+                ci_high,
+            });
+        }
+    }
+    out
+}
+
+/// A paired comparison of one algorithm with another on one measure at one iteration: the
+/// same truth, menu and test set (trial and seed), so the differences are paired.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PairedTest {
+    pub measure: &'static str,
+    pub iteration: usize,
+    pub algorithm: &'static str,
+    /// The algorithm it is compared with (its values are subtracted).
+    pub against: &'static str,
+    /// Pairs: trials × seeds.
+    pub n: usize,
+    /// Mean of (algorithm − against).
+    pub mean_difference: f64,
+    /// 95 % confidence interval of the mean difference (over seeds when several, else over
+    /// trials).
+    pub ci_low: f64,
+    pub ci_high: f64,
+    /// Two-sided Wilcoxon signed-rank p over every pair (none when every difference is zero:
+    /// the test is not defined).
+    pub p_value: Option<f64>,
+    pub seeds: usize,
+    /// Seeds in which the difference alone is significant (per-seed Wilcoxon p < .05), with
+    /// a positive and with a negative mean difference.
+    pub seeds_significant_positive: usize,
+    pub seeds_significant_negative: usize,
+}
+
+/// Paired tests of every algorithm against `against` on `measures` at `iteration`.
+pub fn paired_tests(
+    rows: &[MetricRow],
+    against: &'static str,
+    iteration: usize,
+    measures: &[&'static str],
+) -> Vec<PairedTest> {
+    let seeds = seeds_of(rows);
+    let mut algorithms: Vec<&'static str> = Vec::new();
+    for r in rows {
+        if !algorithms.contains(&r.algorithm) && r.algorithm != against {
+            algorithms.push(r.algorithm);
+        }
+    }
+    let at = |alg: &str, seed: u64, m: &str| -> Vec<(usize, f64)> {
+        rows.iter()
+            .filter(|r| r.algorithm == alg && r.iteration == iteration && r.seed == seed)
+            .filter_map(|r| value(r, m).map(|v| (r.trial, v)))
+            .collect()
+    };
+    let mut out = Vec::new();
+    for &measure in measures {
+        for &algorithm in &algorithms {
+            let mut all = Vec::new();
+            let mut per_seed_means = Vec::new();
+            let (mut pos, mut neg) = (0, 0);
+            for &seed in &seeds {
+                let base = at(against, seed, measure);
+                let d: Vec<f64> = at(algorithm, seed, measure)
+                    .into_iter()
+                    .filter_map(|(t, v)| base.iter().find(|(bt, _)| *bt == t).map(|(_, b)| v - b))
+                    .collect();
+                if d.is_empty() {
+                    continue;
+                }
+                let m = mean(&d);
+                if wilcoxon_signed_rank(&d).is_some_and(|w| w.p_value < 0.05) {
+                    if m > 0.0 {
+                        pos += 1;
+                    } else if m < 0.0 {
+                        neg += 1;
+                    }
+                }
+                per_seed_means.push(m);
+                all.extend(d);
+            }
+            if all.is_empty() {
+                continue;
+            }
+            let (_, ci_low, ci_high) =
+                if per_seed_means.len() > 1 { mean_ci95(&per_seed_means) } else { mean_ci95(&all) };
+            out.push(PairedTest {
+                measure,
+                iteration,
+                algorithm,
+                against,
+                n: all.len(),
+                mean_difference: mean(&all),
+                ci_low,
+                ci_high,
+                p_value: wilcoxon_signed_rank(&all).map(|w| w.p_value),
+                seeds: per_seed_means.len(),
+                seeds_significant_positive: pos,
+                seeds_significant_negative: neg,
+            });
         }
     }
     out
@@ -69,6 +202,7 @@ mod tests {
     fn row(iteration: usize, d: f64) -> MetricRow {
         MetricRow {
             algorithm: "active",
+            seed: 0,
             trial: 0,
             iteration,
             density_at_truth: 1.0,

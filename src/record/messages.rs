@@ -50,8 +50,13 @@ fn belief_message(index: usize, run: usize, b: &BeliefSummary, session: &Session
         "condition": session.learners()[run].condition.name(),
         "program": program_letter(run),
         "iteration": b.iteration,
-        "mode": {"q_star": b.mode.q_star, "w": b.mode.w},
         "mean": {"q_star": b.mean.q_star, "w": b.mean.w},
+        "map": {"q_star": b.map.q_star, "w": b.map.w},
+        "ci90": {
+            "low": {"q_star": b.ci_low.q_star, "w": b.ci_low.w},
+            "high": {"q_star": b.ci_high.q_star, "w": b.ci_high.w}
+        },
+        "grid_mode": {"q_star": b.grid_mode.q_star, "w": b.grid_mode.w},
         "entropy": b.entropy,
         "ess": b.ess,
     })

@@ -143,14 +143,17 @@ pub fn schema(topic: &str) -> (&'static str, Value) {
         "/belief" => (
             "handover.Belief",
             object(
-                &["condition", "program", "iteration", "mode", "mean", "entropy", "ess"],
+                &["condition", "program", "iteration", "mean", "map", "ci90", "grid_mode", "entropy", "ess"],
                 json!({
                     "event_index": {"type": "integer", "minimum": 0},
                     "condition": {"type": "string"},
                     "program": {"type": "string"},
                     "iteration": {"type": "integer", "minimum": 0},
-                    "mode": lambda(),
                     "mean": lambda(),
+                    "map": lambda(),
+                    "ci90": {"type": "object", "required": ["low", "high"],
+                             "properties": {"low": lambda(), "high": lambda()}},
+                    "grid_mode": lambda(),
                     "entropy": {"type": "number"},
                     "ess": {"type": "number"}
                 }),

@@ -1,7 +1,8 @@
 //! One training condition's learner: its belief, its selector and its suggestion.
 
 use crate::SeededRng;
-use crate::belief::{Belief, CellIndex, Grid, ResamplePolicy};
+use crate::belief::Observed;
+use crate::belief::{Belief, CellIndex, Estimate, Grid, Prior, ResamplePolicy};
 use crate::ergo::{FeasibleSet, Lambda, Observation};
 use crate::select::{OutcomeModel, Problem, QueryValue, SelectorKind, menu_values};
 
@@ -17,29 +18,52 @@ pub struct LearningContext {
     pub beta: f64,
     /// The label model λ: maps a grabbed region to its most likely configuration.
     pub label_model: Lambda,
+    /// The prior (for the MAP estimate, recomputed from it and every observation).
+    pub prior: Prior,
 }
 
-/// A summary of a belief, as logged on `/belief`.
+/// A summary of a belief, as logged on `/belief`: the well-defined estimates (posterior
+/// mean, MAP, 90 % credible interval), the paper's gridded mode (for its figures only: in
+/// 7-D it is grid noise, see docs/engine.md), the gridded entropy and the ESS.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct BeliefSummary {
     pub iteration: usize,
-    pub mode: Lambda,
     pub mean: Lambda,
+    pub map: Lambda,
+    /// The 5 % and 95 % posterior quantiles of every component.
+    pub ci_low: Lambda,
+    pub ci_high: Lambda,
+    /// The paper's mode: the mean of the heaviest grid cell.
+    pub grid_mode: Lambda,
     pub entropy: f64,
     pub ess: f64,
 }
 
 impl BeliefSummary {
-    /// Summarises a belief after `iteration` updates (one pass over the grid cells gives
-    /// both the mode and the entropy).
-    pub fn of(belief: &Belief, iteration: usize, grid: &Grid) -> Self {
-        let cells = CellIndex::new(belief, grid);
+    /// Summarises a belief after `iteration` updates, given the observations it was
+    /// updated with (one pass over the grid cells gives both the mode and the entropy).
+    pub fn of(belief: &Belief, iteration: usize, ctx: &LearningContext, history: &[Observed]) -> Self {
+        let cells = CellIndex::new(belief, &ctx.grid);
+        let (ci_low, ci_high) = belief.credible_interval();
         BeliefSummary {
             iteration,
-            mode: cells.mode(belief),
             mean: belief.mean(),
+            // The history's observations index their own sets (checked when observed).
+            map: belief.map_estimate(&ctx.prior, history, ctx.alpha).unwrap_or_else(|_| belief.mean()),
+            ci_low,
+            ci_high,
+            grid_mode: cells.mode(belief),
             entropy: cells.entropy(belief.weights()),
             ess: belief.ess(),
+        }
+    }
+
+    /// The estimate `kind` names.
+    pub fn estimate(&self, kind: Estimate) -> &Lambda {
+        match kind {
+            Estimate::Mean => &self.mean,
+            Estimate::Map => &self.map,
+            Estimate::GridMode => &self.grid_mode,
         }
     }
 }
@@ -60,6 +84,8 @@ pub struct Learner {
     pub entropies: Vec<f64>,
     /// The current belief's summary (kept, as the console shows it on every frame).
     pub summary: BeliefSummary,
+    /// Every observation learned from: (menu index, observation).
+    pub history: Vec<(usize, Observation)>,
 }
 
 impl Learner {
@@ -70,10 +96,19 @@ impl Learner {
         menu: &[FeasibleSet],
         ctx: &LearningContext,
     ) -> Self {
-        let summary = BeliefSummary::of(&belief, 0, &ctx.grid);
+        let summary = BeliefSummary::of(&belief, 0, ctx, &[]);
         let entropies = vec![summary.entropy];
-        let mut l =
-            Self { condition, belief, rng, iteration: 0, suggestion: 0, scores: Vec::new(), entropies, summary };
+        let mut l = Self {
+            condition,
+            belief,
+            rng,
+            iteration: 0,
+            suggestion: 0,
+            scores: Vec::new(),
+            entropies,
+            summary,
+            history: Vec::new(),
+        };
         l.suggest(menu, ctx);
         l
     }
@@ -94,15 +129,18 @@ impl Learner {
     /// error, and the learner is left as it was.
     pub fn learn(
         &mut self,
-        set: &FeasibleSet,
+        query: usize,
         obs: &Observation,
         menu: &[FeasibleSet],
         ctx: &LearningContext,
     ) -> Result<(), crate::belief::BeliefError> {
+        let set = &menu[query];
         self.belief.update(set, ctx.alpha, obs)?;
+        self.history.push((query, obs.clone()));
         self.belief.maybe_resample(ctx.policy, &ctx.jitter, &mut self.rng);
         self.iteration += 1;
-        self.summary = BeliefSummary::of(&self.belief, self.iteration, &ctx.grid);
+        let history: Vec<Observed> = self.history.iter().map(|(q, o)| (&menu[*q], o)).collect();
+        self.summary = BeliefSummary::of(&self.belief, self.iteration, ctx, &history);
         self.entropies.push(self.summary.entropy);
         self.suggest(menu, ctx);
         Ok(())

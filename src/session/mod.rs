@@ -205,6 +205,7 @@ impl Session {
             policy: learning.resampling,
             beta: learning.hybrid_beta,
             label_model: learning.label_model.to_lambda(),
+            prior: prior.clone(),
         };
         let menu: Arc<Vec<FeasibleSet>> = Arc::new(study.training.iter().map(|q| choice_set(&q.feasible)).collect());
         let tests: Arc<Vec<FeasibleSet>> = Arc::new(study.test.iter().map(|q| choice_set(&q.feasible)).collect());
@@ -467,7 +468,10 @@ impl Session {
                         };
                         // Learn on a copy: a degenerate update leaves the session unchanged.
                         let mut learner = self.learners[run].clone();
-                        learner.learn(set, &obs, &self.menu, &self.ctx).map_err(|e| degenerate(e.to_string()))?;
+                        let QueryRef::Training(i) = view.query else {
+                            return Err(degenerate("a training trial on a test query".into()));
+                        };
+                        learner.learn(i, &obs, &self.menu, &self.ctx).map_err(|e| degenerate(e.to_string()))?;
                         undo.learner = Some((run, std::mem::replace(&mut self.learners[run], learner)));
                         Some(self.learners[run].summary.clone())
                     }

@@ -26,7 +26,7 @@ pub fn render(_app: &App, view: &SummaryView, frame: &mut Frame, area: Rect) {
         top,
     );
     let Some(a) = &view.analysis else { return };
-    let iterations = a.runs.iter().map(|r| r.test_ll_mode.len()).max().unwrap_or(0);
+    let iterations = a.runs.iter().map(|r| r.test_ll_estimate.len()).max().unwrap_or(0);
     let mut header = vec!["program = condition".to_string()];
     header.extend((0..iterations).map(|i| format!("it {i}")));
     let rows: Vec<Row> = a
@@ -34,7 +34,7 @@ pub fn render(_app: &App, view: &SummaryView, frame: &mut Frame, area: Rect) {
         .iter()
         .map(|r| {
             let mut cells = vec![format!("{} = {}", a.start.program_labels[r.program], r.condition)];
-            cells.extend(r.test_ll_mode.iter().map(|v| format!("{v:.1}")));
+            cells.extend(r.test_ll_estimate.iter().map(|v| format!("{v:.1}")));
             Row::new(cells)
         })
         .collect();

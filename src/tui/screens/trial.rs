@@ -145,7 +145,9 @@ fn belief_panel(app: &App, session: &Session, run: usize, frame: &mut Frame, are
             .block(Block::new().title(format!("entropy per iteration (now {last:.2} nats)"))),
         spark_area,
     );
-    let mode = learner.summary.mode.to_vec();
+    // The posterior mean and its 90 % credible interval against the prior's range.
+    let summary = &learner.summary;
+    let (mean, low, high) = (summary.mean.to_vec(), summary.ci_low.to_vec(), summary.ci_high.to_vec());
     let rows: Vec<Row> = free
         .iter()
         .take(7)
@@ -153,14 +155,15 @@ fn belief_panel(app: &App, session: &Session, run: usize, frame: &mut Frame, are
             let (lo, hi) = supports[c];
             Row::new(vec![
                 component_name(c),
-                format!("{:+.1}", shown(c, (lo + hi) / 2.0)),
-                format!("{:+.1}", shown(c, mode[c])),
+                format!("{:.0}…{:.0}", shown(c, lo), shown(c, hi)),
+                format!("{:+.1}", shown(c, mean[c])),
+                format!("{:.0}…{:.0}", shown(c, low[c]), shown(c, high[c])),
             ])
         })
         .collect();
     frame.render_widget(
-        Table::new(rows, [Constraint::Min(22), Constraint::Length(8), Constraint::Length(8)])
-            .header(Row::new(vec!["learned (deg)", "prior", "mode"]).style(theme::title())),
+        Table::new(rows, [Constraint::Min(14), Constraint::Length(9), Constraint::Length(6), Constraint::Length(9)])
+            .header(Row::new(vec!["learned (deg)", "prior", "mean", "90% CI"]).style(theme::title())),
         table_area,
     );
     let pairs = joint_pairs(&free);

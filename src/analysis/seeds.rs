@@ -1,0 +1,210 @@
+//! Dry runs over several seeds: every measure as a mean with a 95 % confidence interval over
+//! the seeds' means, and active against passive by paired tests (the same simulated
+//! participant, truth and test set run both conditions).
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+
+use super::SessionAnalysis;
+use crate::stats::{mean, mean_ci95, wilcoxon_signed_rank};
+
+/// The sessions of one seed's dry run.
+#[derive(Clone, Debug)]
+pub struct SeedRun {
+    pub seed: u64,
+    pub sessions: Vec<SessionAnalysis>,
+}
+
+/// One measure of one condition at one iteration, over seeds.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct OverSeeds {
+    pub measure: &'static str,
+    pub condition: String,
+    pub iteration: usize,
+    pub seeds: usize,
+    /// Participants × seeds.
+    pub n: usize,
+    pub mean: f64,
+    pub ci_low: f64,
+    pub ci_high: f64,
+}
+
+/// A paired comparison of two conditions on one measure at one iteration.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Paired {
+    pub measure: &'static str,
+    pub iteration: usize,
+    /// (first − second) per participant.
+    pub first: String,
+    pub second: String,
+    pub n: usize,
+    pub mean_difference: f64,
+    /// 95 % confidence interval of the mean difference over the seeds' means.
+    pub ci_low: f64,
+    pub ci_high: f64,
+    /// Two-sided Wilcoxon signed-rank p over every participant of every seed (none when
+    /// every difference is zero: the test is not defined).
+    pub p_value: Option<f64>,
+    pub seeds: usize,
+    /// Seeds whose participants alone give p < .05, with first > second and with first < second.
+    pub seeds_first_higher: usize,
+    pub seeds_first_lower: usize,
+}
+
+/// The per-participant value of a measure at an iteration, for one condition.
+fn values(s: &SessionAnalysis, condition: &str, measure: &str, iteration: usize) -> Option<f64> {
+    let run = s.runs.iter().find(|r| r.condition == condition)?;
+    match measure {
+        "test_log_likelihood" => run.test_ll_estimate.get(iteration).copied(),
+        "distance_to_truth_deg" => {
+            let truth = s.start.simulated_truth.as_ref()?;
+            let b = run.beliefs.get(iteration)?;
+            Some(b.mean.q_star.iter().zip(&truth.q_star).map(|(a, t)| (a - t).to_degrees().powi(2)).sum::<f64>().sqrt())
+        }
+        _ => None,
+    }
+}
+
+/// Measures reported per iteration.
+pub const SEED_MEASURES: [&str; 2] = ["test_log_likelihood", "distance_to_truth_deg"];
+
+/// Conditions in the order they first appear.
+fn conditions(runs: &[SeedRun]) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for r in runs.iter().flat_map(|s| &s.sessions).flat_map(|s| &s.runs) {
+        if !out.contains(&r.condition) {
+            out.push(r.condition.clone());
+        }
+    }
+    out
+}
+
+fn iterations(runs: &[SeedRun]) -> usize {
+    runs.iter().flat_map(|s| &s.sessions).flat_map(|s| &s.runs).map(|r| r.beliefs.len()).max().unwrap_or(0)
+}
+
+/// Every measure per condition and iteration, over seeds.
+pub fn over_seeds(runs: &[SeedRun]) -> Vec<OverSeeds> {
+    let mut out = Vec::new();
+    for measure in SEED_MEASURES {
+        for c in conditions(runs) {
+            for it in 0..iterations(runs) {
+                let per_seed: Vec<Vec<f64>> = runs
+                    .iter()
+                    .map(|r| r.sessions.iter().filter_map(|s| values(s, &c, measure, it)).collect())
+                    .collect();
+                let means: Vec<f64> = per_seed.iter().filter(|v| !v.is_empty()).map(|v| mean(v)).collect();
+                if means.is_empty() {
+                    continue;
+                }
+                let all: Vec<f64> = per_seed.concat();
+                let (_, ci_low, ci_high) = if means.len() > 1 { mean_ci95(&means) } else { mean_ci95(&all) };
+                out.push(OverSeeds {
+                    measure,
+                    condition: c.clone(),
+                    iteration: it,
+                    seeds: means.len(),
+                    n: all.len(),
+                    mean: mean(&all),
+                    ci_low,
+                    ci_high,
+                });
+            }
+        }
+    }
+    out
+}
+
+/// The first condition against the second on every measure at every iteration.
+pub fn paired_over_seeds(runs: &[SeedRun]) -> Vec<Paired> {
+    let cs = conditions(runs);
+    let (Some(first), Some(second)) = (cs.first(), cs.get(1)) else { return Vec::new() };
+    let mut out = Vec::new();
+    for measure in SEED_MEASURES {
+        for it in 0..iterations(runs) {
+            let mut all = Vec::new();
+            let mut means = Vec::new();
+            let (mut higher, mut lower) = (0, 0);
+            for r in runs {
+                let d: Vec<f64> = r
+                    .sessions
+                    .iter()
+                    .filter_map(|s| Some(values(s, first, measure, it)? - values(s, second, measure, it)?))
+                    .collect();
+                if d.is_empty() {
+                    continue;
+                }
+                let m = mean(&d);
+                if wilcoxon_signed_rank(&d).is_some_and(|w| w.p_value < 0.05) {
+                    if m > 0.0 {
+                        higher += 1;
+                    } else if m < 0.0 {
+                        lower += 1;
+                    }
+                }
+                means.push(m);
+                all.extend(d);
+            }
+            if all.is_empty() {
+                continue;
+            }
+            let (_, ci_low, ci_high) = if means.len() > 1 { mean_ci95(&means) } else { mean_ci95(&all) };
+            out.push(Paired {
+                measure,
+                iteration: it,
+                first: first.clone(),
+                second: second.clone(),
+                n: all.len(),
+                mean_difference: mean(&all),
+                ci_low,
+                ci_high,
+                p_value: wilcoxon_signed_rank(&all).map(|w| w.p_value),
+                seeds: means.len(),
+                seeds_first_higher: higher,
+                seeds_first_lower: lower,
+            });
+        }
+    }
+    out
+}
+
+/// The share of each condition's training offers that were of each object: per seed, then
+/// the mean with a 95 % confidence interval over seeds. condition → object → (mean, low, high).
+pub fn object_shares(runs: &[SeedRun]) -> BTreeMap<String, BTreeMap<String, (f64, f64, f64)>> {
+    let mut out = BTreeMap::new();
+    for c in conditions(runs) {
+        let mut objects: Vec<String> = Vec::new();
+        for t in runs
+            .iter()
+            .flat_map(|r| &r.sessions)
+            .flat_map(|s| &s.runs)
+            .filter(|r| r.condition == c)
+            .flat_map(|r| &r.trials)
+        {
+            if !objects.contains(&t.object) {
+                objects.push(t.object.clone());
+            }
+        }
+        let mut per_object = BTreeMap::new();
+        for o in objects {
+            let shares: Vec<f64> = runs
+                .iter()
+                .filter_map(|r| {
+                    let trials: Vec<_> = r
+                        .sessions
+                        .iter()
+                        .flat_map(|s| &s.runs)
+                        .filter(|x| x.condition == c)
+                        .flat_map(|x| &x.trials)
+                        .collect();
+                    (!trials.is_empty())
+                        .then(|| trials.iter().filter(|t| t.object == o).count() as f64 / trials.len() as f64)
+                })
+                .collect();
+            per_object.insert(o, mean_ci95(&shares));
+        }
+        out.insert(c, per_object);
+    }
+    out
+}
