@@ -95,24 +95,34 @@ fn session_step_default_protocol(c: &mut Criterion) {
         resumed_from: None,
     };
     let mut session = Session::new(study, start).unwrap();
-    let Prompt::Present(view) = session.prompt() else { unreachable!() };
-    let id = session.query(view.query).query.id.clone();
-    session.apply(&Event::QueryPresented { query: id }).unwrap();
-    let q = session.query(view.query);
-    let region = session.study().object(q).regions[q.regions[0]].id.clone();
+    // The session at its k-th grasp (1-based): present the suggested query, and the grip to take.
+    let present = |session: &mut Session| -> String {
+        let Prompt::Present(view) = session.prompt() else { unreachable!() };
+        let id = session.query(view.query).query.id.clone();
+        session.apply(&Event::QueryPresented { query: id }).unwrap();
+        let q = session.query(view.query);
+        session.study().object(q).regions[q.regions[0]].id.clone()
+    };
     let mut g = c.benchmark_group("session_step_default_protocol");
     g.sample_size(10);
-    for threads in [1, 2] {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-        g.bench_function(format!("grasp_update_and_next_suggestion/{threads}-threads"), |b| {
-            b.iter(|| {
-                pool.install(|| {
-                    let mut s = session.clone();
-                    s.apply(&Event::GraspRecorded { region: region.clone() }).unwrap();
-                    s.learners()[0].suggestion
-                })
-            })
-        });
+    // The first grasp, and the fifth (the MAP estimate recomputes every observation so far).
+    for k in 1..=5 {
+        let region = present(&mut session);
+        if k == 1 || k == 5 {
+            for threads in [1, 2] {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                g.bench_function(format!("grasp_{k}_update_and_next_suggestion/{threads}-threads"), |b| {
+                    b.iter(|| {
+                        pool.install(|| {
+                            let mut s = session.clone();
+                            s.apply(&Event::GraspRecorded { region: region.clone() }).unwrap();
+                            s.learners()[0].suggestion
+                        })
+                    })
+                });
+            }
+        }
+        session.apply(&Event::GraspRecorded { region }).unwrap();
     }
     g.finish();
 }

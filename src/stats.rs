@@ -58,6 +58,56 @@ pub fn mean_ci95(v: &[f64]) -> (f64, f64, f64) {
     (m, m - h, m + h)
 }
 
+/// Paired differences in groups (one group per seed), summarised.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GroupedDifferences {
+    /// Pairs in all groups.
+    pub n: usize,
+    pub mean: f64,
+    /// 95 % confidence interval of the mean difference: over the groups' means when there
+    /// are several groups, else over the pairs.
+    pub ci_low: f64,
+    pub ci_high: f64,
+    /// Two-sided Wilcoxon signed-rank p over every pair (none when every difference is 0).
+    pub p_value: Option<f64>,
+    /// Non-empty groups.
+    pub groups: usize,
+    /// Groups whose pairs alone give p < .05, with a positive and a negative mean difference.
+    pub significant_positive: usize,
+    pub significant_negative: usize,
+}
+
+/// Summarises paired differences given per group; `None` when there are none.
+pub fn grouped_differences(groups: &[Vec<f64>]) -> Option<GroupedDifferences> {
+    let groups: Vec<&Vec<f64>> = groups.iter().filter(|g| !g.is_empty()).collect();
+    let all: Vec<f64> = groups.iter().flat_map(|g| g.iter().copied()).collect();
+    if all.is_empty() {
+        return None;
+    }
+    let means: Vec<f64> = groups.iter().map(|g| mean(g)).collect();
+    let (mut positive, mut negative) = (0, 0);
+    for (g, m) in groups.iter().zip(&means) {
+        if wilcoxon_signed_rank(g).is_some_and(|w| w.p_value < 0.05) {
+            if *m > 0.0 {
+                positive += 1;
+            } else if *m < 0.0 {
+                negative += 1;
+            }
+        }
+    }
+    let (_, ci_low, ci_high) = if means.len() > 1 { mean_ci95(&means) } else { mean_ci95(&all) };
+    Some(GroupedDifferences {
+        n: all.len(),
+        mean: mean(&all),
+        ci_low,
+        ci_high,
+        p_value: wilcoxon_signed_rank(&all).map(|w| w.p_value),
+        groups: means.len(),
+        significant_positive: positive,
+        significant_negative: negative,
+    })
+}
+
 /// The result of a Wilcoxon signed-rank test on paired differences.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Wilcoxon {

@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::SessionAnalysis;
-use crate::stats::{mean, mean_ci95, wilcoxon_signed_rank};
+use crate::stats::{grouped_differences, mean, mean_ci95};
 
 /// The sessions of one seed's dry run.
 #[derive(Clone, Debug)]
@@ -123,46 +123,29 @@ pub fn paired_over_seeds(runs: &[SeedRun]) -> Vec<Paired> {
     let mut out = Vec::new();
     for measure in SEED_MEASURES {
         for it in 0..iterations(runs) {
-            let mut all = Vec::new();
-            let mut means = Vec::new();
-            let (mut higher, mut lower) = (0, 0);
-            for r in runs {
-                let d: Vec<f64> = r
-                    .sessions
-                    .iter()
-                    .filter_map(|s| Some(values(s, first, measure, it)? - values(s, second, measure, it)?))
-                    .collect();
-                if d.is_empty() {
-                    continue;
-                }
-                let m = mean(&d);
-                if wilcoxon_signed_rank(&d).is_some_and(|w| w.p_value < 0.05) {
-                    if m > 0.0 {
-                        higher += 1;
-                    } else if m < 0.0 {
-                        lower += 1;
-                    }
-                }
-                means.push(m);
-                all.extend(d);
-            }
-            if all.is_empty() {
-                continue;
-            }
-            let (_, ci_low, ci_high) = if means.len() > 1 { mean_ci95(&means) } else { mean_ci95(&all) };
+            let groups: Vec<Vec<f64>> = runs
+                .iter()
+                .map(|r| {
+                    r.sessions
+                        .iter()
+                        .filter_map(|s| Some(values(s, first, measure, it)? - values(s, second, measure, it)?))
+                        .collect()
+                })
+                .collect();
+            let Some(g) = grouped_differences(&groups) else { continue };
             out.push(Paired {
                 measure,
                 iteration: it,
                 first: first.clone(),
                 second: second.clone(),
-                n: all.len(),
-                mean_difference: mean(&all),
-                ci_low,
-                ci_high,
-                p_value: wilcoxon_signed_rank(&all).map(|w| w.p_value),
-                seeds: means.len(),
-                seeds_first_higher: higher,
-                seeds_first_lower: lower,
+                n: g.n,
+                mean_difference: g.mean,
+                ci_low: g.ci_low,
+                ci_high: g.ci_high,
+                p_value: g.p_value,
+                seeds: g.groups,
+                seeds_first_higher: g.significant_positive,
+                seeds_first_lower: g.significant_negative,
             });
         }
     }

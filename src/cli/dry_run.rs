@@ -188,7 +188,9 @@ fn print_over_seeds(runs: &[SeedRun], seed: u64, seeds: u64, participants: usize
                 };
             }
             if let Some(t) = tests.iter().find(|t| t.measure == measure && t.iteration == it) {
-                let p = t.p_value.map_or("no difference".to_string(), |p| format!("p={p:.3}"));
+                let p = t.p_value.map_or("no difference".to_string(), |p| {
+                    if p < 0.001 { "p<0.001".to_string() } else { format!("p={p:.3}") }
+                });
                 line += &format!(
                     " {:>34}",
                     format!("{:+.1} [{:+.1}, {:+.1}] ({p})", t.mean_difference, t.ci_low, t.ci_high)

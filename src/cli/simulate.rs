@@ -222,6 +222,11 @@ fn write_csv<T: serde::Serialize>(path: &Path, rows: &[T]) -> Result<()> {
 /// The measures compared with `active` by paired tests at the last iteration.
 const COMPARED: [&str; 3] = ["distance_to_truth", "test_log_likelihood", "true_cost"];
 
+/// A p-value as printed: below what the normal approximation resolves, a bound.
+fn format_p(p: f64) -> String {
+    if p < 1e-15 { "p<1e-15".to_string() } else { format!("p={p:.2e}") }
+}
+
 /// Half the width of a row's 95 % confidence interval (0 where it is not defined).
 fn ci_half_width(r: &SummaryRow) -> f64 {
     let h = (r.ci_high - r.ci_low) / 2.0;
@@ -270,7 +275,7 @@ fn print_table(
         tests
             .iter()
             .find(|t| t.algorithm == alg && t.measure == m)
-            .map_or("".to_string(), |t| t.p_value.map_or("—".to_string(), |p| format!("p={p:.2e}")))
+            .map_or("".to_string(), |t| t.p_value.map_or("—".to_string(), format_p))
     };
     let iterations = s.iterations;
     let cost_last = |alg: &str| {

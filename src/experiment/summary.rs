@@ -1,7 +1,7 @@
 //! Mean and standard error per algorithm × iteration × measure.
 
 use super::MetricRow;
-use crate::stats::{mean, mean_ci95, standard_error, wilcoxon_signed_rank};
+use crate::stats::{grouped_differences, mean, mean_ci95, standard_error};
 
 /// The measures summarised, as named in metrics.csv.
 pub const MEASURES: [&str; 6] =
@@ -148,47 +148,30 @@ pub fn paired_tests(
     let mut out = Vec::new();
     for &measure in measures {
         for &algorithm in &algorithms {
-            let mut all = Vec::new();
-            let mut per_seed_means = Vec::new();
-            let (mut pos, mut neg) = (0, 0);
-            for &seed in &seeds {
-                let base = at(against, seed, measure);
-                let d: Vec<f64> = at(algorithm, seed, measure)
-                    .into_iter()
-                    .filter_map(|(t, v)| base.iter().find(|(bt, _)| *bt == t).map(|(_, b)| v - b))
-                    .collect();
-                if d.is_empty() {
-                    continue;
-                }
-                let m = mean(&d);
-                if wilcoxon_signed_rank(&d).is_some_and(|w| w.p_value < 0.05) {
-                    if m > 0.0 {
-                        pos += 1;
-                    } else if m < 0.0 {
-                        neg += 1;
-                    }
-                }
-                per_seed_means.push(m);
-                all.extend(d);
-            }
-            if all.is_empty() {
-                continue;
-            }
-            let (_, ci_low, ci_high) =
-                if per_seed_means.len() > 1 { mean_ci95(&per_seed_means) } else { mean_ci95(&all) };
+            let groups: Vec<Vec<f64>> = seeds
+                .iter()
+                .map(|&seed| {
+                    let base = at(against, seed, measure);
+                    at(algorithm, seed, measure)
+                        .into_iter()
+                        .filter_map(|(t, v)| base.iter().find(|(bt, _)| *bt == t).map(|(_, b)| v - b))
+                        .collect()
+                })
+                .collect();
+            let Some(g) = grouped_differences(&groups) else { continue };
             out.push(PairedTest {
                 measure,
                 iteration,
                 algorithm,
                 against,
-                n: all.len(),
-                mean_difference: mean(&all),
-                ci_low,
-                ci_high,
-                p_value: wilcoxon_signed_rank(&all).map(|w| w.p_value),
-                seeds: per_seed_means.len(),
-                seeds_significant_positive: pos,
-                seeds_significant_negative: neg,
+                n: g.n,
+                mean_difference: g.mean,
+                ci_low: g.ci_low,
+                ci_high: g.ci_high,
+                p_value: g.p_value,
+                seeds: g.groups,
+                seeds_significant_positive: g.significant_positive,
+                seeds_significant_negative: g.significant_negative,
             });
         }
     }
