@@ -2,10 +2,8 @@
 //! tie-break: the posterior mean, a MAP estimate recomputed exactly from the prior and every
 //! observation so far, and per-component weighted quantiles.
 
-use rayon::prelude::*;
-
-use super::{Belief, PARTICLE_CHUNK, Prior};
-use crate::ergo::{FeasibleSet, Lambda, Observation, ObservationError, SetPass};
+use super::{Belief, BeliefError, Prior};
+use crate::ergo::{FeasibleSet, Lambda, Observation};
 
 /// The lower and upper posterior quantiles of the credible intervals (a central 90 %
 /// interval).
@@ -52,45 +50,15 @@ impl Belief {
     /// The unnormalised log posterior of every particle, recomputed exactly: log p(λ_i) plus
     /// Σ_t log P(obs_t | Q_t, λ_i) over every observation so far (eq. 4–5 without the
     /// normaliser, which is the same for every particle).
-    pub fn log_posteriors(
-        &self,
-        prior: &Prior,
-        history: &[Observed],
-        alpha: f64,
-    ) -> Result<Vec<f64>, ObservationError> {
-        for (set, obs) in history {
-            obs.check(set.len())?;
-        }
-        let s = 2 * self.dim;
-        let d = self.dim;
-        let chunks: Vec<Vec<f64>> = self
-            .particles
-            .par_chunks(PARTICLE_CHUNK * s)
-            .map(|ps| {
-                let mut scratch: Vec<_> = history.iter().map(|(set, _)| SetPass::scratch(set.len())).collect();
-                ps.chunks_exact(s)
-                    .map(|p| {
-                        let mut lp = prior.log_density_unnormalised(p);
-                        for ((set, obs), scratch) in history.iter().zip(&mut scratch) {
-                            if lp == f64::NEG_INFINITY {
-                                break;
-                            }
-                            let pass = SetPass::run(set.configs(), &p[..d], &p[d..], alpha, scratch);
-                            lp += pass.log_likelihood(obs, alpha, scratch);
-                        }
-                        lp
-                    })
-                    .collect()
-            })
-            .collect();
-        Ok(chunks.concat())
+    pub fn log_posteriors(&self, prior: &Prior, history: &[Observed], alpha: f64) -> Result<Vec<f64>, BeliefError> {
+        self.per_particle_log_likelihoods(history, alpha, |p| prior.log_density_unnormalised(p))
     }
 
     /// The MAP estimate among the particles: the particle of highest unnormalised log
     /// posterior ([`Belief::log_posteriors`]); where several distinct particles tie (a
     /// flat prior before any observation: all of them), the weighted mean of the tied ones,
     /// so that no tie-break decides it.
-    pub fn map_estimate(&self, prior: &Prior, history: &[Observed], alpha: f64) -> Result<Lambda, ObservationError> {
+    pub fn map_estimate(&self, prior: &Prior, history: &[Observed], alpha: f64) -> Result<Lambda, BeliefError> {
         let lp = self.log_posteriors(prior, history, alpha)?;
         let best = lp.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let s = 2 * self.dim;

@@ -179,21 +179,42 @@ impl Belief {
 
     /// log P(obs | Q, λ_i) for every particle (eq. 3 / its region form).
     pub fn log_likelihoods(&self, set: &FeasibleSet, alpha: f64, obs: &Observation) -> Result<Vec<f64>, BeliefError> {
-        if set.dim() != self.dim {
-            return Err(BeliefError::DimensionMismatch { found: set.dim(), expected: self.dim });
+        self.per_particle_log_likelihoods(&[(set, obs)], alpha, |_| 0.0)
+    }
+
+    /// base(λ_i) + Σ_t log P(obs_t | Q_t, λ_i) for every particle, after checking every
+    /// set's dimension and observation; particles go in fixed chunks, so the result is
+    /// bit-identical for any number of threads. A particle whose sum reaches −∞ stops there.
+    pub(crate) fn per_particle_log_likelihoods(
+        &self,
+        observed: &[Observed],
+        alpha: f64,
+        base: impl Fn(&[f64]) -> f64 + Sync,
+    ) -> Result<Vec<f64>, BeliefError> {
+        for (set, obs) in observed {
+            if set.dim() != self.dim {
+                return Err(BeliefError::DimensionMismatch { found: set.dim(), expected: self.dim });
+            }
+            obs.check(set.len())?;
         }
-        obs.check(set.len())?;
         let s = 2 * self.dim;
         let d = self.dim;
         let chunks: Vec<Vec<f64>> = self
             .particles
             .par_chunks(PARTICLE_CHUNK * s)
             .map(|ps| {
-                let mut scratch = SetPass::scratch(set.len());
+                let mut scratch: Vec<_> = observed.iter().map(|(set, _)| SetPass::scratch(set.len())).collect();
                 ps.chunks_exact(s)
                     .map(|p| {
-                        let pass = SetPass::run(set.configs(), &p[..d], &p[d..], alpha, &mut scratch);
-                        pass.log_likelihood(obs, alpha, &scratch)
+                        let mut lp = base(p);
+                        for ((set, obs), scratch) in observed.iter().zip(&mut scratch) {
+                            if lp == f64::NEG_INFINITY {
+                                break;
+                            }
+                            let pass = SetPass::run(set.configs(), &p[..d], &p[d..], alpha, scratch);
+                            lp += pass.log_likelihood(obs, alpha, scratch);
+                        }
+                        lp
                     })
                     .collect()
             })

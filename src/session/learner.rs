@@ -2,7 +2,7 @@
 
 use crate::SeededRng;
 use crate::belief::Observed;
-use crate::belief::{Belief, CellIndex, Estimate, Grid, Prior, ResamplePolicy};
+use crate::belief::{Belief, CellIndex, Grid, Prior, ResamplePolicy};
 use crate::ergo::{FeasibleSet, Lambda, Observation};
 use crate::select::{OutcomeModel, Problem, QueryValue, SelectorKind, menu_values};
 
@@ -55,15 +55,6 @@ impl BeliefSummary {
             grid_mode: cells.mode(belief),
             entropy: cells.entropy(belief.weights()),
             ess: belief.ess(),
-        }
-    }
-
-    /// The estimate `kind` names.
-    pub fn estimate(&self, kind: Estimate) -> &Lambda {
-        match kind {
-            Estimate::Mean => &self.mean,
-            Estimate::Map => &self.map,
-            Estimate::GridMode => &self.grid_mode,
         }
     }
 }
