@@ -1,13 +1,15 @@
 //! `handover resume LOG`: continue an interrupted session from its log.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Duration;
 
 use anyhow::{Context, Result};
 use clap::Args;
 use handover::dryrun::{drive, now_ns};
 use handover::participant::{ScriptedParticipant, SimulatedPerson};
-use handover::record::{LogContents, RecordedSession, is_over, lineage, log_path_in, read_log, study_of};
+use handover::record::{
+    LogContents, RecordedSession, continuation_path, is_over, lineage, log_folder, read_log, study_of,
+};
 use handover::study_dir::{ParticipantLock, StudyDirs};
 
 use super::input::bad;
@@ -65,12 +67,6 @@ fn choose(given: LogContents, fork: bool) -> LogContents {
     }
 }
 
-/// The folder a resumed log is written to: the one the old log is in, never a path taken
-/// from the log's content.
-pub fn beside(log: &Path) -> PathBuf {
-    log.parent().filter(|d| !d.as_os_str().is_empty()).map_or_else(|| PathBuf::from("."), Path::to_path_buf)
-}
-
 pub fn run(args: ResumeArgs) -> Result<()> {
     let given = read_log(&args.log).map_err(|e| bad(e.to_string()))?;
     let old = choose(given, args.fork);
@@ -94,9 +90,8 @@ pub fn run(args: ResumeArgs) -> Result<()> {
         )));
     };
     let study = study_of(&old).map_err(|e| bad(e.to_string()))?;
-    let dir = beside(&old.path);
-    let _lock = ParticipantLock::acquire(&dir, &old.start.participant, "resume --dry-run")?;
-    let path = log_path_in(&dir, &old.start.participant, chrono::Utc::now());
+    let _lock = ParticipantLock::acquire(&log_folder(&old.path), &old.start.participant, "resume --dry-run")?;
+    let path = continuation_path(&old, chrono::Utc::now());
     let mut rec = RecordedSession::resume(&old, &path, now_ns())?;
     eprintln!("resumed {} ({} events) into {}", old.path.display(), old.events.len(), rec.path().display());
     let person = SimulatedPerson { truth, alpha: study.protocol.learning.alpha };

@@ -78,6 +78,18 @@ pub fn log_path_in(dir: &Path, participant: &str, time: chrono::DateTime<chrono:
     dir.join(format!("{participant}_{}.mcap", time.format("%Y%m%dT%H%M%SZ")))
 }
 
+/// The folder a log is in ("." for a bare file name): where its continuation and its
+/// participant's lock live.
+pub fn log_folder(log: &Path) -> PathBuf {
+    log.parent().filter(|d| !d.as_os_str().is_empty()).map_or_else(|| PathBuf::from("."), Path::to_path_buf)
+}
+
+/// Where the continuation of `old` is written: beside it, named after its participant id
+/// (validated when the log was read) — never a path taken from the log's content.
+pub fn continuation_path(old: &LogContents, time: chrono::DateTime<chrono::Utc>) -> PathBuf {
+    log_path_in(&log_folder(&old.path), &old.start.participant, time)
+}
+
 /// Creates `path` owner-only, or, if that name is taken, `<stem>-2.mcap`, `-3`, … (two
 /// consoles started in the same second each get their own file; nothing is overwritten).
 fn create_unique(path: &Path) -> std::io::Result<(PathBuf, File)> {

@@ -17,7 +17,8 @@ use crate::dryrun::{now_ns, plan};
 use crate::participant::{ParticipantRecord, ScriptedParticipant, SimulatedPerson, new_id, validate_id};
 use crate::protocol::{Study, with_body_height};
 use crate::record::{
-    LogContents, RecordError, RecordedSession, SubmitError, least_filled_slot, log_path_in, new_log_path, read_log,
+    LogContents, RecordError, RecordedSession, SubmitError, continuation_path, least_filled_slot, log_folder,
+    new_log_path, read_log,
 };
 use crate::session::{Event, Prompt, Session, SessionStart, Stamped, VoidReason, condition_order};
 use crate::study_dir::{ParticipantLock, StudyDirs};
@@ -148,9 +149,9 @@ impl App {
     /// taken from the log's content), at the screen where it stopped.
     pub fn resume(config: AppConfig, old: &LogContents) -> Result<Self, String> {
         let mut app = Self::empty(config);
-        let dir = old.path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
-        app.lock = Some(ParticipantLock::acquire(dir, &old.start.participant, "console").map_err(|e| e.to_string())?);
-        let path = log_path_in(dir, &old.start.participant, chrono::Utc::now());
+        let lock = ParticipantLock::acquire(&log_folder(&old.path), &old.start.participant, "console");
+        app.lock = Some(lock.map_err(|e| e.to_string())?);
+        let path = continuation_path(old, chrono::Utc::now());
         let rec = RecordedSession::resume(old, &path, now_ns()).map_err(|e| e.to_string())?;
         let path = rec.path().to_path_buf();
         let status = format!(
