@@ -189,3 +189,183 @@ pub fn bar_chart(
     root.present().map_err(|e| err(&e))?;
     Ok(())
 }
+
+/// The pooled α evidence curve (relative to its maximum), the estimate and its interval.
+pub struct PooledEvidence {
+    pub curve: Vec<(f64, f64)>,
+    pub alpha: f64,
+    pub low: f64,
+    pub high: f64,
+}
+
+/// The α evidence curves (log evidence relative to each maximum, against α on a log axis):
+/// one thin grey line per session, the pooled curve bold with its support interval shaded,
+/// the support threshold −`drop` dashed, and each protocol α as a vertical line.
+pub fn alpha_plot(
+    path: &Path,
+    sessions: &[Vec<(f64, f64)>],
+    pooled: Option<&PooledEvidence>,
+    protocol: &[f64],
+    drop: f64,
+) -> Result<(), String> {
+    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let root = SVGBackend::new(path, (720, 480)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let xs: Vec<f64> =
+        sessions.iter().flatten().chain(pooled.iter().flat_map(|p| &p.curve)).map(|p| p.0.log2()).collect();
+    let (x0, x1) =
+        (xs.iter().copied().fold(f64::INFINITY, f64::min), xs.iter().copied().fold(f64::NEG_INFINITY, f64::max));
+    let (x0, x1) = if x0 < x1 { (x0, x1) } else { (-2.0, 8.0) };
+    let floor = -4.0 * drop.max(1.0) - 2.0;
+    let clip = |pts: &[(f64, f64)]| -> Vec<(f64, f64)> {
+        pts.iter().filter(|(_, y)| *y >= floor).map(|(x, y)| (x.log2(), *y)).collect()
+    };
+    let mut chart = ChartBuilder::on(&root)
+        .caption("α by maximum marginal likelihood", ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x0..x1, floor..0.5)
+        .map_err(|e| err(&e))?;
+    chart
+        .configure_mesh()
+        .x_desc("α (log scale)")
+        .y_desc("log evidence − its maximum")
+        .x_labels((x1 - x0).round() as usize + 1)
+        .x_label_formatter(&|x| {
+            let a = 2f64.powf(*x);
+            if a < 1.0 { format!("{a:.2}") } else { format!("{a:.0}") }
+        })
+        .draw()
+        .map_err(|e| err(&e))?;
+    let grey = RGBColor(150, 150, 150);
+    if let Some(p) = pooled {
+        let (l, h) = (p.low.log2(), p.high.log2());
+        chart
+            .draw_series(std::iter::once(Rectangle::new([(l, floor), (h, 0.5)], PALETTE[0].mix(0.12).filled())))
+            .map_err(|e| err(&e))?;
+    }
+    for (k, s) in sessions.iter().enumerate() {
+        let series = chart.draw_series(LineSeries::new(clip(s), grey.mix(0.6).stroke_width(1))).map_err(|e| err(&e))?;
+        if k == 0 {
+            series
+                .label("one session")
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], grey.stroke_width(1)));
+        }
+    }
+    let dashes: Vec<(f64, f64)> = (0..=60).map(|k| x0 + (x1 - x0) * k as f64 / 60.0).map(|x| (x, -drop)).collect();
+    chart
+        .draw_series(dashes.chunks(2).map(|c| PathElement::new(c.to_vec(), BLACK.stroke_width(1))))
+        .map_err(|e| err(&e))?
+        .label(format!("−{drop:.2}: 95 % support"))
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 6, y), (x + 10, y), (x + 16, y)], BLACK.stroke_width(1)));
+    if let Some(p) = pooled {
+        chart
+            .draw_series(LineSeries::new(clip(&p.curve), PALETTE[0].stroke_width(3)))
+            .map_err(|e| err(&e))?
+            .label(format!("pooled: α = {:.2} (shaded: interval)", p.alpha))
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], PALETTE[0].stroke_width(3)));
+    }
+    for (k, a) in protocol.iter().enumerate() {
+        let x = a.log2();
+        let series = chart
+            .draw_series(std::iter::once(PathElement::new(vec![(x, floor), (x, 0.5)], PALETTE[1].stroke_width(2))))
+            .map_err(|e| err(&e))?;
+        if k == 0 {
+            series
+                .label(format!("protocol α = {a}"))
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], PALETTE[1].stroke_width(2)));
+        }
+    }
+    legend(&mut chart, SeriesLabelPosition::LowerRight).map_err(|e| err(&e))?;
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}
+
+/// (x, y, label) points of one line.
+pub type LabelledPoints = Vec<(f64, f64, String)>;
+
+/// One panel of the comfort–accuracy front.
+pub struct FrontPanel {
+    pub title: String,
+    /// Named lines of (cost ratio, gain, point label) points.
+    pub lines: Vec<(String, LabelledPoints)>,
+    pub active: Option<(f64, f64)>,
+    pub passive: Option<(f64, f64)>,
+    /// (largest cost ratio, smallest gain) of the target region, shaded.
+    pub target: (f64, f64),
+}
+
+/// The comfort–accuracy front: per panel, gain against cost ratio for each line, active
+/// and passive marked, the random mix of the two as a dashed line, the target shaded.
+pub fn front_plot(path: &Path, title: &str, panels: &[FrontPanel]) -> Result<(), String> {
+    let cols = panels.len().clamp(1, 2);
+    let rows = panels.len().div_ceil(cols).max(1);
+    let root = SVGBackend::new(path, (520 * cols as u32, 420 * rows as u32 + 40)).into_drawing_area();
+    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let root = root.titled(title, ("sans-serif", 20)).map_err(|e| err(&e))?;
+    for (panel, area) in panels.iter().zip(root.split_evenly((rows, cols))) {
+        let xs = panel.lines.iter().flat_map(|l| l.1.iter().map(|p| p.0)).chain(panel.active.map(|a| a.0));
+        let x_max = xs.fold(1.5f64, f64::max) * 1.08;
+        let ys: Vec<f64> = panel.lines.iter().flat_map(|l| l.1.iter().map(|p| p.1)).collect();
+        let y_min = ys.iter().copied().fold(-0.1f64, f64::min) - 0.05;
+        let y_max = ys.iter().copied().fold(1.1f64, f64::max) + 0.05;
+        let mut chart = ChartBuilder::on(&area)
+            .caption(&panel.title, ("sans-serif", 15))
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(55)
+            .build_cartesian_2d(0.8..x_max, y_min..y_max)
+            .map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc("true cost / passive's")
+            .y_desc("fraction of active's gain")
+            .y_label_formatter(&|y| format!("{:.0} %", 100.0 * y))
+            .draw()
+            .map_err(|e| err(&e))?;
+        let (tx, ty) = panel.target;
+        chart
+            .draw_series(std::iter::once(Rectangle::new([(0.8, ty), (tx, y_max)], PALETTE[2].mix(0.15).filled())))
+            .map_err(|e| err(&e))?
+            .label(format!("target: ≥ {:.0} % at ≤ {tx} ×", 100.0 * ty))
+            .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], PALETTE[2].mix(0.3).filled()));
+        if let (Some(a), Some(p)) = (panel.active, panel.passive) {
+            let dashes: Vec<(f64, f64)> =
+                (0..=40).map(|k| k as f64 / 40.0).map(|t| (p.0 + t * (a.0 - p.0), p.1 + t * (a.1 - p.1))).collect();
+            chart
+                .draw_series(dashes.chunks(2).map(|c| PathElement::new(c.to_vec(), BLACK.stroke_width(1))))
+                .map_err(|e| err(&e))?
+                .label("random mix of passive and active")
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 6, y)], BLACK.stroke_width(1)));
+        }
+        for (k, (name, pts)) in panel.lines.iter().enumerate() {
+            let colour = PALETTE[k % 2];
+            chart
+                .draw_series(LineSeries::new(pts.iter().map(|p| (p.0, p.1)), colour.stroke_width(2)))
+                .map_err(|e| err(&e))?
+                .label(name.as_str())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2)));
+            chart.draw_series(pts.iter().map(|p| Circle::new((p.0, p.1), 3, colour.filled()))).map_err(|e| err(&e))?;
+            chart
+                .draw_series(
+                    pts.iter()
+                        .map(|p| Text::new(p.2.clone(), (p.0, p.1), ("sans-serif", 11).into_font().color(&colour))),
+                )
+                .map_err(|e| err(&e))?;
+        }
+        for (name, point, colour) in [("active", panel.active, PALETTE[3]), ("passive", panel.passive, PALETTE[4])] {
+            if let Some(pt) = point {
+                chart
+                    .draw_series(std::iter::once(TriangleMarker::new(pt, 7, colour.filled())))
+                    .map_err(|e| err(&e))?
+                    .label(name)
+                    .legend(move |(x, y)| TriangleMarker::new((x + 6, y), 5, colour.filled()));
+            }
+        }
+        legend(&mut chart, SeriesLabelPosition::LowerRight).map_err(|e| err(&e))?;
+    }
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}

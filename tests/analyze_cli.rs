@@ -5,7 +5,7 @@ use std::process::Command;
 use std::sync::Arc;
 use std::time::Duration;
 
-use handover::dryrun::{drive, now_ns, plan};
+use handover::dryrun::{DryRunPlan, drive, now_ns, plan};
 use handover::protocol::Study;
 use handover::record::{RecordedSession, new_log_path};
 use handover::session::Session;
@@ -21,6 +21,15 @@ fn small_protocol_text() -> String {
     v.to_string()
 }
 
+/// Runs a planned session to its end and logs it in `dir`.
+fn record(dir: &Path, text: &str, study: &Arc<Study>, p: &DryRunPlan) {
+    let session = Session::new(Arc::clone(study), p.start.clone()).unwrap();
+    let path = new_log_path(dir, &p.start.participant, chrono::Utc::now());
+    let mut rec = RecordedSession::create(&path, text, session, now_ns()).unwrap();
+    drive(&mut rec, &p.participant, Duration::ZERO).unwrap();
+    rec.finish().unwrap();
+}
+
 /// Logs: `pilots` dry-run sessions and one real (not pilot) completed session.
 fn logs(name: &str, pilots: usize) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("handover-analyze-{}-{name}", std::process::id()));
@@ -33,11 +42,7 @@ fn logs(name: &str, pilots: usize) -> PathBuf {
             p.start.pilot = false;
             p.start.participant = "p-real0001".into();
         }
-        let session = Session::new(Arc::clone(&study), p.start.clone()).unwrap();
-        let path = new_log_path(&dir, &p.start.participant, chrono::Utc::now());
-        let mut rec = RecordedSession::create(&path, &text, session, now_ns()).unwrap();
-        drive(&mut rec, &p.participant, Duration::ZERO).unwrap();
-        rec.finish().unwrap();
+        record(&dir, &text, &study, &p);
     }
     dir
 }
@@ -50,7 +55,8 @@ fn files(dir: &Path) -> Vec<PathBuf> {
 fn writes_tidy_csv_plots_and_table_one_keeping_pilots_apart() {
     let dir = logs("outputs", 3);
     let out = dir.join("out");
-    let (code, stdout, err) = handover(&["analyze", dir.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let (code, stdout, err) =
+        handover(&["analyze", "--alpha-particles", "300", dir.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     assert!(stdout.contains("== REAL SESSIONS: 1 sessions (1 completed) =="), "{stdout}");
     assert!(stdout.contains("== PILOT SESSIONS (dry runs, rehearsals): 3 sessions (3 completed) =="), "{stdout}");
@@ -63,6 +69,10 @@ fn writes_tidy_csv_plots_and_table_one_keeping_pilots_apart() {
         "fig10.svg",
         "objects.svg",
         "table1.md",
+        "alpha.csv",
+        "alpha_curve.csv",
+        "fig10_tests.csv",
+        "alpha.svg",
     ] {
         assert!(out.join(f).exists(), "{f}");
         assert!(out.join("pilot").join(f).exists(), "pilot/{f}");
@@ -81,19 +91,92 @@ fn writes_tidy_csv_plots_and_table_one_keeping_pilots_apart() {
     let rows: Vec<_> = s.records().map(|r| r.unwrap()).collect();
     assert_eq!(rows.len(), 1);
     assert_eq!(&rows[0][1], "p-real0001");
-    let (code, json, _) = handover(&["analyze", dir.to_str().unwrap(), "--format", "json"]);
+    let (code, json, _) = handover(&["analyze", "--alpha-particles", "300", dir.to_str().unwrap(), "--format", "json"]);
     assert_eq!(code, 0);
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(v["sessions"].as_array().unwrap().len(), 4);
     assert_eq!(v["pilot"]["sessions"], 3);
     assert_eq!(v["real"]["sessions"], 1);
     assert_eq!(v["sessions"][0]["runs"][0]["beliefs"].as_array().unwrap().len(), 6);
+    assert_eq!(v["pilot_alpha"]["sessions"].as_array().unwrap().len(), 3);
+    assert_eq!(v["pilot_alpha"]["pooled"]["choices"], 3 * 26, "every handover of the 3 pilots");
+    let mut a = csv::Reader::from_path(out.join("pilot/alpha.csv")).unwrap();
+    let rows: Vec<_> = a.records().map(|r| r.unwrap()).collect();
+    assert_eq!(rows.len(), 4, "3 sessions and the pooled row");
+    assert_eq!(&rows[3][0], "pooled");
+}
+
+/// Dry runs whose simulated people choose with a known α.
+fn alpha_logs(alpha: f64, participants: usize) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("handover-analyze-{}-alpha-{alpha}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut v: serde_json::Value = serde_json::from_str(handover::protocol::DEFAULT_PROTOCOL).unwrap();
+    v["learning"]["particles"] = 200.into();
+    v["learning"]["alpha"] = alpha.into();
+    let text = v.to_string();
+    let study = Arc::new(Study::from_json(&text, "alpha").unwrap());
+    for i in 0..participants {
+        record(&dir, &text, &study, &plan(&study, 5, i, None, "2026-11-22T00:00:00Z".into()));
+    }
+    dir
+}
+
+#[test]
+fn the_alpha_estimate_recovers_the_alpha_people_chose_with() {
+    let mut estimates = Vec::new();
+    for alpha in [2.0, 5.0, 20.0] {
+        let dir = alpha_logs(alpha, 10);
+        let (code, json, err) =
+            handover(&["analyze", dir.to_str().unwrap(), "--format", "json", "--alpha-particles", "4000"]);
+        assert_eq!(code, 0, "{err}");
+        let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+        let pooled = &v["pilot_alpha"]["pooled"];
+        let (est, low, high) =
+            (pooled["alpha"].as_f64().unwrap(), pooled["low"].as_f64().unwrap(), pooled["high"].as_f64().unwrap());
+        assert_eq!(pooled["choices"], 10 * 26);
+        assert!(low <= alpha && alpha <= high, "α = {alpha}: estimate {est} [{low}, {high}]");
+        assert!(high / low < 8.0, "α = {alpha}: an informative interval, not the whole range: [{low}, {high}]");
+        // The protocol's α is the true one, so it is not flagged.
+        assert_eq!(v["pilot_alpha"]["protocol_alphas"][0][1], true);
+        estimates.push(est);
+    }
+    assert!(estimates[0] < estimates[1] && estimates[1] < estimates[2], "{estimates:?}");
+}
+
+#[test]
+fn a_protocol_alpha_the_data_reject_is_flagged() {
+    // People choose with α = 20; analysed under a protocol that says so, the estimate is
+    // near 20; the same choices cannot support α = 0.5, which a protocol would be flagged for.
+    let dir = alpha_logs(20.0, 6);
+    let (code, out, err) = handover(&["analyze", dir.to_str().unwrap(), "--alpha-particles", "2000"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("α by maximum marginal likelihood"), "{out}");
+    assert!(out.contains("lies inside the pooled interval"), "{out}");
+    let dir = std::env::temp_dir().join(format!("handover-analyze-{}-alpha-flag", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut v: serde_json::Value = serde_json::from_str(handover::protocol::DEFAULT_PROTOCOL).unwrap();
+    v["learning"]["particles"] = 200.into();
+    v["learning"]["alpha"] = 0.5.into();
+    let text = v.to_string();
+    let study = Arc::new(Study::from_json(&text, "flag").unwrap());
+    for i in 0..6 {
+        let mut p = plan(&study, 5, i, None, "2026-11-22T00:00:00Z".into());
+        // The simulated people are more rational than the protocol assumes.
+        p.participant.person.alpha = 20.0;
+        record(&dir, &text, &study, &p);
+    }
+    let (code, out, err) = handover(&["analyze", dir.to_str().unwrap(), "--alpha-particles", "2000"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("FLAG: the protocol's α = 0.5 lies outside the pooled interval"), "{out}");
+    let (code, _, err) = handover(&["analyze", dir.to_str().unwrap(), "--alpha-particles", "0"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--alpha-particles is 0"), "{err}");
 }
 
 #[test]
 fn verify_accepts_honest_logs_and_reports_edited_ones() {
     let dir = logs("verify", 1);
-    let (code, _, err) = handover(&["analyze", dir.to_str().unwrap(), "--verify"]);
+    let (code, _, err) = handover(&["analyze", "--alpha-particles", "300", dir.to_str().unwrap(), "--verify"]);
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("every derived value matches"), "{err}");
     // Edit one derived number (a belief's entropy) without changing the file's length.
@@ -107,7 +190,7 @@ fn verify_accepts_honest_logs_and_reports_edited_ones() {
     let d = bytes[at];
     bytes[at] = if d == b'1' { b'2' } else { b'1' };
     std::fs::write(f, &bytes).unwrap();
-    let (code, _, err) = handover(&["analyze", dir.to_str().unwrap(), "--verify"]);
+    let (code, _, err) = handover(&["analyze", "--alpha-particles", "300", dir.to_str().unwrap(), "--verify"]);
     assert_eq!(code, 1, "{err}");
     assert!(err.contains("/belief") && err.contains(".entropy"), "{err}");
 }
@@ -119,20 +202,20 @@ fn truncated_foreign_and_resumed_logs() {
     // A crash: the first log cut short is analysed up to its last whole message.
     let bytes = std::fs::read(&all[0]).unwrap();
     std::fs::write(&all[0], &bytes[..bytes.len() * 3 / 4]).unwrap();
-    let (code, out, err) = handover(&["analyze", dir.to_str().unwrap()]);
+    let (code, out, err) = handover(&["analyze", "--alpha-particles", "300", dir.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("ends early") && err.contains("analysed up to its last whole message"), "{err}");
     assert!(out.contains("partial"), "{out}");
     // Resuming it writes a second log of the same session: it is counted once.
     let (code, _, err) = handover(&["resume", all[0].to_str().unwrap(), "--dry-run"]);
     assert_eq!(code, 0, "{err}");
-    let (code, out, err) = handover(&["analyze", dir.to_str().unwrap()]);
+    let (code, out, err) = handover(&["analyze", "--alpha-particles", "300", dir.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("PILOT SESSIONS (dry runs, rehearsals): 1 sessions (1 completed)"), "{out}");
     assert!(err.contains("superseded"), "{err}");
     // A foreign file is skipped with a message, and the exit status says so.
     std::fs::write(dir.join("notes.mcap"), b"not a log at all").unwrap();
-    let (code, _, err) = handover(&["analyze", dir.to_str().unwrap()]);
+    let (code, _, err) = handover(&["analyze", "--alpha-particles", "300", dir.to_str().unwrap()]);
     assert_eq!(code, 1);
     assert!(
         err.contains("notes.mcap") && err.contains("not a handover session log") && err.contains("skipped"),

@@ -110,7 +110,7 @@ fn try_log(root: &Path, name: &str, bytes: &[u8]) -> (i32, i32) {
     let file = inside.join("case.mcap");
     std::fs::write(&file, bytes).unwrap();
     let before_outside = tree(root).into_iter().filter(|p| !p.starts_with(&case)).collect::<BTreeSet<_>>();
-    let verify = run_in(&case, &["analyze", "--verify", "logs/p-case/case.mcap"]);
+    let verify = run_in(&case, &["analyze", "--alpha-particles", "300", "--verify", "logs/p-case/case.mcap"]);
     assert_contained(&verify, &format!("{name}: analyze --verify"), "case.mcap");
     let resume = run_in(&case, &["resume", "--dry-run", "logs/p-case/case.mcap"]);
     assert_contained(&resume, &format!("{name}: resume --dry-run"), "case.mcap");

@@ -136,3 +136,52 @@ fn bad_arguments_exit_2() {
         assert_eq!(code, 2, "{args:?}: {err}");
     }
 }
+
+#[test]
+fn the_front_anchors_passive_and_active_and_writes_csv_and_svg() {
+    let dir = tmp("front");
+    let (code, out, err) = handover(&[
+        "front",
+        "--scenarios",
+        "planar2",
+        "--learn",
+        "q-star",
+        "--seeds",
+        "2",
+        "--trials",
+        "12",
+        "--particles",
+        "300",
+        "--test-size",
+        "5",
+        "--betas",
+        "0.1,1000",
+        "--epsilons",
+        "0,1000",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("planar2, learning q-star"), "{out}");
+    assert!(dir.join("front.svg").exists());
+    let mut r = csv::Reader::from_path(dir.join("front.csv")).unwrap();
+    let h = r.headers().unwrap().clone();
+    let col = |name: &str| h.iter().position(|x| x == name).unwrap();
+    let rows: Vec<csv::StringRecord> = r.records().map(|x| x.unwrap()).collect();
+    assert_eq!(rows.len(), 6, "active, passive, 2 β and 2 ε");
+    let get = |sel: &str, param: &str, c: &str| -> String {
+        rows.iter().find(|r| &r[col("selector")] == sel && &r[col("parameter")] == param).unwrap()[col(c)].to_string()
+    };
+    let num = |sel: &str, param: &str, c: &str| get(sel, param, c).parse::<f64>().unwrap();
+    assert_eq!(num("passive", "", "cost_ratio"), 1.0);
+    assert_eq!(num("passive", "", "gain"), 0.0);
+    assert_eq!(num("active", "", "gain"), 1.0);
+    // ε = 0 allows nothing above passive's cost: passive's choices; ε huge is active's.
+    assert_eq!(get("budgeted", "0.0", "distance"), get("passive", "", "distance"));
+    assert_eq!(get("budgeted", "1000.0", "distance"), get("active", "", "distance"));
+    // β huge weighs only cost: passive's choices.
+    assert_eq!(get("hybrid", "1000.0", "distance"), get("passive", "", "distance"));
+    let (code, _, err) = handover(&["front", "--seeds", "1"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--seeds is 1"), "{err}");
+}

@@ -241,3 +241,51 @@ fn a_dry_run_over_seeds_reports_intervals_and_paired_differences() {
     assert!(out.contains("paired difference") && out.contains("p="), "{out}");
     assert!(out.contains("distance of the posterior mean to the true q* (degrees)"), "{out}");
 }
+
+#[test]
+fn a_dry_run_versus_a_second_protocol_pairs_the_same_participants() {
+    let dir = tmpdir("versus");
+    let proto = small_protocol(&dir);
+    let logs = dir.join("logs");
+    let run = |versus: &Path| {
+        handover(&[
+            "dry-run",
+            "--protocol",
+            proto.to_str().unwrap(),
+            "--versus",
+            versus.to_str().unwrap(),
+            "--participants",
+            "2",
+            "--seeds",
+            "2",
+            "--seed",
+            "3",
+            "--logs",
+            logs.to_str().unwrap(),
+        ])
+    };
+    // The same protocol twice: the same participants give the same sessions, so every paired
+    // difference is exactly zero — which holds only if participants are matched correctly.
+    let (code, out, err) = run(&proto);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(logs_in(&logs).len(), 8, "2 participants × 2 seeds × 2 protocols, each logged");
+    let across = &out[out.find("A − B for the same participants").expect(&out)..];
+    assert!(across.contains("test log-likelihood"), "the same observation model: both measures\n{across}");
+    let rows: Vec<&str> =
+        across.lines().filter(|l| l.trim_start().chars().next().is_some_and(|c| c.is_ascii_digit())).collect();
+    assert_eq!(rows.len(), 12, "6 iterations × 2 measures\n{across}");
+    assert!(rows.iter().all(|r| r.matches("no difference").count() == 2), "{across}");
+    // The paper's configuration-observation variant: the participants are the same, the
+    // updates differ.
+    let mut v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&proto).unwrap()).unwrap();
+    v["learning"]["observation"] = "configuration".into();
+    let configuration = dir.join("configuration.json");
+    std::fs::write(&configuration, v.to_string()).unwrap();
+    let (code, out, err) = run(&configuration);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("protocol B = ") && out.contains("(observation: configuration)"), "{out}");
+    let across = &out[out.find("A − B for the same participants").expect(&out)..];
+    assert!(!across.contains("test log-likelihood of the posterior mean,"), "{across}");
+    assert!(across.contains("not compared"), "{across}");
+    assert!(across.contains("p="), "some difference is tested\n{across}");
+}

@@ -1,6 +1,7 @@
 //! Post-hoc analysis of session logs: each session replayed from its events, the belief
 //! after every training iteration scored on the session's own test responses.
 
+mod alpha;
 mod seeds;
 mod summary;
 mod verify;
@@ -14,8 +15,14 @@ use crate::select::OutcomeModel;
 use crate::session::{Applied, BeliefSummary, Phase, Session, SessionStart};
 
 pub use crate::stats::{Wilcoxon, mean, median, quantile, standard_error, wilcoxon_signed_rank};
-pub use seeds::{OverSeeds, Paired, SEED_MEASURES, SeedRun, object_shares, over_seeds, paired_over_seeds};
-pub use summary::{CurvePoint, ItemTest, LikertSummary, StudySummary, distinct_q_star, summarise};
+pub use alpha::{
+    ALPHA_RANGE, AlphaEvidence, AlphaFit, AlphaSummary, EVIDENCE_PARTICLES, MAX_EVIDENCE_PARTICLES, SUPPORT_DROP,
+    SessionAlpha, alpha_grid, alpha_summary, fit_alpha,
+};
+pub use seeds::{
+    OverSeeds, Paired, SEED_MEASURES, SeedRun, object_shares, over_seeds, paired_across, paired_over_seeds,
+};
+pub use summary::{CurvePoint, ItemTest, IterationTest, LikertSummary, StudySummary, distinct_q_star, summarise};
 pub use verify::Difference;
 use verify::Verifier;
 
@@ -56,6 +63,8 @@ pub struct SessionAnalysis {
     pub likert: Vec<(usize, String, i64)>,
     pub choice: Option<usize>,
     pub completed: bool,
+    /// Every handle taken, with the prior, for estimating α ([`fit_session`]).
+    pub alpha_evidence: AlphaEvidence,
 }
 
 /// Replays a log and computes its per-session results.
@@ -153,6 +162,12 @@ pub fn analyse_and_verify(log: &LogContents, verify: bool) -> Result<(SessionAna
             beliefs: summaries,
         });
     }
+    let alpha_evidence = AlphaEvidence {
+        prior: ctx.prior.clone(),
+        seed: log.start.seed,
+        choices: session.trials().iter().map(|t| (session.set(t.query).clone(), t.region)).collect(),
+        protocol_alpha: ctx.alpha,
+    };
     let items = &study.protocol.questionnaire.items;
     let completed = matches!(session.prompt(), crate::session::Prompt::Done { completed: true });
     let analysis = SessionAnalysis {
@@ -170,6 +185,7 @@ pub fn analyse_and_verify(log: &LogContents, verify: bool) -> Result<(SessionAna
         likert: session.likert_answers().iter().map(|(&(p, i), &v)| (p, items[i].id.clone(), v)).collect(),
         choice: session.forced_choice(),
         completed,
+        alpha_evidence,
     };
     Ok((analysis, differences))
 }

@@ -116,6 +116,31 @@ pub fn over_seeds(runs: &[SeedRun]) -> Vec<OverSeeds> {
     out
 }
 
+/// A paired comparison from per-seed groups of differences (None without any difference).
+fn paired(
+    measure: &'static str,
+    iteration: usize,
+    first: String,
+    second: String,
+    groups: &[Vec<f64>],
+) -> Option<Paired> {
+    let g = grouped_differences(groups)?;
+    Some(Paired {
+        measure,
+        iteration,
+        first,
+        second,
+        n: g.n,
+        mean_difference: g.mean,
+        ci_low: g.ci_low,
+        ci_high: g.ci_high,
+        p_value: g.p_value,
+        seeds: g.groups,
+        seeds_first_higher: g.significant_positive,
+        seeds_first_lower: g.significant_negative,
+    })
+}
+
 /// The first condition against the second on every measure at every iteration.
 pub fn paired_over_seeds(runs: &[SeedRun]) -> Vec<Paired> {
     let cs = conditions(runs);
@@ -132,21 +157,39 @@ pub fn paired_over_seeds(runs: &[SeedRun]) -> Vec<Paired> {
                         .collect()
                 })
                 .collect();
-            let Some(g) = grouped_differences(&groups) else { continue };
-            out.push(Paired {
-                measure,
-                iteration: it,
-                first: first.clone(),
-                second: second.clone(),
-                n: g.n,
-                mean_difference: g.mean,
-                ci_low: g.ci_low,
-                ci_high: g.ci_high,
-                p_value: g.p_value,
-                seeds: g.groups,
-                seeds_first_higher: g.significant_positive,
-                seeds_first_lower: g.significant_negative,
-            });
+            if let Some(p) = paired(measure, it, first.clone(), second.clone(), &groups) {
+                out.push(p);
+            }
+        }
+    }
+    out
+}
+
+/// The same participants run under two protocols (the same seeds, so the same ids, truths and
+/// test sets): per condition, protocol A − protocol B on `measure` at every iteration.
+/// `first`/`second` name the condition under each protocol (`"<label_a> <condition>"`).
+/// Participants are matched by seed and id; a seed or participant missing from either side
+/// is left out.
+pub fn paired_across(a: &[SeedRun], b: &[SeedRun], labels: (&str, &str), measure: &'static str) -> Vec<Paired> {
+    let mut out = Vec::new();
+    for c in conditions(a) {
+        for it in 0..iterations(a).min(iterations(b)) {
+            let groups: Vec<Vec<f64>> = a
+                .iter()
+                .filter_map(|ra| Some((ra, b.iter().find(|rb| rb.seed == ra.seed)?)))
+                .map(|(ra, rb)| {
+                    ra.sessions
+                        .iter()
+                        .filter_map(|sa| {
+                            let sb = rb.sessions.iter().find(|sb| sb.start.participant == sa.start.participant)?;
+                            Some(values(sa, &c, measure, it)? - values(sb, &c, measure, it)?)
+                        })
+                        .collect()
+                })
+                .collect();
+            if let Some(p) = paired(measure, it, format!("{} {c}", labels.0), format!("{} {c}", labels.1), &groups) {
+                out.push(p);
+            }
         }
     }
     out

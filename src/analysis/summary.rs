@@ -47,6 +47,22 @@ pub struct CurvePoint {
     pub predictive_se: f64,
 }
 
+/// Fig. 10's comparison at one iteration: the first condition − the second in the test
+/// log-likelihood of the posterior mean, paired per participant.
+#[derive(Clone, Debug, Serialize)]
+pub struct IterationTest {
+    pub iteration: usize,
+    pub first: String,
+    pub second: String,
+    pub pairs: usize,
+    pub mean_difference: f64,
+    /// 95 % t-interval of the mean difference over participants (NaN below 2 pairs).
+    pub ci_low: f64,
+    pub ci_high: f64,
+    /// Two-sided Wilcoxon signed-rank test (None when every difference is zero).
+    pub test: Option<Wilcoxon>,
+}
+
 /// Descriptive statistics of one Likert item for one condition.
 #[derive(Clone, Debug, Serialize)]
 pub struct LikertSummary {
@@ -79,6 +95,8 @@ pub struct StudySummary {
     pub sessions: usize,
     pub completed: usize,
     pub fig10: Vec<CurvePoint>,
+    /// Paired tests of Fig. 10 per iteration (two conditions only).
+    pub fig10_tests: Vec<IterationTest>,
     /// condition → distinct learned q* (see [`distinct_q_star`]).
     pub distinct_q_star: BTreeMap<String, usize>,
     /// condition → object → times offered in training.
@@ -128,6 +146,31 @@ pub fn summarise(sessions: &[SessionAnalysis], conditions: &[String], items: &[(
             for t in &r.trials {
                 *counts.entry(t.object.clone()).or_default() += 1;
             }
+        }
+    }
+    let mut fig10_tests = Vec::new();
+    if conditions.len() == 2 {
+        let ll = |s: &SessionAnalysis, c: &str, it: usize| {
+            s.runs.iter().find(|r| r.condition == c).and_then(|r| r.test_ll_estimate.get(it).copied())
+        };
+        let iterations = fig10.iter().map(|p| p.iteration + 1).max().unwrap_or(0);
+        for it in 0..iterations {
+            let d: Vec<f64> =
+                sessions.iter().filter_map(|s| Some(ll(s, &conditions[0], it)? - ll(s, &conditions[1], it)?)).collect();
+            if d.is_empty() {
+                continue;
+            }
+            let (m, lo, hi) = crate::stats::mean_ci95(&d);
+            fig10_tests.push(IterationTest {
+                iteration: it,
+                first: conditions[0].clone(),
+                second: conditions[1].clone(),
+                pairs: d.len(),
+                mean_difference: m,
+                ci_low: lo,
+                ci_high: hi,
+                test: wilcoxon_signed_rank(&d),
+            });
         }
     }
     // Likert answers per (item, condition), and paired differences per participant.
@@ -189,6 +232,7 @@ pub fn summarise(sessions: &[SessionAnalysis], conditions: &[String], items: &[(
         sessions: sessions.len(),
         completed: sessions.iter().filter(|s| s.completed).count(),
         fig10,
+        fig10_tests,
         distinct_q_star: distinct,
         objects,
         likert,

@@ -54,6 +54,17 @@ impl Belief {
         self.per_particle_log_likelihoods(history, alpha, |p| prior.log_density_unnormalised(p))
     }
 
+    /// log Σ_i ω_i Π_t P(obs_t | Q_t, λ_i): the evidence of the observations under this
+    /// belief at rationality `alpha` (eq. 4's normaliser, accumulated over every observation;
+    /// for a prior belief, the marginal likelihood of the observations). Log-sum-exp, so it
+    /// stays finite for any α at which some particle explains every observation.
+    pub fn log_evidence(&self, observed: &[Observed], alpha: f64) -> Result<f64, BeliefError> {
+        let ll = self.per_particle_log_likelihoods(observed, alpha, |_| 0.0)?;
+        let terms: Vec<f64> =
+            self.weights.iter().zip(&ll).map(|(w, l)| if *w > 0.0 { w.ln() + l } else { f64::NEG_INFINITY }).collect();
+        Ok(crate::ergo::log_sum_exp(&terms))
+    }
+
     /// The MAP estimate among the particles: the particle of highest unnormalised log
     /// posterior ([`Belief::log_posteriors`]); where several distinct particles tie (a
     /// flat prior before any observation: all of them), the weighted mean of the tied ones,

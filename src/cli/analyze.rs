@@ -5,8 +5,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
-use handover::analysis::{SessionAnalysis, StudySummary, analyse_and_verify, summarise};
-use handover::plot::{Series, bar_chart, mean_se_plot};
+use handover::analysis::{
+    ALPHA_RANGE, AlphaFit, AlphaSummary, EVIDENCE_PARTICLES, MAX_EVIDENCE_PARTICLES, SUPPORT_DROP, SessionAnalysis,
+    StudySummary, alpha_summary, analyse_and_verify, summarise,
+};
+use handover::plot::{PooledEvidence, Series, alpha_plot, bar_chart, mean_se_plot};
 use handover::record::{LogContents, mcap_files, read_log, study_of};
 use handover::session::program_letter;
 use serde::Serialize;
@@ -24,8 +27,9 @@ pub struct AnalyzeArgs {
     /// Session logs (.mcap) or directories searched recursively.
     #[arg(required = true, value_name = "LOG|DIR")]
     paths: Vec<PathBuf>,
-    /// Write sessions.csv, trials.csv, test_log_likelihood.csv, beliefs.csv, questionnaire.csv,
-    /// fig10.svg, objects.svg and table1.md here (pilot sessions under DIR/pilot/).
+    /// Write sessions.csv, trials.csv, test_log_likelihood.csv, fig10_tests.csv, beliefs.csv,
+    /// questionnaire.csv, alpha.csv, alpha_curve.csv, fig10.svg, objects.svg, alpha.svg and
+    /// table1.md here (pilot sessions under DIR/pilot/).
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
     /// Recompute every derived value in each log (mapped configurations, beliefs, scores)
@@ -35,6 +39,10 @@ pub struct AnalyzeArgs {
     /// Output on stdout.
     #[arg(long, value_enum, default_value_t = Format::Table)]
     format: Format,
+    /// Prior draws of λ over which each session's evidence for α is integrated (the α
+    /// estimate; more draws, less downward bias at large α, proportionally slower).
+    #[arg(long, value_name = "N", default_value_t = EVIDENCE_PARTICLES)]
+    alpha_particles: usize,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum, PartialEq)]
@@ -80,12 +88,20 @@ struct JsonOut<'a> {
     sessions: Vec<JsonSession<'a>>,
     real: Option<StudySummary>,
     pilot: Option<StudySummary>,
+    real_alpha: Option<AlphaSummary>,
+    pilot_alpha: Option<AlphaSummary>,
     skipped: Vec<String>,
     warnings: Vec<String>,
     differences: Vec<String>,
 }
 
 pub fn run(args: AnalyzeArgs) -> Result<()> {
+    if !(1..=MAX_EVIDENCE_PARTICLES).contains(&args.alpha_particles) {
+        return Err(bad(format!(
+            "--alpha-particles is {}, expected 1 to {MAX_EVIDENCE_PARTICLES} (a budget: memory and time grow with it)",
+            args.alpha_particles
+        )));
+    }
     let mut files = Vec::new();
     for p in &args.paths {
         if !p.exists() {
@@ -97,8 +113,9 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
         return Err(bad("no .mcap files found in the given paths"));
     }
     let (mut skipped, mut warnings, mut differences) = (Vec::new(), Vec::new(), Vec::new());
-    // Read every log; keep the most complete log of each session.
-    let mut by_session: BTreeMap<String, LogContents> = BTreeMap::new();
+    // Read every log; keep the most complete log of each session (a session is its id under
+    // its protocol: `dry-run --versus` runs the same ids under two protocols).
+    let mut by_session: BTreeMap<(String, String), LogContents> = BTreeMap::new();
     for f in &files {
         match read_log(f) {
             Err(e) => {
@@ -109,7 +126,7 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
                 skipped.push(format!("skipped {e}"));
             }
             Ok(log) => {
-                let id = log.start.session_id.clone();
+                let id = (log.start.session_id.clone(), log.start.protocol_sha256.clone());
                 match by_session.get(&id) {
                     Some(old) if (old.events.len(), old.finished) >= (log.events.len(), log.finished) => warnings
                         .push(format!("{}: superseded by {} (same session, resumed)", f.display(), old.path.display())),
@@ -173,12 +190,21 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
         Some(summarise(&sessions, &conditions, &items))
     };
     let (real, pilot) = (summary_of(false), summary_of(true));
+    let alpha_of = |pilot: bool| -> Result<Option<AlphaSummary>> {
+        let group: Vec<&SessionAnalysis> =
+            analysed.iter().filter(|a| a.log.start.pilot == pilot).map(|a| &a.analysis).collect();
+        if group.is_empty() {
+            return Ok(None);
+        }
+        Ok(Some(alpha_summary(&group, args.alpha_particles).context("cannot estimate α")?))
+    };
+    let (real_alpha, pilot_alpha) = (alpha_of(false)?, alpha_of(true)?);
     if let Some(dir) = &args.out {
-        for (is_pilot, summary) in [(false, &real), (true, &pilot)] {
-            let Some(summary) = summary else { continue };
+        for (is_pilot, summary, alpha) in [(false, &real, &real_alpha), (true, &pilot, &pilot_alpha)] {
+            let (Some(summary), Some(alpha)) = (summary, alpha) else { continue };
             let d = if is_pilot { dir.join("pilot") } else { dir.clone() };
             let group: Vec<&Analysed> = analysed.iter().filter(|a| a.log.start.pilot == is_pilot).collect();
-            write_outputs(&d, &group, summary).with_context(|| format!("cannot write into {}", d.display()))?;
+            write_outputs(&d, &group, summary, alpha).with_context(|| format!("cannot write into {}", d.display()))?;
             eprintln!("wrote {}", d.display());
         }
     }
@@ -188,6 +214,8 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
                 sessions: analysed.iter().map(json_session).collect(),
                 real,
                 pilot,
+                real_alpha,
+                pilot_alpha,
                 skipped: skipped.clone(),
                 warnings: warnings.clone(),
                 differences: differences.clone(),
@@ -195,12 +223,13 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
             outln!("{}", serde_json::to_string_pretty(&out)?);
         }
         Format::Table => {
-            for (label, is_pilot, summary) in
-                [("REAL SESSIONS", false, &real), ("PILOT SESSIONS (dry runs, rehearsals)", true, &pilot)]
-            {
+            for (label, is_pilot, summary, alpha) in [
+                ("REAL SESSIONS", false, &real, &real_alpha),
+                ("PILOT SESSIONS (dry runs, rehearsals)", true, &pilot, &pilot_alpha),
+            ] {
                 let group: Vec<&Analysed> = analysed.iter().filter(|a| a.log.start.pilot == is_pilot).collect();
-                if let Some(s) = summary {
-                    out!("{}", table(label, &group, s));
+                if let (Some(s), Some(alpha)) = (summary, alpha) {
+                    out!("{}", table(label, &group, s, alpha));
                 }
             }
         }
@@ -262,7 +291,54 @@ fn json_session(a: &Analysed) -> JsonSession<'_> {
     }
 }
 
-fn table(label: &str, group: &[&Analysed], s: &StudySummary) -> String {
+/// "4.7 [3.2, 6.9]", with open ends as "≤ 0.25" / "≥ 256".
+fn alpha_text(f: &AlphaFit) -> String {
+    let low = if f.low_open { format!("≤{}", fmt_alpha(f.low)) } else { fmt_alpha(f.low) };
+    let high = if f.high_open { format!("≥{}", fmt_alpha(f.high)) } else { fmt_alpha(f.high) };
+    let at = if f.at_range_end { if f.alpha <= ALPHA_RANGE.0 { "≤" } else { "≥" } } else { "" };
+    format!("{at}{} [{low}, {high}]", fmt_alpha(f.alpha))
+}
+
+fn fmt_alpha(a: f64) -> String {
+    if a < 10.0 { format!("{a:.2}") } else { format!("{a:.1}") }
+}
+
+fn alpha_table(a: &AlphaSummary) -> String {
+    let mut o = format!(
+        "\nα by maximum marginal likelihood of the handles taken (every handover, λ integrated over {} prior draws; [95 % support interval: log evidence within {SUPPORT_DROP:.2} of the maximum]):\n",
+        a.particles
+    );
+    match &a.pooled {
+        Some(f) => {
+            o += &format!(
+                "  pooled over {} sessions ({} handovers): α = {}\n",
+                a.sessions.len(),
+                f.choices,
+                alpha_text(f)
+            )
+        }
+        None => o += &format!("  pooled over {} sessions: the handles do not identify α\n", a.sessions.len()),
+    }
+    for (alpha, ok) in &a.protocol_alphas {
+        match ok {
+            Some(true) => o += &format!("  the protocol's α = {alpha} lies inside the pooled interval\n"),
+            Some(false) => {
+                o += &format!(
+                    "  FLAG: the protocol's α = {alpha} lies outside the pooled interval: the data disagree with it\n"
+                )
+            }
+            None => {}
+        }
+    }
+    for s in &a.sessions {
+        let fit = s.fit.as_ref().map_or("not identified".to_string(), alpha_text);
+        let flag = if s.protocol_alpha_supported == Some(false) { "  (protocol α outside)" } else { "" };
+        o += &format!("  {:<18} α = {fit}{flag}\n", s.participant);
+    }
+    o
+}
+
+fn table(label: &str, group: &[&Analysed], s: &StudySummary, alpha: &AlphaSummary) -> String {
     let mut o = format!("\n== {label}: {} sessions ({} completed) ==\n", s.sessions, s.completed);
     o += "\nSessions:\n";
     for a in group {
@@ -297,12 +373,15 @@ fn table(label: &str, group: &[&Analysed], s: &StudySummary) -> String {
         );
     }
     o += "  (objects: H handlebars, L lock; LL: test log-likelihood of the posterior mean after the last iteration)\n";
-    o += "\nFig. 10 — test-set log-likelihood of the posterior-mean estimate (mean ± s.e.) by iteration:\n";
+    o += "\nFig. 10 — test-set log-likelihood of the posterior-mean estimate (mean ± s.e.) by iteration, and the paired difference per participant (mean [95 % CI], two-sided Wilcoxon):\n";
     let conditions: Vec<String> = s.distinct_q_star.keys().cloned().collect();
     let iterations = s.fig10.iter().map(|p| p.iteration).max().map_or(0, |m| m + 1);
     o += &format!("  {:>9}", "iteration");
     for c in &conditions {
         o += &format!(" {:>22}", c);
+    }
+    if let Some(t) = s.fig10_tests.first() {
+        o += &format!(" {:>36}", format!("{} − {} (p)", t.first, t.second));
     }
     o += "\n";
     for it in 0..iterations {
@@ -312,6 +391,12 @@ fn table(label: &str, group: &[&Analysed], s: &StudySummary) -> String {
                 Some(p) => o += &format!(" {:>22}", format!("{:.1} ± {:.1}", p.estimate_mean, p.estimate_se)),
                 None => o += &format!(" {:>22}", "—"),
             }
+        }
+        if let Some(t) = s.fig10_tests.iter().find(|t| t.iteration == it) {
+            let p = t.test.as_ref().map_or("no difference".to_string(), |w| format!("p={:.3}", w.p_value));
+            let ci =
+                if t.ci_low.is_finite() { format!(" [{:+.1}, {:+.1}]", t.ci_low, t.ci_high) } else { String::new() };
+            o += &format!(" {:>36}", format!("{:+.1}{ci} ({p}, n={})", t.mean_difference, t.pairs));
         }
         o += "\n";
     }
@@ -324,7 +409,9 @@ fn table(label: &str, group: &[&Analysed], s: &StudySummary) -> String {
         .map(|(c, m)| format!("{c}: {}", m.iter().map(|(k, v)| format!("{k} {v}")).collect::<Vec<_>>().join(", ")))
         .collect::<Vec<_>>()
         .join("; ");
-    o += "\n\nTable I — Likert (mean / median [IQR]) and forced choice:\n";
+    o += "\n";
+    o += &alpha_table(alpha);
+    o += "\nTable I — Likert (mean / median [IQR]) and forced choice:\n";
     o += &table1_markdown(s);
     o
 }
@@ -378,7 +465,7 @@ zero differences are dropped, tied |differences| get mid-ranks; p is exact (all 
     o
 }
 
-fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary) -> Result<()> {
+fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &AlphaSummary) -> Result<()> {
     std::fs::create_dir_all(dir)?;
     let mut w = csv::Writer::from_path(dir.join("sessions.csv"))?;
     w.write_record([
@@ -489,6 +576,22 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary) -> Result<()
         }
     }
     w.flush()?;
+    let mut w = csv::Writer::from_path(dir.join("fig10_tests.csv"))?;
+    w.write_record(["iteration", "first", "second", "pairs", "mean_difference", "ci_low", "ci_high", "p_value"])?;
+    for t in &s.fig10_tests {
+        let finite = |x: f64| if x.is_finite() { x.to_string() } else { String::new() };
+        w.write_record([
+            t.iteration.to_string(),
+            t.first.clone(),
+            t.second.clone(),
+            t.pairs.to_string(),
+            t.mean_difference.to_string(),
+            finite(t.ci_low),
+            finite(t.ci_high),
+            t.test.as_ref().map_or(String::new(), |w| w.p_value.to_string()),
+        ])?;
+    }
+    w.flush()?;
     let mut w = csv::Writer::from_path(dir.join("beliefs.csv"))?;
     let joints = handover::kinematics::JOINT_NAMES;
     let mut header: Vec<String> =
@@ -580,5 +683,79 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary) -> Result<()
     bar_chart(&dir.join("objects.svg"), "Objects offered in training", "times offered", &objects, &groups)
         .map_err(anyhow::Error::msg)?;
     std::fs::write(dir.join("table1.md"), format!("# Table I — {} sessions\n\n{}", s.sessions, table1_markdown(s)))?;
-    Ok(())
+    write_alpha(dir, alpha)
+}
+
+/// alpha.csv (one row per session and one pooled), alpha_curve.csv and alpha.svg.
+fn write_alpha(dir: &Path, a: &AlphaSummary) -> Result<()> {
+    let mut w = csv::Writer::from_path(dir.join("alpha.csv"))?;
+    w.write_record([
+        "participant",
+        "session_id",
+        "handovers",
+        "alpha",
+        "ci_low",
+        "ci_high",
+        "ci_low_open",
+        "ci_high_open",
+        "at_range_end",
+        "protocol_alpha",
+        "protocol_alpha_supported",
+    ])?;
+    let row = |who: &str, id: &str, fit: Option<&AlphaFit>, protocol: String, supported: Option<bool>| {
+        let f = |g: fn(&AlphaFit) -> String| fit.map_or(String::new(), g);
+        vec![
+            who.to_string(),
+            id.to_string(),
+            f(|x| x.choices.to_string()),
+            f(|x| x.alpha.to_string()),
+            f(|x| x.low.to_string()),
+            f(|x| x.high.to_string()),
+            f(|x| x.low_open.to_string()),
+            f(|x| x.high_open.to_string()),
+            f(|x| x.at_range_end.to_string()),
+            protocol,
+            supported.map_or(String::new(), |b| b.to_string()),
+        ]
+    };
+    for s in &a.sessions {
+        w.write_record(row(
+            &s.participant,
+            &s.session_id,
+            s.fit.as_ref(),
+            s.protocol_alpha.to_string(),
+            s.protocol_alpha_supported,
+        ))?;
+    }
+    let protocol: Vec<String> = a.protocol_alphas.iter().map(|(x, _)| x.to_string()).collect();
+    let supported = a.protocol_alphas.iter().try_fold(true, |acc, (_, ok)| ok.map(|b| acc && b));
+    w.write_record(row("pooled", "", a.pooled.as_ref(), protocol.join(";"), supported))?;
+    w.flush()?;
+    let mut w = csv::Writer::from_path(dir.join("alpha_curve.csv"))?;
+    w.write_record(["participant", "alpha", "log_evidence"])?;
+    let curves = a
+        .sessions
+        .iter()
+        .filter_map(|s| Some((s.participant.as_str(), s.fit.as_ref()?)))
+        .chain(a.pooled.as_ref().map(|f| ("pooled", f)));
+    for (who, f) in curves {
+        for (x, y) in &f.curve {
+            w.write_record([who.to_string(), x.to_string(), y.to_string()])?;
+        }
+    }
+    w.flush()?;
+    let sessions: Vec<Vec<(f64, f64)>> = a.sessions.iter().filter_map(|s| s.fit.as_ref()).map(relative_curve).collect();
+    let pooled = a.pooled.as_ref().map(|f| PooledEvidence {
+        curve: relative_curve(f),
+        alpha: f.alpha,
+        low: f.low,
+        high: f.high,
+    });
+    let protocol: Vec<f64> = a.protocol_alphas.iter().map(|(x, _)| *x).collect();
+    alpha_plot(&dir.join("alpha.svg"), &sessions, pooled.as_ref(), &protocol, SUPPORT_DROP).map_err(anyhow::Error::msg)
+}
+
+/// A fit's curve relative to its maximum.
+fn relative_curve(f: &AlphaFit) -> Vec<(f64, f64)> {
+    f.curve.iter().map(|(x, y)| (*x, y - f.max_log_evidence)).collect()
 }

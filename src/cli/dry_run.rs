@@ -7,7 +7,7 @@ use std::time::Duration;
 use anyhow::{Context, Result};
 use clap::Args;
 use handover::analysis::{
-    SEED_MEASURES, SeedRun, SessionAnalysis, analyse, object_shares, over_seeds, paired_over_seeds,
+    SEED_MEASURES, SeedRun, SessionAnalysis, analyse, object_shares, over_seeds, paired_across, paired_over_seeds,
 };
 use handover::dryrun::{drive, now_ns, plan};
 use handover::ergo::Lambda;
@@ -52,6 +52,12 @@ pub struct DryRunArgs {
     /// Milliseconds to wait between actions, to watch or rehearse.
     #[arg(long, value_name = "MS", default_value_t = 0)]
     pace: u64,
+    /// Also run the same participants (the same seeds: ids, truths and test sets) under a
+    /// second protocol, and report per condition the paired difference --protocol − FILE in
+    /// the distance to the true q* by iteration (and in the test log-likelihood when both
+    /// protocols update on the same observation model), e.g. to compare observation models.
+    #[arg(long, value_name = "FILE")]
+    versus: Option<PathBuf>,
 }
 
 fn load_truth(path: &std::path::Path) -> Result<Lambda> {
@@ -81,9 +87,11 @@ pub fn run(args: DryRunArgs) -> Result<()> {
     if !(1..=1000).contains(&args.seeds) {
         return Err(bad(format!("--seeds is {}, expected 1 to 1000", args.seeds)));
     }
+    let versus = args.versus.as_deref().map(|p| load_protocol(Some(p))).transpose()?;
     let dirs = StudyDirs::resolve(args.study_dir.as_deref(), None, args.logs.as_deref());
-    let bar = if args.seeds > 1 {
-        let bar = indicatif::ProgressBar::new(args.seeds * args.participants as u64);
+    let protocols = 1 + u64::from(versus.is_some());
+    let bar = if args.seeds > 1 || versus.is_some() {
+        let bar = indicatif::ProgressBar::new(protocols * args.seeds * args.participants as u64);
         bar.set_style(
             indicatif::ProgressStyle::with_template(
                 "dry runs [{bar:40}] {pos}/{len} sessions, {elapsed} elapsed, ETA {eta}",
@@ -95,34 +103,130 @@ pub fn run(args: DryRunArgs) -> Result<()> {
     } else {
         indicatif::ProgressBar::hidden()
     };
+    let report_each = args.seeds == 1 && versus.is_none();
+    let runs = run_seeds(&study, &text, &args, &dirs.logs, truth.as_ref(), &bar, report_each)?;
+    let second = match &versus {
+        Some((text_b, study_b)) => {
+            Some(run_seeds(&Arc::new(study_b.clone()), text_b, &args, &dirs.logs, truth.as_ref(), &bar, false)?)
+        }
+        None => None,
+    };
+    bar.finish_and_clear();
+    let label_a =
+        args.protocol.as_ref().map_or_else(|| "the embedded protocol".to_string(), |p| p.display().to_string());
+    if let (Some(runs_b), Some((_, study_b)), Some(path_b)) = (&second, &versus, &args.versus) {
+        let label_b = path_b.display().to_string();
+        outln!("\nprotocol A = {label_a} (observation: {})", study.protocol.learning.observation.name());
+        print_over_seeds(&runs, args.seed, args.seeds, args.participants)?;
+        outln!("\nprotocol B = {label_b} (observation: {})", study_b.protocol.learning.observation.name());
+        print_over_seeds(runs_b, args.seed, args.seeds, args.participants)?;
+        let same_observation = study.protocol.learning.observation == study_b.protocol.learning.observation;
+        print_across(&runs, runs_b, same_observation, args.seeds)?;
+    } else if args.seeds > 1 || args.participants > 1 {
+        print_over_seeds(&runs, args.seed, args.seeds, args.participants)?;
+    }
+    Ok(())
+}
+
+/// Every seed's participants under one protocol, each session logged, replayed and analysed.
+fn run_seeds(
+    study: &Arc<Study>,
+    text: &str,
+    args: &DryRunArgs,
+    logs: &std::path::Path,
+    truth: Option<&Lambda>,
+    bar: &indicatif::ProgressBar,
+    report_each: bool,
+) -> Result<Vec<SeedRun>> {
     let mut runs = Vec::new();
     for k in 0..args.seeds {
         let seed = args.seed + k;
         let mut sessions = Vec::new();
         for i in 0..args.participants {
             let now = chrono::Utc::now();
-            let p = plan(&study, seed, i, truth.as_ref(), now.to_rfc3339_opts(chrono::SecondsFormat::Millis, true));
-            let session = Session::new(Arc::clone(&study), p.start.clone()).map_err(|e| anyhow::anyhow!("{e}"))?;
-            let path = new_log_path(&dirs.logs, &p.start.participant, now);
-            let _lock =
-                ParticipantLock::acquire(&dirs.logs.join(&p.start.participant), &p.start.participant, "dry-run")?;
-            let mut rec = RecordedSession::create(&path, &text, session, now_ns())?;
+            let p = plan(study, seed, i, truth, now.to_rfc3339_opts(chrono::SecondsFormat::Millis, true));
+            let session = Session::new(Arc::clone(study), p.start.clone()).map_err(|e| anyhow::anyhow!("{e}"))?;
+            let path = new_log_path(logs, &p.start.participant, now);
+            let _lock = ParticipantLock::acquire(&logs.join(&p.start.participant), &p.start.participant, "dry-run")?;
+            let mut rec = RecordedSession::create(&path, text, session, now_ns())?;
             drive(&mut rec, &p.participant, Duration::from_millis(args.pace))?;
             let path = rec.finish()?;
             let analysis = analysed(&path)?;
-            if args.seeds == 1 {
-                report(&study, &path, &analysis)?;
+            if report_each {
+                report(study, &path, &analysis)?;
             }
             sessions.push(analysis);
             bar.inc(1);
         }
         runs.push(SeedRun { seed, sessions });
     }
-    bar.finish_and_clear();
-    if args.seeds > 1 || args.participants > 1 {
-        print_over_seeds(&runs, args.seed, args.seeds, args.participants)?;
+    Ok(runs)
+}
+
+/// Protocol A − protocol B for the same participants, per condition and iteration.
+fn print_across(a: &[SeedRun], b: &[SeedRun], same_observation: bool, seeds: u64) -> Result<()> {
+    outln!(
+        "\nA − B for the same participants (paired; 95 % confidence interval over the seeds' means; two-sided Wilcoxon over all):"
+    );
+    let measures: &[&'static str] = if same_observation { &SEED_MEASURES } else { &["distance_to_truth_deg"] };
+    for measure in measures {
+        let tests = paired_across(a, b, ("A", "B"), measure);
+        outln!("  {}, by iteration:", measure_label(measure));
+        let mut conditions: Vec<String> = Vec::new();
+        for t in &tests {
+            let c = t.first.trim_start_matches("A ").to_string();
+            if !conditions.contains(&c) {
+                conditions.push(c);
+            }
+        }
+        let mut head = format!("  {:>9}", "iteration");
+        for c in &conditions {
+            head += &format!(" {:>34}", format!("{c}: A − B (p)"));
+        }
+        outln!("{head}");
+        let iterations = tests.iter().map(|t| t.iteration).max().unwrap_or(0);
+        for it in 0..=iterations {
+            let mut line = format!("  {it:>9}");
+            for c in &conditions {
+                line += &match tests.iter().find(|t| t.iteration == it && t.first == format!("A {c}")) {
+                    Some(t) => format!(" {:>34}", paired_cell(t)),
+                    None => format!(" {:>34}", "—"),
+                };
+            }
+            outln!("{line}");
+        }
+        for c in &conditions {
+            if let Some(last) = tests.iter().rfind(|t| t.first == format!("A {c}"))
+                && seeds > 1
+            {
+                outln!(
+                    "  ({c}: at the last iteration A − B alone is significant in {} seed(s) with A higher, {} with A lower, of {})",
+                    last.seeds_first_higher,
+                    last.seeds_first_lower,
+                    last.seeds
+                );
+            }
+        }
+    }
+    if !same_observation {
+        outln!("  (the test log-likelihoods are of different observations under the two models and are not compared)");
     }
     Ok(())
+}
+
+/// "mean [low, high] (p)" of a paired difference.
+fn paired_cell(t: &handover::analysis::Paired) -> String {
+    let p = t
+        .p_value
+        .map_or("no difference".to_string(), |p| if p < 0.001 { "p<0.001".to_string() } else { format!("p={p:.3}") });
+    format!("{:+.1} [{:+.1}, {:+.1}] ({p})", t.mean_difference, t.ci_low, t.ci_high)
+}
+
+fn measure_label(measure: &str) -> &'static str {
+    match measure {
+        "test_log_likelihood" => "test log-likelihood of the posterior mean",
+        _ => "distance of the posterior mean to the true q* (degrees)",
+    }
 }
 
 /// The replayed results of a finished log.
@@ -155,11 +259,7 @@ fn print_over_seeds(runs: &[SeedRun], seed: u64, seeds: u64, participants: usize
         outln!("  {c} offered: {}", parts.join(", "));
     }
     for measure in SEED_MEASURES {
-        let label = match measure {
-            "test_log_likelihood" => "test log-likelihood of the posterior mean",
-            _ => "distance of the posterior mean to the true q* (degrees)",
-        };
-        outln!("  {label}, by iteration:");
+        outln!("  {}, by iteration:", measure_label(measure));
         let conditions: Vec<&str> = {
             let mut v: Vec<&str> = Vec::new();
             for r in rows.iter().filter(|r| r.measure == measure) {
@@ -188,13 +288,7 @@ fn print_over_seeds(runs: &[SeedRun], seed: u64, seeds: u64, participants: usize
                 };
             }
             if let Some(t) = tests.iter().find(|t| t.measure == measure && t.iteration == it) {
-                let p = t.p_value.map_or("no difference".to_string(), |p| {
-                    if p < 0.001 { "p<0.001".to_string() } else { format!("p={p:.3}") }
-                });
-                line += &format!(
-                    " {:>34}",
-                    format!("{:+.1} [{:+.1}, {:+.1}] ({p})", t.mean_difference, t.ci_low, t.ci_high)
-                );
+                line += &format!(" {:>34}", paired_cell(t));
             }
             outln!("{line}");
         }

@@ -24,6 +24,7 @@ mod analyze;
 mod console;
 mod dry_run;
 mod feasible;
+mod front;
 mod input;
 mod participant;
 mod protocol;
@@ -66,6 +67,8 @@ enum Command {
     Feasible(feasible::FeasibleArgs),
     /// Reproduce the paper's simulation studies (planar 2-DoF, 7-DoF arm, two sets).
     Simulate(simulate::SimulateArgs),
+    /// The comfort–accuracy front of the comfort-aware selectors (hybrid β, budgeted ε).
+    Front(front::FrontArgs),
     /// Validate a protocol file.
     Protocol(protocol::ProtocolArgs),
     /// Create pseudonymous participants.
@@ -88,6 +91,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Score(args) => score::run(args),
         Command::Feasible(args) => feasible::run(args),
         Command::Simulate(args) => simulate::run(args),
+        Command::Front(args) => front::run(args),
         Command::Protocol(args) => protocol::run(args),
         Command::Participant(args) => participant::run(args),
         Command::DryRun(args) => dry_run::run(args),

@@ -8,7 +8,7 @@ use clap::Args;
 use handover::belief::{Belief, Grid};
 use handover::ergo::{ConfigSet, FeasibleSet, Lambda, Observation};
 use handover::select::{
-    OutcomeModel, Problem, SelectorKind, argmax, choose_from_values, information_gain_paper, menu_values,
+    OutcomeModel, Problem, SelectorKind, Tradeoff, argmax, choose_from_values, information_gain_paper, menu_values,
 };
 use serde::{Deserialize, Serialize};
 
@@ -262,8 +262,10 @@ fn score(cfg: Config) -> Result<Output> {
         .grid
         .as_ref()
         .map(|g| cfg.menu.iter().map(|s| information_gain_paper(&cfg.belief, s, cfg.alpha, outcomes, g)).collect());
-    let active = choose_from_values(SelectorKind::Active, &values, 0.0).expect("active decides from values");
-    let passive = choose_from_values(SelectorKind::Passive, &values, 0.0).expect("passive decides from values");
+    let active =
+        choose_from_values(SelectorKind::Active, &values, Tradeoff::default()).expect("active decides from values");
+    let passive =
+        choose_from_values(SelectorKind::Passive, &values, Tradeoff::default()).expect("passive decides from values");
     let active_paper = paper.as_ref().map(|p| cfg.ids[argmax(p)].clone());
     let posterior = match &cfg.observation {
         None => None,

@@ -9,7 +9,7 @@ use handover::belief::Estimate;
 use handover::ergo::LearnMask;
 use handover::experiment::{self, Arm7, PairedTest, Planar2, Scenario, Settings, SummaryRow, paired_tests, summarise};
 use handover::plot::{Series, mean_se_plot};
-use handover::select::{DEFAULT_HYBRID_BETA, SelectorKind};
+use handover::select::{DEFAULT_BUDGET_EPSILON, DEFAULT_HYBRID_BETA, SelectorKind, Tradeoff};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::input::bad;
@@ -56,6 +56,10 @@ pub struct SimulateArgs {
     /// β of `hybrid` (maximises information gain − β · expected cost).
     #[arg(long, default_value_t = DEFAULT_HYBRID_BETA)]
     beta: f64,
+    /// ε of `budgeted` (the most informative query whose expected cost is at most (1 + ε) ×
+    /// the passive query's).
+    #[arg(long, default_value_t = DEFAULT_BUDGET_EPSILON)]
+    epsilon: f64,
     /// The point estimate that distance and test log-likelihood are measured on: the
     /// posterior mean, the MAP particle (exact unnormalised posterior), or the paper's
     /// gridded mode (to reproduce its figures; grid noise in 7-D).
@@ -112,7 +116,7 @@ fn check(a: &SimulateArgs) -> Result<Checked> {
     }
     if a.algorithms.is_empty() {
         return Err(bad(
-            "--algorithms is empty, expected at least one of active, active-paper, passive, random, hybrid",
+            "--algorithms is empty, expected at least one of active, active-paper, passive, random, hybrid, budgeted",
         ));
     }
     let alpha = a.alpha.unwrap_or_else(|| scenario.default_alpha(a.learn));
@@ -121,6 +125,9 @@ fn check(a: &SimulateArgs) -> Result<Checked> {
     }
     if !(a.beta.is_finite() && a.beta >= 0.0) {
         return Err(bad(format!("--beta is {}, expected a non-negative number", a.beta)));
+    }
+    if !(a.epsilon.is_finite() && a.epsilon >= 0.0) {
+        return Err(bad(format!("--epsilon is {}, expected a non-negative number", a.epsilon)));
     }
     if !(1..=1000).contains(&a.seeds) {
         return Err(bad(format!("--seeds is {}, expected 1 to 1000", a.seeds)));
@@ -140,7 +147,7 @@ fn check(a: &SimulateArgs) -> Result<Checked> {
         alpha,
         algorithms,
         seed: a.seed,
-        beta: a.beta,
+        tradeoff: Tradeoff { beta: a.beta, epsilon: a.epsilon },
         grid_boxes: 10,
         jitter_fraction: 0.01,
         bandwidth_fraction: 0.05,

@@ -8,7 +8,7 @@
 mod config_set;
 mod lambda;
 mod likelihood;
-mod numeric;
+pub(crate) mod numeric;
 
 pub use config_set::{ConfigSet, ConfigSetError, FeasibleSet};
 pub use lambda::{Lambda, LearnMask};

@@ -3,6 +3,7 @@
 //! every iteration on the four measures of section IV.
 
 mod arm7;
+mod front;
 mod planar2;
 mod summary;
 mod two_sets;
@@ -13,10 +14,11 @@ use rayon::prelude::*;
 use crate::belief::{Belief, CellIndex, Estimate, Grid, Observed, Prior, ResamplePolicy, TestExample, true_cost};
 use crate::ergo::{FeasibleSet, Lambda, LearnMask, Observation};
 use crate::participant::SimulatedPerson;
-use crate::select::{OutcomeModel, Problem, SelectorKind};
+use crate::select::{OutcomeModel, Problem, SelectorKind, Tradeoff};
 use crate::{SeededRng, derive_seed};
 
 pub use arm7::Arm7;
+pub use front::{FrontPoint, FrontSetting, front, front_settings};
 pub use planar2::Planar2;
 pub use summary::{MEASURES, PairedTest, SummaryRow, paired_tests, summarise};
 pub use two_sets::{TwoSetsStep, two_sets};
@@ -46,7 +48,8 @@ pub struct Settings {
     pub alpha: f64,
     pub algorithms: Vec<SelectorKind>,
     pub seed: u64,
-    pub beta: f64,
+    /// β of `hybrid` and ε of `budgeted`.
+    pub tradeoff: Tradeoff,
     /// Cells per prior range for the gridded entropy and the mode.
     pub grid_boxes: usize,
     /// Jitter after resampling, as a fraction of each learned component's prior range.
@@ -134,7 +137,7 @@ fn run_trial(scenario: &dyn Scenario, s: &Settings, prior: &Prior, trial: usize)
     let person = SimulatedPerson { truth: t.truth.clone(), alpha: s.alpha };
     let mut rows = Vec::with_capacity(s.algorithms.len() * (s.iterations + 1));
     for &kind in &s.algorithms {
-        let selector = kind.build(&grid, s.beta);
+        let selector = kind.build(&grid, s.tradeoff);
         let mut belief = t.start.clone();
         let mut person_rng = rng(s.seed, trial, purpose::PERSON);
         let mut resample_rng = rng(s.seed, trial, purpose::RESAMPLE);

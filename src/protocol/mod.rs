@@ -127,10 +127,18 @@ pub struct LearningSpec {
     /// β of the `hybrid` selector (I − β·E[cost]).
     #[serde(default = "default_beta")]
     pub hybrid_beta: f64,
+    /// ε of the `budgeted` selector (the most informative query with E[cost] ≤ (1 + ε) ×
+    /// the passive query's).
+    #[serde(default = "default_epsilon")]
+    pub budget_epsilon: f64,
 }
 
 fn default_beta() -> f64 {
     crate::select::DEFAULT_HYBRID_BETA
+}
+
+fn default_epsilon() -> f64 {
+    crate::select::DEFAULT_BUDGET_EPSILON
 }
 
 /// Per-joint priors: q* in degrees, w as is.

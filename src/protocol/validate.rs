@@ -87,6 +87,8 @@ pub mod limits {
     pub const WEIGHT: f64 = 1000.0;
     pub const GRID_BOXES: usize = 1000;
     pub const HYBRID_BETA: f64 = 1e6;
+    /// ε of the budgeted selector, at least 0.
+    pub const BUDGET_EPSILON: f64 = 1e6;
     pub const TRIALS_PER_CONDITION: usize = 200;
     /// Points of the Likert scale (keys 1–9), and their |value|.
     pub const SCALE_POINTS: usize = 9;
@@ -306,6 +308,7 @@ fn learning(l: &LearningSpec, p: &mut Problems) {
         );
     }
     p.range("learning.hybrid_beta", l.hybrid_beta, (0.0, limits::HYBRID_BETA), "a number");
+    p.range("learning.budget_epsilon", l.budget_epsilon, (0.0, limits::BUDGET_EPSILON), "a fraction");
 }
 
 fn resolve(
@@ -592,6 +595,7 @@ mod tests {
         row("WEIGHT", limits::WEIGHT.to_string());
         row("GRID_BOXES", limits::GRID_BOXES.to_string());
         row("HYBRID_BETA", limits::HYBRID_BETA.to_string());
+        row("BUDGET_EPSILON", limits::BUDGET_EPSILON.to_string());
         row("TRIALS_PER_CONDITION", limits::TRIALS_PER_CONDITION.to_string());
         row("SCALE_POINTS", limits::SCALE_POINTS.to_string());
         row("SCALE_VALUE", limits::SCALE_VALUE.to_string());

@@ -50,6 +50,7 @@ fn belief_message(index: usize, run: usize, b: &BeliefSummary, session: &Session
         "condition": session.learners()[run].condition.name(),
         "program": program_letter(run),
         "iteration": b.iteration,
+        "observation": session.context().observation.name(),
         "mean": {"q_star": b.mean.q_star, "w": b.mean.w},
         "map": {"q_star": b.map.q_star, "w": b.map.w},
         "ci90": {

@@ -143,12 +143,24 @@ pub fn schema(topic: &str) -> (&'static str, Value) {
         "/belief" => (
             "handover.Belief",
             object(
-                &["condition", "program", "iteration", "mean", "map", "ci90", "grid_mode", "entropy", "ess"],
+                &[
+                    "condition",
+                    "program",
+                    "iteration",
+                    "observation",
+                    "mean",
+                    "map",
+                    "ci90",
+                    "grid_mode",
+                    "entropy",
+                    "ess",
+                ],
                 json!({
                     "event_index": {"type": "integer", "minimum": 0},
                     "condition": {"type": "string"},
                     "program": {"type": "string"},
                     "iteration": {"type": "integer", "minimum": 0},
+                    "observation": {"enum": ["configuration", "region"]},
                     "mean": lambda(),
                     "map": lambda(),
                     "ci90": {"type": "object", "required": ["low", "high"],

@@ -26,6 +26,16 @@ pub enum OutcomeModel {
     Region,
 }
 
+impl OutcomeModel {
+    /// The protocol's name for it (`"observation"` in the protocol).
+    pub fn name(self) -> &'static str {
+        match self {
+            OutcomeModel::Configuration => "configuration",
+            OutcomeModel::Region => "region",
+        }
+    }
+}
+
 /// The belief, the menu and the choice model a selector decides from.
 #[derive(Clone, Copy)]
 pub struct Problem<'a> {
@@ -56,26 +66,50 @@ pub fn menu_values(problem: &Problem) -> Vec<QueryValue> {
     problem.menu.iter().map(|set| query_value(problem.belief, set, problem.alpha, problem.outcomes)).collect()
 }
 
+/// The parameters of the selectors that trade information against comfort.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tradeoff {
+    /// `hybrid`'s β: nats of information per unit of expected cost.
+    pub beta: f64,
+    /// `budgeted`'s ε: the expected cost allowed above the passive query's, as a fraction.
+    pub epsilon: f64,
+}
+
+impl Default for Tradeoff {
+    fn default() -> Self {
+        Tradeoff { beta: DEFAULT_HYBRID_BETA, epsilon: DEFAULT_BUDGET_EPSILON }
+    }
+}
+
 /// The criterion maximised by a selector that decides from information gain and expected
-/// cost alone: I (`active`), −E[cost] (`passive`, eq. 11), I − β·E[cost] (`hybrid`); `None`
+/// cost alone: I (`active`), −E[cost] (`passive`, eq. 11), I − β·E[cost] (`hybrid`), I over
+/// the queries whose E[cost] ≤ (1 + ε)·min E[cost] and −∞ elsewhere (`budgeted`); `None`
 /// for those that need more (`random`, `active-paper`).
-fn objective(kind: SelectorKind, values: &[QueryValue], beta: f64) -> Option<Vec<f64>> {
+fn objective(kind: SelectorKind, values: &[QueryValue], t: Tradeoff) -> Option<Vec<f64>> {
     Some(match kind {
         SelectorKind::Active => values.iter().map(|v| v.information_gain).collect(),
         SelectorKind::Passive => values.iter().map(|v| -v.expected_cost).collect(),
-        SelectorKind::Hybrid => values.iter().map(|v| v.information_gain - beta * v.expected_cost).collect(),
+        SelectorKind::Hybrid => values.iter().map(|v| v.information_gain - t.beta * v.expected_cost).collect(),
+        SelectorKind::Budgeted => {
+            let passive = values.iter().map(|v| v.expected_cost).fold(f64::INFINITY, f64::min);
+            let budget = passive + t.epsilon * passive.abs();
+            values
+                .iter()
+                .map(|v| if v.expected_cost <= budget { v.information_gain } else { f64::NEG_INFINITY })
+                .collect()
+        }
         SelectorKind::Random | SelectorKind::ActivePaper => return None,
     })
 }
 
-/// The choice of `active`, `passive` or `hybrid` from already computed values; `None` for
-/// the selectors that need more (`random`, `active-paper`).
-pub fn choose_from_values(kind: SelectorKind, values: &[QueryValue], beta: f64) -> Option<usize> {
-    objective(kind, values, beta).map(|v| argmax(&v))
+/// The choice of `active`, `passive`, `hybrid` or `budgeted` from already computed values;
+/// `None` for the selectors that need more (`random`, `active-paper`).
+pub fn choose_from_values(kind: SelectorKind, values: &[QueryValue], t: Tradeoff) -> Option<usize> {
+    objective(kind, values, t).map(|v| argmax(&v))
 }
 
-fn select_by_values(kind: SelectorKind, problem: &Problem, beta: f64) -> Selection {
-    let criterion = objective(kind, &menu_values(problem), beta).expect("a selector of values");
+fn select_by_values(kind: SelectorKind, problem: &Problem, t: Tradeoff) -> Selection {
+    let criterion = objective(kind, &menu_values(problem), t).expect("a selector of values");
     Selection { index: argmax(&criterion), criterion }
 }
 
@@ -98,7 +132,7 @@ impl Selector for Active {
         "active"
     }
     fn select(&self, problem: &Problem, _: &mut SeededRng) -> Selection {
-        select_by_values(SelectorKind::Active, problem, 0.0)
+        select_by_values(SelectorKind::Active, problem, Tradeoff::default())
     }
 }
 
@@ -129,7 +163,7 @@ impl Selector for Passive {
         "passive"
     }
     fn select(&self, problem: &Problem, _: &mut SeededRng) -> Selection {
-        select_by_values(SelectorKind::Passive, problem, 0.0)
+        select_by_values(SelectorKind::Passive, problem, Tradeoff::default())
     }
 }
 
@@ -160,7 +194,26 @@ impl Selector for Hybrid {
         "hybrid"
     }
     fn select(&self, problem: &Problem, _: &mut SeededRng) -> Selection {
-        select_by_values(SelectorKind::Hybrid, problem, self.beta)
+        select_by_values(SelectorKind::Hybrid, problem, Tradeoff { beta: self.beta, ..Tradeoff::default() })
+    }
+}
+
+/// The default ε of `budgeted`.
+pub const DEFAULT_BUDGET_EPSILON: f64 = 0.25;
+
+/// `budgeted`: the most informative query whose expected cost is at most (1 + ε) times the
+/// passive query's (the lowest expected cost on the menu; the paper's footnote 1 as a
+/// constraint); ε = 0 is the most informative of the cheapest queries, ε = ∞ is `active`.
+pub struct Budgeted {
+    pub epsilon: f64,
+}
+
+impl Selector for Budgeted {
+    fn name(&self) -> &'static str {
+        "budgeted"
+    }
+    fn select(&self, problem: &Problem, _: &mut SeededRng) -> Selection {
+        select_by_values(SelectorKind::Budgeted, problem, Tradeoff { epsilon: self.epsilon, ..Tradeoff::default() })
     }
 }
 
@@ -173,15 +226,17 @@ pub enum SelectorKind {
     Passive,
     Random,
     Hybrid,
+    Budgeted,
 }
 
 impl SelectorKind {
-    pub const ALL: [SelectorKind; 5] = [
+    pub const ALL: [SelectorKind; 6] = [
         SelectorKind::Active,
         SelectorKind::ActivePaper,
         SelectorKind::Passive,
         SelectorKind::Random,
         SelectorKind::Hybrid,
+        SelectorKind::Budgeted,
     ];
 
     pub fn name(self) -> &'static str {
@@ -191,17 +246,19 @@ impl SelectorKind {
             SelectorKind::Passive => "passive",
             SelectorKind::Random => "random",
             SelectorKind::Hybrid => "hybrid",
+            SelectorKind::Budgeted => "budgeted",
         }
     }
 
-    /// The selector, with the grid `active-paper` needs and the β of `hybrid`.
-    pub fn build(self, grid: &Grid, beta: f64) -> Box<dyn Selector> {
+    /// The selector, with the grid `active-paper` needs and the β of `hybrid` / ε of `budgeted`.
+    pub fn build(self, grid: &Grid, t: Tradeoff) -> Box<dyn Selector> {
         match self {
             SelectorKind::Active => Box::new(Active),
             SelectorKind::ActivePaper => Box::new(ActivePaper { grid: grid.clone() }),
             SelectorKind::Passive => Box::new(Passive),
             SelectorKind::Random => Box::new(Random),
-            SelectorKind::Hybrid => Box::new(Hybrid { beta }),
+            SelectorKind::Hybrid => Box::new(Hybrid { beta: t.beta }),
+            SelectorKind::Budgeted => Box::new(Budgeted { epsilon: t.epsilon }),
         }
     }
 }
@@ -210,7 +267,8 @@ impl std::str::FromStr for SelectorKind {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
         Self::ALL.into_iter().find(|k| k.name() == s).ok_or_else(|| {
-            format!("unknown selector '{s}': expected one of active, active-paper, passive, random, hybrid")
+            let names: Vec<&str> = Self::ALL.iter().map(|k| k.name()).collect();
+            format!("unknown selector '{s}': expected one of {}", names.join(", "))
         })
     }
 }

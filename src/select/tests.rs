@@ -73,8 +73,18 @@ fn ties_go_to_the_earliest_item() {
     let b = two_particles();
     let p = Problem { belief: &b, menu: &menu, alpha: 1.0, outcomes: OutcomeModel::Configuration };
     let grid = Grid::new(vec![0.5, 1.0]).unwrap();
-    for kind in [SelectorKind::Active, SelectorKind::ActivePaper, SelectorKind::Passive, SelectorKind::Hybrid] {
-        assert_eq!(kind.build(&grid, 0.1).select(&p, &mut SeededRng::seed_from_u64(0)).index, 0, "{kind:?}");
+    for kind in [
+        SelectorKind::Active,
+        SelectorKind::ActivePaper,
+        SelectorKind::Passive,
+        SelectorKind::Hybrid,
+        SelectorKind::Budgeted,
+    ] {
+        assert_eq!(
+            kind.build(&grid, Tradeoff::default()).select(&p, &mut SeededRng::seed_from_u64(0)).index,
+            0,
+            "{kind:?}"
+        );
     }
 }
 
@@ -116,4 +126,35 @@ fn selector_names_round_trip() {
         assert_eq!(k.name().parse::<SelectorKind>(), Ok(k));
     }
     assert!("greedy".parse::<SelectorKind>().is_err());
+}
+
+#[test]
+fn outcome_model_names_are_the_protocol_spelling() {
+    for m in [OutcomeModel::Configuration, OutcomeModel::Region] {
+        assert_eq!(serde_json::to_value(m).unwrap(), serde_json::Value::String(m.name().into()));
+    }
+}
+
+#[test]
+fn budgeted_takes_the_most_informative_query_within_its_cost_budget() {
+    let b = two_particles();
+    // 0: informative and costly; 1: cheapest, uninformative; 2: a little dearer, a little
+    // informative.
+    let menu = [set(&[&[-1.0], &[2.0]]), set(&[&[0.5]]), set(&[&[-0.6], &[1.7]])];
+    let p = Problem { belief: &b, menu: &menu, alpha: 1.0, outcomes: OutcomeModel::Configuration };
+    let v = menu_values(&p);
+    let passive = v[1].expected_cost;
+    assert!(v[2].expected_cost > passive && v[0].expected_cost > v[2].expected_cost, "{v:?}");
+    assert!(v[0].information_gain > v[2].information_gain && v[2].information_gain > v[1].information_gain);
+    let mut rng = SeededRng::seed_from_u64(0);
+    let pick = |epsilon: f64, rng: &mut SeededRng| Budgeted { epsilon }.select(&p, rng).index;
+    assert_eq!(pick(0.0, &mut rng), 1, "no budget above passive: passive's query");
+    let just = v[2].expected_cost / passive - 1.0;
+    assert_eq!(pick(just * 0.999, &mut rng), 1, "query 2 is just over the budget");
+    assert_eq!(pick(just * 1.001, &mut rng), 2, "query 2 is just within it");
+    assert_eq!(pick(1e6, &mut rng), Active.select(&p, &mut rng).index, "an unlimited budget is active");
+    // The criterion marks what is over the budget.
+    let c = Budgeted { epsilon: just * 1.001 }.select(&p, &mut rng).criterion;
+    assert_eq!(c[0], f64::NEG_INFINITY);
+    assert_eq!(c[2], v[2].information_gain);
 }

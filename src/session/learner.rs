@@ -4,7 +4,7 @@ use crate::SeededRng;
 use crate::belief::Observed;
 use crate::belief::{Belief, CellIndex, Grid, Prior, ResamplePolicy};
 use crate::ergo::{FeasibleSet, Lambda, Observation};
-use crate::select::{OutcomeModel, Problem, QueryValue, SelectorKind, menu_values};
+use crate::select::{OutcomeModel, Problem, QueryValue, SelectorKind, Tradeoff, menu_values};
 
 /// Settings shared by both learners of a session.
 #[derive(Clone, Debug)]
@@ -15,7 +15,8 @@ pub struct LearningContext {
     pub grid: Grid,
     pub jitter: Vec<f64>,
     pub policy: ResamplePolicy,
-    pub beta: f64,
+    /// β of `hybrid` and ε of `budgeted`.
+    pub tradeoff: Tradeoff,
     /// The label model λ: maps a grabbed region to its most likely configuration.
     pub label_model: Lambda,
     /// The prior (for the MAP estimate, recomputed from it and every observation).
@@ -109,9 +110,9 @@ impl Learner {
         // information and cost of region outcomes, whatever the observation model.
         let problem = Problem { belief: &self.belief, menu, alpha: ctx.alpha, outcomes: OutcomeModel::Region };
         self.scores = menu_values(&problem);
-        self.suggestion = match crate::select::choose_from_values(self.condition, &self.scores, ctx.beta) {
+        self.suggestion = match crate::select::choose_from_values(self.condition, &self.scores, ctx.tradeoff) {
             Some(i) => i,
-            None => self.condition.build(&ctx.grid, ctx.beta).select(&problem, &mut self.rng).index,
+            None => self.condition.build(&ctx.grid, ctx.tradeoff).select(&problem, &mut self.rng).index,
         };
     }
 

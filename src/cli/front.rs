@@ -1,0 +1,256 @@
+//! `handover front`: the comfort–accuracy front of the comfort-aware selectors.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use clap::{Args, ValueEnum};
+use handover::belief::Estimate;
+use handover::ergo::LearnMask;
+use handover::experiment::{Arm7, FrontPoint, Planar2, Scenario, Settings, front, front_settings};
+use handover::plot::{FrontPanel, front_plot};
+use handover::select::Tradeoff;
+use indicatif::{ProgressBar, ProgressStyle};
+
+use super::input::bad;
+
+/// The comfort–accuracy front (the paper's footnote 1): for sweeps of `hybrid`'s β
+/// (maximise I − β·E[cost]) and `budgeted`'s ε (the most informative query whose expected
+/// cost is at most (1 + ε) × the passive query's), the fraction of active's accuracy gain over
+/// passive (distance of the posterior mean to the truth at the last iteration) against the
+/// true cost relative to passive's, over seeds, on the same trials as active and passive.
+/// Writes DIR/front.csv and DIR/front.svg (one panel per scenario and learn-mask).
+#[derive(Debug, Args)]
+pub struct FrontArgs {
+    /// Scenarios, comma-separated.
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "planar2,arm7")]
+    scenarios: Vec<FrontScenario>,
+    /// What is learned, comma-separated: q-star and/or weights (and both).
+    #[arg(long, value_delimiter = ',', default_value = "q-star,weights")]
+    learn: Vec<LearnMask>,
+    /// β values of `hybrid`.
+    #[arg(long, value_delimiter = ',', default_value = "0.03,0.1,0.3,1,3")]
+    betas: Vec<f64>,
+    /// ε values of `budgeted`.
+    #[arg(long, value_delimiter = ',', default_value = "0,0.1,0.25,0.5,1")]
+    epsilons: Vec<f64>,
+    /// Seeds (SEED, SEED+1, …); at least 2, for the intervals.
+    #[arg(long, default_value_t = 5)]
+    seeds: u64,
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Trials per seed (each with its own truth, menu and test set).
+    #[arg(long, default_value_t = 50)]
+    trials: usize,
+    /// Queries on each trial's menu.
+    #[arg(long, default_value_t = 8)]
+    menu: usize,
+    /// Queries per selector and trial [default: planar2 5, arm7 10].
+    #[arg(long)]
+    iterations: Option<usize>,
+    /// Test-set size per trial (the simulations measure distance here; kept for the rows).
+    #[arg(long, default_value_t = 50)]
+    test_size: usize,
+    /// Particles in the belief.
+    #[arg(long, default_value_t = 1000)]
+    particles: usize,
+    /// Worker threads [default: all cores].
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Output directory for front.csv and front.svg.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq)]
+enum FrontScenario {
+    Planar2,
+    Arm7,
+}
+
+/// The cost ratio and gain the front is judged against (the target for q*).
+pub const TARGET: (f64, f64) = (1.25, 0.8);
+
+pub fn run(a: FrontArgs) -> Result<()> {
+    if !(2..=1000).contains(&a.seeds) {
+        return Err(bad(format!("--seeds is {}, expected 2 to 1000 (intervals are over seeds)", a.seeds)));
+    }
+    for (name, v) in
+        [("--trials", a.trials), ("--menu", a.menu), ("--test-size", a.test_size), ("--particles", a.particles)]
+    {
+        if v == 0 {
+            return Err(bad(format!("{name} is 0, expected a positive count")));
+        }
+    }
+    for (name, values) in [("--betas", &a.betas), ("--epsilons", &a.epsilons)] {
+        if let Some(v) = values.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
+            return Err(bad(format!("{name} has {v}, expected non-negative numbers")));
+        }
+    }
+    if a.scenarios.is_empty() || a.learn.is_empty() {
+        return Err(bad("--scenarios and --learn need at least one value each"));
+    }
+    if a.iterations == Some(0) || a.threads == Some(0) {
+        return Err(bad("--iterations and --threads must be at least 1"));
+    }
+    let threads = a.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start worker threads")?;
+    if let Some(dir) = &a.out {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    let settings = front_settings(&a.betas, &a.epsilons);
+    let cases: Vec<(Box<dyn Scenario>, LearnMask)> = a
+        .scenarios
+        .iter()
+        .flat_map(|s| {
+            a.learn.iter().map(move |&l| {
+                let sc: Box<dyn Scenario> = match s {
+                    FrontScenario::Planar2 => Box::new(Planar2::default()),
+                    FrontScenario::Arm7 => Box::new(Arm7::default()),
+                };
+                (sc, l)
+            })
+        })
+        .collect();
+    let bar = ProgressBar::new(cases.len() as u64 * a.seeds * settings.len() as u64 * a.trials as u64);
+    bar.set_style(
+        ProgressStyle::with_template("front [{bar:40}] {pos}/{len} trials, {elapsed} elapsed, ETA {eta}")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    let started = Instant::now();
+    let mut points: Vec<FrontPoint> = Vec::new();
+    let mut panels_meta = Vec::new();
+    for (scenario, learn) in &cases {
+        let base = Settings {
+            learn: *learn,
+            trials: a.trials,
+            menu: a.menu,
+            iterations: a.iterations.unwrap_or_else(|| scenario.default_iterations()),
+            test_size: a.test_size,
+            particles: a.particles,
+            alpha: scenario.default_alpha(*learn),
+            algorithms: Vec::new(),
+            seed: a.seed,
+            tradeoff: Tradeoff::default(),
+            grid_boxes: 10,
+            jitter_fraction: 0.01,
+            bandwidth_fraction: 0.05,
+            estimate: Estimate::Mean,
+        };
+        let p = pool.install(|| front(scenario.as_ref(), &base, a.seeds, &settings, &|| bar.inc(1)));
+        panels_meta.push((scenario.name(), learn.to_string(), base.alpha, base.iterations));
+        points.extend(p);
+    }
+    bar.finish_and_clear();
+    print_table(&points, &panels_meta, &a, started.elapsed().as_secs_f64(), threads)?;
+    if let Some(dir) = &a.out {
+        let path = dir.join("front.csv");
+        let mut w = csv::Writer::from_path(&path).with_context(|| format!("cannot write {}", path.display()))?;
+        for p in &points {
+            w.serialize(p)?;
+        }
+        w.flush()?;
+        let panels: Vec<FrontPanel> = panels_meta
+            .iter()
+            .map(|(scenario, learn, alpha, iterations)| {
+                let of = |sel: &str| -> Vec<&FrontPoint> {
+                    points
+                        .iter()
+                        .filter(|p| p.scenario == *scenario && &p.learn == learn && p.selector == sel)
+                        .collect()
+                };
+                let line = |sel: &str| -> Vec<(f64, f64, String)> {
+                    of(sel)
+                        .iter()
+                        .filter_map(|p| {
+                            Some((p.cost_ratio, p.gain?, p.parameter.map_or(String::new(), |x| format!("{x}"))))
+                        })
+                        .collect()
+                };
+                let anchor = |sel: &str| of(sel).first().and_then(|p| Some((p.cost_ratio, p.gain?)));
+                FrontPanel {
+                    title: format!("{scenario}, learning {learn} (α = {alpha}, {iterations} queries)"),
+                    lines: vec![
+                        ("hybrid (β)".to_string(), line("hybrid")),
+                        ("budgeted (ε)".to_string(), line("budgeted")),
+                    ],
+                    active: anchor("active"),
+                    passive: anchor("passive"),
+                    target: TARGET,
+                }
+            })
+            .collect();
+        let title = format!("Comfort–accuracy front: {} seeds × {} trials, mean over seeds", a.seeds, a.trials);
+        front_plot(&dir.join("front.svg"), &title, &panels).map_err(anyhow::Error::msg)?;
+        eprintln!("wrote {}/front.csv and front.svg", dir.display());
+    }
+    Ok(())
+}
+
+fn print_table(
+    points: &[FrontPoint],
+    panels: &[(&str, String, f64, usize)],
+    a: &FrontArgs,
+    seconds: f64,
+    threads: usize,
+) -> Result<()> {
+    outln!(
+        "comfort–accuracy front: seeds {}–{}, {} trials each, {} particles, menu {} ({seconds:.1} s on {threads} threads)",
+        a.seed,
+        a.seed + a.seeds - 1,
+        a.trials,
+        a.particles,
+        a.menu
+    );
+    outln!(
+        "gain: fraction of active's distance gain over passive at the last iteration; cost: true cost relative to passive's; mean [95 % interval over seeds]"
+    );
+    for (scenario, learn, alpha, iterations) in panels {
+        outln!("\n{scenario}, learning {learn} (α = {alpha}, {iterations} queries):");
+        outln!(
+            "  {:<10} {:>7} {:>10} {:>8} {:>26} {:>24}",
+            "selector",
+            "β / ε",
+            "distance",
+            "cost",
+            "gain",
+            "cost / passive"
+        );
+        let here: Vec<&FrontPoint> = points.iter().filter(|p| p.scenario == *scenario && &p.learn == learn).collect();
+        for p in &here {
+            let gain = match (p.gain, p.gain_ci_low, p.gain_ci_high) {
+                (Some(g), Some(l), Some(h)) => format!("{:.0} % [{:.0}, {:.0}]", 100.0 * g, 100.0 * l, 100.0 * h),
+                (Some(g), _, _) => format!("{:.0} %", 100.0 * g),
+                (None, _, _) => "undefined".to_string(),
+            };
+            outln!(
+                "  {:<10} {:>7} {:>10.3} {:>8.3} {:>26} {:>24}",
+                p.selector,
+                p.parameter.map_or(String::new(), |x| format!("{x}")),
+                p.distance,
+                p.cost,
+                gain,
+                format!("{:.2} [{:.2}, {:.2}]", p.cost_ratio, p.cost_ratio_ci_low, p.cost_ratio_ci_high)
+            );
+        }
+        let best = here
+            .iter()
+            .filter(|p| matches!(p.selector, "hybrid" | "budgeted") && p.cost_ratio <= TARGET.0)
+            .filter_map(|p| Some((p, p.gain?)))
+            .max_by(|x, y| x.1.total_cmp(&y.1));
+        match best {
+            Some((p, g)) => outln!(
+                "  best within {:.2} × passive's cost: {} {} keeps {:.0} % of active's gain ({} the target of {:.0} %)",
+                TARGET.0,
+                p.selector,
+                p.parameter.map_or(String::new(), |x| format!("{x}")),
+                100.0 * g,
+                if g >= TARGET.1 { "meets" } else { "misses" },
+                100.0 * TARGET.1
+            ),
+            None => outln!("  no comfort-aware setting stays within {:.2} × passive's cost", TARGET.0),
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,133 @@
+//! The comfort–accuracy front (the paper's footnote 1): how much of active's accuracy gain
+//! over passive a comfort-aware selector keeps, against how much it costs relative to
+//! passive, for sweeps of `hybrid`'s β and `budgeted`'s ε.
+//!
+//! Per seed, every selector runs on the same trials (truth, menu, test set). With D the
+//! distance of the estimate to the truth at the last iteration and C the mean true cost of
+//! the chosen queries over the iterations (each a mean over the trials):
+//! gain = (D_passive − D) / (D_passive − D_active) and cost ratio = C / C_passive. A point is
+//! the ratio of the means over seeds, with a 95 % t-interval over the seeds' own ratios; the
+//! gain is left undefined when active is not closer to the truth than passive.
+
+use serde::Serialize;
+
+use super::{MetricRow, Scenario, Settings, simulate};
+use crate::select::{SelectorKind, Tradeoff};
+use crate::stats::mean_ci95;
+
+/// One selector setting on the front.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FrontPoint {
+    pub scenario: &'static str,
+    pub learn: String,
+    pub selector: &'static str,
+    /// β (hybrid) or ε (budgeted); empty for active and passive.
+    pub parameter: Option<f64>,
+    pub seeds: usize,
+    /// Mean distance to the truth at the last iteration, and mean true cost per query.
+    pub distance: f64,
+    pub cost: f64,
+    /// Fraction of active's distance gain over passive (None: active gains nothing).
+    pub gain: Option<f64>,
+    pub gain_ci_low: Option<f64>,
+    pub gain_ci_high: Option<f64>,
+    /// Cost relative to passive's.
+    pub cost_ratio: f64,
+    pub cost_ratio_ci_low: f64,
+    pub cost_ratio_ci_high: f64,
+}
+
+/// (distance at the last iteration, mean true cost over the iterations), averaged over trials.
+fn outcome(rows: &[MetricRow], algorithm: &str, iterations: usize) -> (f64, f64) {
+    let last: Vec<f64> = rows
+        .iter()
+        .filter(|r| r.algorithm == algorithm && r.iteration == iterations)
+        .map(|r| r.distance_to_truth)
+        .collect();
+    let costs: Vec<f64> = rows.iter().filter(|r| r.algorithm == algorithm).filter_map(|r| r.true_cost).collect();
+    (crate::stats::mean(&last), crate::stats::mean(&costs))
+}
+
+/// A selector setting to run: its kind and β / ε.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrontSetting {
+    pub kind: SelectorKind,
+    pub parameter: Option<f64>,
+}
+
+/// active, passive, then hybrid for every β and budgeted for every ε.
+pub fn front_settings(betas: &[f64], epsilons: &[f64]) -> Vec<FrontSetting> {
+    let mut v = vec![
+        FrontSetting { kind: SelectorKind::Active, parameter: None },
+        FrontSetting { kind: SelectorKind::Passive, parameter: None },
+    ];
+    v.extend(betas.iter().map(|&b| FrontSetting { kind: SelectorKind::Hybrid, parameter: Some(b) }));
+    v.extend(epsilons.iter().map(|&e| FrontSetting { kind: SelectorKind::Budgeted, parameter: Some(e) }));
+    v
+}
+
+/// Runs every setting on `seeds` seeds from `base.seed` and returns one point per setting;
+/// `progress` is called after every trial of every run.
+pub fn front(
+    scenario: &dyn Scenario,
+    base: &Settings,
+    seeds: u64,
+    settings: &[FrontSetting],
+    progress: &(dyn Fn() + Sync),
+) -> Vec<FrontPoint> {
+    // outcomes[setting][seed] = (distance, cost)
+    let mut outcomes: Vec<Vec<(f64, f64)>> = vec![Vec::new(); settings.len()];
+    for k in 0..seeds {
+        for (i, f) in settings.iter().enumerate() {
+            let tradeoff = match f.kind {
+                SelectorKind::Hybrid => Tradeoff { beta: f.parameter.unwrap_or(0.0), ..base.tradeoff },
+                SelectorKind::Budgeted => Tradeoff { epsilon: f.parameter.unwrap_or(0.0), ..base.tradeoff },
+                _ => base.tradeoff,
+            };
+            let run = Settings { seed: base.seed + k, algorithms: vec![f.kind], tradeoff, ..base.clone() };
+            let rows = simulate(scenario, &run, progress);
+            outcomes[i].push(outcome(&rows, f.kind.name(), base.iterations));
+        }
+    }
+    let index = |kind| settings.iter().position(|f| f.kind == kind && f.parameter.is_none());
+    let (Some(a), Some(p)) = (index(SelectorKind::Active), index(SelectorKind::Passive)) else {
+        return Vec::new();
+    };
+    let mean_of =
+        |v: &[(f64, f64)], pick: fn(&(f64, f64)) -> f64| crate::stats::mean(&v.iter().map(pick).collect::<Vec<_>>());
+    let (d_a, d_p) = (mean_of(&outcomes[a], |x| x.0), mean_of(&outcomes[p], |x| x.0));
+    let c_p = mean_of(&outcomes[p], |x| x.1);
+    settings
+        .iter()
+        .zip(&outcomes)
+        .map(|(f, o)| {
+            let (d, c) = (mean_of(o, |x| x.0), mean_of(o, |x| x.1));
+            let gain = (d_p - d_a > 0.0).then(|| (d_p - d) / (d_p - d_a));
+            let seed_gains: Vec<f64> = (0..o.len())
+                .filter_map(|k| {
+                    let (da, dp) = (outcomes[a][k].0, outcomes[p][k].0);
+                    (dp - da > 0.0).then(|| (dp - o[k].0) / (dp - da))
+                })
+                .collect();
+            let seed_costs: Vec<f64> = (0..o.len()).map(|k| o[k].1 / outcomes[p][k].1).collect();
+            let (_, gl, gh) = mean_ci95(&seed_gains);
+            let (_, cl, ch) = mean_ci95(&seed_costs);
+            let finite = |x: f64| x.is_finite().then_some(x);
+            FrontPoint {
+                scenario: scenario.name(),
+                learn: base.learn.to_string(),
+                selector: f.kind.name(),
+                parameter: f.parameter,
+                seeds: o.len(),
+                distance: d,
+                cost: c,
+                gain,
+                gain_ci_low: gain.and(finite(gl)),
+                gain_ci_high: gain.and(finite(gh)),
+                cost_ratio: c / c_p,
+                cost_ratio_ci_low: cl,
+                cost_ratio_ci_high: ch,
+            }
+        })
+        .collect()
+}
