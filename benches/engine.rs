@@ -74,55 +74,61 @@ fn console_step(c: &mut Criterion) {
 
 /// One training trial of the default protocol's session (2000 particles, 8 queries of
 /// 300–450 configurations, region outcomes): the grasp's update, resampling and the next
-/// suggestion — what the console waits for after the operator presses a grip's key.
+/// suggestion — what the console waits for after the operator presses a grip's key. Run with
+/// the default region observations and, side by side, the paper's configuration observations.
 fn session_step_default_protocol(c: &mut Criterion) {
-    use handover::protocol::Study;
+    use handover::protocol::{DEFAULT_PROTOCOL, Study};
     use handover::session::{Event, Prompt, Session, SessionStart, condition_order};
-    let study = std::sync::Arc::new(Study::default_study());
-    let start = SessionStart {
-        session_id: "bench".into(),
-        participant: "bench".into(),
-        protocol_name: study.protocol.name.clone(),
-        protocol_sha256: study.sha256.clone(),
-        seed: 1,
-        condition_order: condition_order(&study, 0),
-        program_labels: study.protocol.session.program_labels.clone(),
-        software_version: "bench".into(),
-        pilot: true,
-        slot: 0,
-        started_at: String::new(),
-        simulated_truth: None,
-        resumed_from: None,
-    };
-    let mut session = Session::new(study, start).unwrap();
-    // The session at its k-th grasp (1-based): present the suggested query, and the grip to take.
-    let present = |session: &mut Session| -> String {
-        let Prompt::Present(view) = session.prompt() else { unreachable!() };
-        let id = session.query(view.query).query.id.clone();
-        session.apply(&Event::QueryPresented { query: id }).unwrap();
-        let q = session.query(view.query);
-        session.study().object(q).regions[q.regions[0]].id.clone()
-    };
     let mut g = c.benchmark_group("session_step_default_protocol");
     g.sample_size(10);
-    // The first grasp, and the fifth (the MAP estimate recomputes every observation so far).
-    for k in 1..=5 {
-        let region = present(&mut session);
-        if k == 1 || k == 5 {
-            for threads in [1, 2] {
-                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-                g.bench_function(format!("grasp_{k}_update_and_next_suggestion/{threads}-threads"), |b| {
-                    b.iter(|| {
-                        pool.install(|| {
-                            let mut s = session.clone();
-                            s.apply(&Event::GraspRecorded { region: region.clone() }).unwrap();
-                            s.learners()[0].suggestion
+    for observation in ["region", "configuration"] {
+        let mut v: serde_json::Value = serde_json::from_str(DEFAULT_PROTOCOL).unwrap();
+        v["learning"]["observation"] = observation.into();
+        let study = std::sync::Arc::new(Study::from_json(&v.to_string(), "bench").unwrap());
+        let start = SessionStart {
+            session_id: "bench".into(),
+            participant: "bench".into(),
+            protocol_name: study.protocol.name.clone(),
+            protocol_sha256: study.sha256.clone(),
+            seed: 1,
+            condition_order: condition_order(&study, 0),
+            program_labels: study.protocol.session.program_labels.clone(),
+            software_version: "bench".into(),
+            pilot: true,
+            slot: 0,
+            started_at: String::new(),
+            simulated_truth: None,
+            resumed_from: None,
+        };
+        let mut session = Session::new(study, start).unwrap();
+        // The session at its k-th grasp (1-based): present the suggested query, and the grip to take.
+        let present = |session: &mut Session| -> String {
+            let Prompt::Present(view) = session.prompt() else { unreachable!() };
+            let id = session.query(view.query).query.id.clone();
+            session.apply(&Event::QueryPresented { query: id }).unwrap();
+            let q = session.query(view.query);
+            session.study().object(q).regions[q.regions[0]].id.clone()
+        };
+        // The first grasp, and the fifth (the MAP estimate recomputes every observation so far).
+        for k in 1..=5 {
+            let region = present(&mut session);
+            if k == 1 || k == 5 {
+                for threads in [1, 2] {
+                    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                    let name = format!("{observation}/grasp_{k}_update_and_next_suggestion/{threads}-threads");
+                    g.bench_function(name, |b| {
+                        b.iter(|| {
+                            pool.install(|| {
+                                let mut s = session.clone();
+                                s.apply(&Event::GraspRecorded { region: region.clone() }).unwrap();
+                                s.learners()[0].suggestion
+                            })
                         })
-                    })
-                });
+                    });
+                }
             }
+            session.apply(&Event::GraspRecorded { region }).unwrap();
         }
-        session.apply(&Event::GraspRecorded { region }).unwrap();
     }
     g.finish();
 }

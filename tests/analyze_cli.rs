@@ -82,6 +82,12 @@ fn writes_tidy_csv_plots_and_table_one_keeping_pilots_apart() {
     assert_eq!(q.records().count(), 3 * 8, "one row per answer");
     let mut t = csv::Reader::from_path(out.join("pilot/test_log_likelihood.csv")).unwrap();
     assert_eq!(t.records().count(), 3 * 2 * 6, "session × condition × iteration 0..=5");
+    let mut f = csv::Reader::from_path(out.join("pilot/fig10_tests.csv")).unwrap();
+    let tests: Vec<_> = f.records().map(|r| r.unwrap()).collect();
+    assert_eq!(tests.len(), 6, "one paired test per iteration 0..=5");
+    assert_eq!((&tests[0][4], &tests[0][7]), ("0", ""), "iteration 0: the same prior, no test");
+    assert!(tests[1..].iter().all(|t| &t[3] == "3"), "3 pairs per iteration");
+    assert!(stdout.contains("active − passive (p)"), "{stdout}");
     let mut b = csv::Reader::from_path(out.join("pilot/beliefs.csv")).unwrap();
     for h in ["mean_q_star_deg_elbow_flexion", "map_q_star_deg_elbow_flexion", "ci_low_q_star_deg_elbow_flexion"] {
         assert!(b.headers().unwrap().iter().any(|x| x == h), "{h}");

@@ -326,8 +326,13 @@ impl AlphaSummary {
     }
 }
 
-/// Fits α for every session and pooled, each session's evidence over `particles` prior draws.
-pub fn alpha_summary(sessions: &[&super::SessionAnalysis], particles: usize) -> Result<AlphaSummary, BeliefError> {
+/// Fits α for every session and pooled, each session's evidence over `particles` prior draws;
+/// `progress` is called after each session.
+pub fn alpha_summary(
+    sessions: &[&super::SessionAnalysis],
+    particles: usize,
+    progress: &dyn Fn(),
+) -> Result<AlphaSummary, BeliefError> {
     let mut out = Vec::with_capacity(sessions.len());
     let mut pooled = vec![0.0; alpha_grid().len()];
     for s in sessions {
@@ -337,6 +342,7 @@ pub fn alpha_summary(sessions: &[&super::SessionAnalysis], particles: usize) -> 
             *p += v;
         }
         let fit = fit_alpha(&curve, e.choices.len());
+        progress();
         out.push(SessionAlpha {
             participant: s.start.participant.clone(),
             session_id: s.start.session_id.clone(),

@@ -190,15 +190,24 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
         Some(summarise(&sessions, &conditions, &items))
     };
     let (real, pilot) = (summary_of(false), summary_of(true));
+    let bar = indicatif::ProgressBar::new(analysed.len() as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "α evidence [{bar:40}] {pos}/{len} sessions, {elapsed} elapsed, ETA {eta}",
+        )
+        .map_err(|e| anyhow::anyhow!("{e}"))?
+        .progress_chars("=> "),
+    );
     let alpha_of = |pilot: bool| -> Result<Option<AlphaSummary>> {
         let group: Vec<&SessionAnalysis> =
             analysed.iter().filter(|a| a.log.start.pilot == pilot).map(|a| &a.analysis).collect();
         if group.is_empty() {
             return Ok(None);
         }
-        Ok(Some(alpha_summary(&group, args.alpha_particles).context("cannot estimate α")?))
+        Ok(Some(alpha_summary(&group, args.alpha_particles, &|| bar.inc(1)).context("cannot estimate α")?))
     };
     let (real_alpha, pilot_alpha) = (alpha_of(false)?, alpha_of(true)?);
+    bar.finish_and_clear();
     if let Some(dir) = &args.out {
         for (is_pilot, summary, alpha) in [(false, &real, &real_alpha), (true, &pilot, &pilot_alpha)] {
             let (Some(summary), Some(alpha)) = (summary, alpha) else { continue };
@@ -393,7 +402,9 @@ fn table(label: &str, group: &[&Analysed], s: &StudySummary, alpha: &AlphaSummar
             }
         }
         if let Some(t) = s.fig10_tests.iter().find(|t| t.iteration == it) {
-            let p = t.test.as_ref().map_or("no difference".to_string(), |w| format!("p={:.3}", w.p_value));
+            let p = t.test.as_ref().map_or("no difference".to_string(), |w| {
+                if w.p_value < 0.001 { "p<0.001".to_string() } else { format!("p={:.3}", w.p_value) }
+            });
             let ci =
                 if t.ci_low.is_finite() { format!(" [{:+.1}, {:+.1}]", t.ci_low, t.ci_high) } else { String::new() };
             o += &format!(" {:>36}", format!("{:+.1}{ci} ({p}, n={})", t.mean_difference, t.pairs));

@@ -63,6 +63,11 @@ pub fn log_likelihood(
     Ok(pass.log_likelihood(obs, alpha, &scratch))
 }
 
+/// Below this, a region's sum of the pass's exponentials may have lost precision to
+/// underflow (each term is exact to a few ulps down to 1e-307), and the region likelihood is
+/// recomputed from the costs.
+const REGION_SUM_FLOOR: f64 = 1e-200;
+
 /// Buffers reused across particles: the costs and the shifted exponentials of one pass.
 #[derive(Clone, Debug)]
 pub struct Scratch {
@@ -120,8 +125,13 @@ impl SetPass {
         match obs {
             Observation::Config(j) => -alpha * (scratch.costs[*j] - self.min_cost) - self.sum.ln(),
             Observation::Region(idx) => {
-                // log Σ_{j∈R} exp(ℓ_j) − log S, with ℓ_j = −α (C_j − min C), taken from the
-                // costs so that it stays finite when every exps[j] of R underflows.
+                // log Σ_{j∈R} exp(ℓ_j) − log S, with ℓ_j = −α (C_j − min C): from the pass's
+                // exponentials while their sum is far from underflow, else from the costs so
+                // that it stays finite when every exps[j] of R underflows.
+                let s: f64 = idx.iter().map(|&j| scratch.exps[j]).sum();
+                if s > REGION_SUM_FLOOR {
+                    return s.ln() - self.sum.ln();
+                }
                 let max =
                     idx.iter().map(|&j| -alpha * (scratch.costs[j] - self.min_cost)).fold(f64::NEG_INFINITY, f64::max);
                 let s: f64 =
@@ -220,6 +230,20 @@ mod tests {
         assert!((region + 1e6).abs() < 1e-6, "{region}");
         let near = log_likelihood(&s, &l, 1.0, &Observation::Config(0)).unwrap();
         assert_eq!(near, 0.0);
+    }
+
+    #[test]
+    fn region_likelihood_is_accurate_on_both_sides_of_the_fast_paths_floor() {
+        // A far region of one configuration with cost c (α = 1): log P = −c − ln(1 + e^−c).
+        // e^−437 ≈ 1e-190 is summed from the pass; e^−483 ≈ 1e-210 is recomputed from costs.
+        for c in [437.0f64, 483.0, 700.0] {
+            let s = set(&[&[0.0], &[c.sqrt()]]);
+            let l = Lambda { q_star: vec![0.0], w: vec![1.0] };
+            let region = log_likelihood(&s, &l, 1.0, &Observation::Region(vec![1])).unwrap();
+            let config = log_likelihood(&s, &l, 1.0, &Observation::Config(1)).unwrap();
+            assert!((region + c).abs() < 1e-9 * c, "cost {c}: {region}");
+            assert!((region - config).abs() < 1e-9 * c, "cost {c}: {region} vs {config}");
+        }
     }
 
     #[test]
