@@ -104,6 +104,10 @@ pub struct ParticipantRecord {
     pub body_height_m: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub handedness: Option<Handedness>,
+    /// When the participant withdrew (RFC 3339 UTC): no new session is started for them,
+    /// `analyze` leaves their sessions out and their counterbalancing slot is free again.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub withdrawn_at: Option<String>,
 }
 
 /// Why a participant record could not be read or written.
@@ -146,6 +150,11 @@ impl ParticipantRecord {
         if chrono::DateTime::parse_from_rfc3339(&self.created_at).is_err() {
             return Err(format!("created_at '{}' is not an RFC 3339 time", self.created_at.escape_debug()));
         }
+        if let Some(w) = &self.withdrawn_at
+            && chrono::DateTime::parse_from_rfc3339(w).is_err()
+        {
+            return Err(format!("withdrawn_at '{}' is not an RFC 3339 time", w.escape_debug()));
+        }
         if let Some(h) = self.body_height_m
             && !(BODY_HEIGHT_M.0..=BODY_HEIGHT_M.1).contains(&h)
         {
@@ -155,6 +164,29 @@ impl ParticipantRecord {
             ));
         }
         Ok(())
+    }
+
+    /// Marks the record withdrawn (now), replacing the file atomically (a new owner-only file
+    /// renamed over the old one, so a crash leaves the old or the new record, never a part).
+    /// Withdrawing twice keeps the first time.
+    pub fn withdraw(dir: &std::path::Path, id: &str, now: &str) -> Result<Self, RecordFileError> {
+        let mut rec = Self::load(dir, id)?;
+        if rec.withdrawn_at.is_some() {
+            return Ok(rec);
+        }
+        rec.withdrawn_at = Some(now.to_string());
+        rec.validate().map_err(|message| RecordFileError::Invalid { path: dir.to_path_buf(), message })?;
+        let path = Self::path(dir, id)?;
+        let err = |source| RecordFileError::Io { path: path.clone(), source };
+        let mut text = serde_json::to_string_pretty(&rec).map_err(|e| err(std::io::Error::other(e)))?;
+        text.push('\n');
+        crate::private_files::replace(&path, text.as_bytes()).map_err(err)?;
+        Ok(rec)
+    }
+
+    /// Whether the participant has withdrawn.
+    pub fn is_withdrawn(&self) -> bool {
+        self.withdrawn_at.is_some()
     }
 
     /// Reads and validates a participant's record (at most 64 KiB).
@@ -175,6 +207,12 @@ impl ParticipantRecord {
         }
         Ok(rec)
     }
+}
+
+/// Whether `participants/<id>.json` exists and says the participant withdrew (a missing or
+/// unreadable record says nothing).
+pub fn has_withdrawn(participants: &std::path::Path, id: &str) -> bool {
+    ParticipantRecord::load(participants, id).is_ok_and(|r| r.is_withdrawn())
 }
 
 /// The body heights the arm model serves (m), as checked on a record and on the command line.

@@ -48,6 +48,22 @@ pub fn write_new(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     Ok(())
 }
 
+/// Replaces `path` with new contents atomically: a new owner-only file beside it (its name
+/// with `.new` appended, which must not exist) is written and synced, then renamed over
+/// `path`. A crash leaves either the old or the new file whole.
+pub fn replace(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(".new");
+    let tmp = std::path::PathBuf::from(tmp);
+    write_new(&tmp, bytes)?;
+    if let Err(e) = std::fs::rename(&tmp, path) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e);
+    }
+    sync_parent(path);
+    Ok(())
+}
+
 /// Syncs the directory that holds `path`, so that a new file's name is durable too (best
 /// effort: not every file system supports it).
 pub fn sync_parent(path: &Path) {

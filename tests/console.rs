@@ -287,6 +287,7 @@ fn an_existing_participant_s_body_height_scales_the_arm() {
         created_at: "2026-11-22T00:00:00Z".into(),
         body_height_m: Some(1.85),
         handedness: None,
+        withdrawn_at: None,
     };
     rec.create(&dir.join("participants")).unwrap();
     let mut cfg = config(&dir, false);
@@ -303,4 +304,26 @@ fn an_existing_participant_s_body_height_scales_the_arm() {
     let replayed = handover::record::study_of(&log).unwrap();
     assert!((replayed.arm.upper_arm - 0.186 * 1.85).abs() < 1e-12, "the log holds the protocol as run");
     assert_eq!(replayed.sha256, log.start.protocol_sha256);
+}
+
+#[test]
+fn a_withdrawn_participant_gets_no_new_session() {
+    let dir = tmpdir("withdrawn");
+    let rec = handover::participant::ParticipantRecord {
+        id: "p-gone0001".into(),
+        slot: 0,
+        created_at: "2026-11-22T00:00:00Z".into(),
+        body_height_m: None,
+        handedness: None,
+        withdrawn_at: Some("2026-11-23T00:00:00Z".into()),
+    };
+    rec.create(&dir.join("participants")).unwrap();
+    let mut cfg = config(&dir, false);
+    cfg.participant = "p-gone0001".into();
+    let mut a = App::new(cfg);
+    a.tick(T0);
+    press(&mut a, KeyCode::Enter);
+    assert!(a.session().is_none(), "no session started");
+    assert!(a.status.contains("withdrew"), "{}", a.status);
+    assert!(handover::record::mcap_files(&dir.join("logs")).is_empty(), "no log written");
 }

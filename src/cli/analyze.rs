@@ -9,9 +9,11 @@ use handover::analysis::{
     ALPHA_RANGE, AlphaFit, AlphaSummary, EVIDENCE_PARTICLES, MAX_EVIDENCE_PARTICLES, SUPPORT_DROP, SessionAnalysis,
     StudySummary, alpha_summary, analyse_and_verify, summarise,
 };
+use handover::participant::has_withdrawn;
 use handover::plot::{PooledEvidence, Series, alpha_plot, bar_chart, mean_se_plot};
 use handover::record::{LogContents, mcap_files, read_log, study_of};
 use handover::session::program_letter;
+use handover::study_dir::StudyDirs;
 use serde::Serialize;
 
 use super::input::bad;
@@ -43,6 +45,13 @@ pub struct AnalyzeArgs {
     /// estimate; more draws, less downward bias at large α, proportionally slower).
     #[arg(long, value_name = "N", default_value_t = EVIDENCE_PARTICLES)]
     alpha_particles: usize,
+    /// The study directory, whose participants/ says who withdrew (their sessions are left
+    /// out).
+    #[arg(long, value_name = "DIR")]
+    study_dir: Option<PathBuf>,
+    /// Where participant records live (default: STUDY_DIR/participants).
+    #[arg(long, value_name = "DIR")]
+    participants: Option<PathBuf>,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum, PartialEq)]
@@ -83,6 +92,13 @@ struct JsonRun<'a> {
     beliefs: &'a [handover::session::BeliefSummary],
 }
 
+/// Sessions (and participants) left out because the participant withdrew.
+#[derive(Serialize, Clone, Copy)]
+struct WithdrawnLeftOut {
+    sessions: usize,
+    participants: usize,
+}
+
 #[derive(Serialize)]
 struct JsonOut<'a> {
     sessions: Vec<JsonSession<'a>>,
@@ -90,6 +106,7 @@ struct JsonOut<'a> {
     pilot: Option<StudySummary>,
     real_alpha: Option<AlphaSummary>,
     pilot_alpha: Option<AlphaSummary>,
+    withdrawn_left_out: WithdrawnLeftOut,
     skipped: Vec<String>,
     warnings: Vec<String>,
     differences: Vec<String>,
@@ -144,6 +161,26 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
                 }
             }
         }
+    }
+    // Participants who withdrew are never counted.
+    let dirs = StudyDirs::resolve(args.study_dir.as_deref(), args.participants.as_deref(), None);
+    let before = by_session.len();
+    let mut withdrawn: Vec<String> = by_session
+        .values()
+        .filter(|l| !l.start.pilot && has_withdrawn(&dirs.participants, &l.start.participant))
+        .map(|l| l.start.participant.clone())
+        .collect();
+    by_session.retain(|_, l| l.start.pilot || !withdrawn.contains(&l.start.participant));
+    withdrawn.sort();
+    withdrawn.dedup();
+    let left_out = WithdrawnLeftOut { sessions: before - by_session.len(), participants: withdrawn.len() };
+    if left_out.sessions > 0 {
+        eprintln!(
+            "left out {} session(s) of {} participant(s) who withdrew (records in {})",
+            left_out.sessions,
+            left_out.participants,
+            dirs.participants.display()
+        );
     }
     let mut analysed = Vec::new();
     for log in by_session.into_values() {
@@ -225,6 +262,7 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
                 pilot,
                 real_alpha,
                 pilot_alpha,
+                withdrawn_left_out: left_out,
                 skipped: skipped.clone(),
                 warnings: warnings.clone(),
                 differences: differences.clone(),

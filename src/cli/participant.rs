@@ -7,7 +7,7 @@ use clap::{Args, Subcommand, ValueEnum};
 use handover::participant::{BODY_HEIGHT_M, Handedness, ParticipantRecord, new_id, validate_id};
 use handover::record::least_filled_slot;
 use handover::session::condition_order;
-use handover::study_dir::StudyDirs;
+use handover::study_dir::{ParticipantLock, StudyDirs};
 
 use super::input::{bad, load_study};
 
@@ -43,6 +43,22 @@ enum ParticipantCommand {
         #[arg(long, value_enum)]
         handedness: Option<HandArg>,
     },
+    /// Record that a participant withdrew: no new session is started for them, `analyze`
+    /// leaves their sessions out and their counterbalancing slot is free again. With
+    /// --delete-data, also delete every file of theirs in the study folders (their logs and
+    /// their record), after listing the files and asking for the id to be typed back.
+    Withdraw {
+        /// The participant's id.
+        id: String,
+        /// Also delete the participant's logs and record.
+        #[arg(long)]
+        delete_data: bool,
+        /// Delete without asking (for scripts; the list is still printed).
+        #[arg(long, requires = "delete_data")]
+        yes: bool,
+        #[command(flatten)]
+        folders: Folders,
+    },
     /// Print a participant's record.
     Show {
         /// The participant's id.
@@ -54,6 +70,20 @@ enum ParticipantCommand {
         #[arg(long, value_name = "DIR")]
         participants: Option<PathBuf>,
     },
+}
+
+/// The study folders of a participant subcommand.
+#[derive(Debug, Args)]
+struct Folders {
+    /// The study directory (records in DIR/participants, logs in DIR/logs).
+    #[arg(long, value_name = "DIR")]
+    study_dir: Option<PathBuf>,
+    /// Where participant records live (default: STUDY_DIR/participants).
+    #[arg(long, value_name = "DIR")]
+    participants: Option<PathBuf>,
+    /// Where session logs live (default: STUDY_DIR/logs).
+    #[arg(long, value_name = "DIR")]
+    logs: Option<PathBuf>,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -78,7 +108,7 @@ pub fn run(args: ParticipantArgs) -> Result<()> {
             for missing in dirs.missing() {
                 eprintln!("note: {} does not exist yet; it will be created", missing.display());
             }
-            let slot = least_filled_slot(&dirs.logs, 2);
+            let slot = least_filled_slot(&dirs.logs, &dirs.participants, 2);
             let record = ParticipantRecord {
                 id: new_id(&mut rand::rng()),
                 slot,
@@ -88,6 +118,7 @@ pub fn run(args: ParticipantArgs) -> Result<()> {
                     HandArg::Left => Handedness::Left,
                     HandArg::Right => Handedness::Right,
                 }),
+                withdrawn_at: None,
             };
             let path = record.create(&dirs.participants).with_context(|| "cannot create the participant record")?;
             let order: Vec<_> = condition_order(&study, slot).iter().map(|c| c.name()).collect();
@@ -103,6 +134,7 @@ pub fn run(args: ParticipantArgs) -> Result<()> {
             );
             Ok(())
         }
+        ParticipantCommand::Withdraw { id, delete_data, yes, folders } => withdraw(&id, delete_data, yes, &folders),
         ParticipantCommand::Show { id, study_dir, participants } => {
             validate_id(&id).map_err(|e| bad(e.to_string()))?;
             let dirs = StudyDirs::resolve(study_dir.as_deref(), participants.as_deref(), None);
@@ -111,4 +143,66 @@ pub fn run(args: ParticipantArgs) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// `participant withdraw`.
+fn withdraw(id: &str, delete_data: bool, yes: bool, f: &Folders) -> Result<()> {
+    validate_id(id).map_err(|e| bad(e.to_string()))?;
+    let dirs = StudyDirs::resolve(f.study_dir.as_deref(), f.participants.as_deref(), f.logs.as_deref());
+    let record_path = ParticipantRecord::path(&dirs.participants, id).map_err(|e| bad(e.to_string()))?;
+    if !record_path.exists() {
+        return Err(bad(format!("{}: no such participant record", record_path.display())));
+    }
+    let log_dir = dirs.logs.join(id);
+    // No session of theirs may be live while their data changes.
+    let _lock =
+        if log_dir.is_dir() { Some(ParticipantLock::acquire(&log_dir, id, "participant withdraw")?) } else { None };
+    let now = chrono::Utc::now().to_rfc3339_opts(chrono::SecondsFormat::Secs, true);
+    let rec = ParticipantRecord::withdraw(&dirs.participants, id, &now).map_err(|e| bad(e.to_string()))?;
+    eprintln!(
+        "{id} withdrew ({}): no new sessions; analyze leaves their sessions out",
+        rec.withdrawn_at.unwrap_or_default()
+    );
+    if !delete_data {
+        return Ok(());
+    }
+    let mut files: Vec<PathBuf> = Vec::new();
+    if log_dir.is_dir() {
+        let mut stack = vec![log_dir.clone()];
+        while let Some(d) = stack.pop() {
+            for e in std::fs::read_dir(&d).with_context(|| format!("cannot list {}", d.display()))? {
+                let p = e?.path();
+                if p.is_dir() { stack.push(p) } else { files.push(p) }
+            }
+        }
+    }
+    files.sort();
+    files.push(record_path.clone());
+    outln!("These {} file(s) of {id} will be deleted:", files.len());
+    for p in &files {
+        outln!("  {}", p.display());
+    }
+    if !yes {
+        use std::io::{BufRead, IsTerminal};
+        if !std::io::stdin().is_terminal() {
+            return Err(bad("--delete-data asks for confirmation on a terminal; pass --yes to delete without asking"));
+        }
+        eprint!("Type the participant id ({id}) to delete them: ");
+        let mut answer = String::new();
+        std::io::stdin().lock().read_line(&mut answer)?;
+        if answer.trim() != id {
+            eprintln!("not confirmed: nothing deleted (the participant stays withdrawn)");
+            return Err(bad("deletion not confirmed"));
+        }
+    }
+    for p in &files {
+        std::fs::remove_file(p).with_context(|| format!("cannot delete {}", p.display()))?;
+    }
+    if log_dir.is_dir() {
+        std::fs::remove_dir_all(&log_dir).with_context(|| format!("cannot delete {}", log_dir.display()))?;
+    }
+    handover::private_files::sync_parent(&record_path);
+    handover::private_files::sync_parent(&log_dir);
+    eprintln!("deleted {} file(s) of {id}", files.len());
+    Ok(())
 }

@@ -81,6 +81,13 @@ pub fn run(args: ResumeArgs) -> Result<()> {
         return super::console::summary(old, dirs);
     }
     if !args.dry_run {
+        if !old.start.pilot && handover::participant::has_withdrawn(&dirs.participants, &old.start.participant) {
+            return Err(bad(format!(
+                "{}: participant {} withdrew from the study; their session is not continued",
+                old.path.display(),
+                old.start.participant
+            )));
+        }
         return super::console::resume(old, dirs, args.simulate, args.pace);
     }
     let Some(truth) = old.start.simulated_truth.clone() else {

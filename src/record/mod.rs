@@ -602,24 +602,30 @@ pub fn mcap_files(root: &Path) -> Vec<PathBuf> {
 }
 
 /// Completed real (not pilot) sessions per counterbalancing slot in the logs under `root`,
-/// each session counted once however often it was resumed.
-pub fn completed_per_slot(root: &Path, slots: usize) -> Vec<usize> {
+/// each session counted once however often it was resumed; sessions of participants whose
+/// record in `participants` says they withdrew do not count.
+pub fn completed_per_slot(root: &Path, participants: &Path, slots: usize) -> Vec<usize> {
     let mut counts = vec![0; slots];
     let mut seen = std::collections::HashSet::new();
     for path in mcap_files(root) {
         let Ok(log) = read_log(&path) else { continue };
         let completed = log.events.iter().any(|e| e.event == Event::Ended);
-        if completed && !log.start.pilot && log.start.slot < slots && seen.insert(log.start.session_id.clone()) {
+        if completed
+            && !log.start.pilot
+            && log.start.slot < slots
+            && !crate::participant::has_withdrawn(participants, &log.start.participant)
+            && seen.insert(log.start.session_id.clone())
+        {
             counts[log.start.slot] += 1;
         }
     }
     counts
 }
 
-/// The slot with the fewest completed real sessions (the first on ties): dropouts and
-/// pilots do not use up a slot.
-pub fn least_filled_slot(root: &Path, slots: usize) -> usize {
-    let counts = completed_per_slot(root, slots);
+/// The slot with the fewest completed real sessions (the first on ties): dropouts, pilots
+/// and withdrawn participants do not use up a slot.
+pub fn least_filled_slot(root: &Path, participants: &Path, slots: usize) -> usize {
+    let counts = completed_per_slot(root, participants, slots);
     (0..slots).min_by_key(|&i| (counts[i], i)).unwrap_or(0)
 }
 

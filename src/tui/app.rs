@@ -246,17 +246,26 @@ impl App {
         let (mut study, mut protocol_text) = (Arc::clone(study), c.protocol_text.clone());
         let (id, slot, new_record, error) = if c.participant == "new" {
             let id = new_id(&mut rand::rng());
-            let slot = least_filled_slot(&c.dirs.logs, 2);
+            let slot = least_filled_slot(&c.dirs.logs, &c.dirs.participants, 2);
             let rec = ParticipantRecord {
                 id: id.clone(),
                 slot,
                 created_at: now.to_rfc3339_opts(chrono::SecondsFormat::Secs, true),
                 body_height_m: None,
                 handedness: None,
+                withdrawn_at: None,
             };
             (id, slot, Some(rec), None)
         } else {
             match ParticipantRecord::load(&c.dirs.participants, &c.participant) {
+                Ok(r) if r.is_withdrawn() => {
+                    let why = format!(
+                        "participant {} withdrew from the study ({}): no new session can be started for them",
+                        r.id,
+                        r.withdrawn_at.as_deref().unwrap_or_default()
+                    );
+                    (r.id, r.slot, None, Some(why))
+                }
                 Ok(r) => match r.body_height_m.map(|h| with_body_height(&c.protocol_text, &study.source_name, h)) {
                     Some(Ok((text, scaled))) => {
                         (study, protocol_text) = (Arc::new(scaled), text);
