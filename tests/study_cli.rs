@@ -289,3 +289,23 @@ fn a_dry_run_versus_a_second_protocol_pairs_the_same_participants() {
     assert!(across.contains("not compared"), "{across}");
     assert!(across.contains("p="), "some difference is tested\n{across}");
 }
+
+#[test]
+fn participant_new_refuses_a_body_the_protocol_cannot_serve_without_taking_a_slot() {
+    // The default protocol's poses are fixed in metres today: a 1.60 m participant cannot
+    // reach some grips (issue: poses that scale with the body). Refused at creation.
+    let dir = tmpdir("body");
+    let (code, out, err) =
+        handover(&["participant", "new", "--body-height", "1.60", "--study-dir", dir.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(out.is_empty(), "no id is printed: {out}");
+    assert!(
+        err.contains("a 1.6 m participant cannot take part") && err.contains("no feasible arm configuration"),
+        "{err}"
+    );
+    assert!(!dir.join("participants").exists(), "no record, no folder");
+    let (code, out, err) =
+        handover(&["participant", "new", "--body-height", "1.80", "--study-dir", dir.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.trim().starts_with("p-"), "{out}");
+}

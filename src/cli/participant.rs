@@ -9,7 +9,8 @@ use handover::record::least_filled_slot;
 use handover::session::condition_order;
 use handover::study_dir::{ParticipantLock, StudyDirs};
 
-use super::input::{bad, load_study};
+use super::input::{bad, load_protocol};
+use handover::protocol::with_body_height;
 
 /// Manage pseudonymous participants (no names are ever stored).
 #[derive(Debug, Args)]
@@ -95,7 +96,7 @@ enum HandArg {
 pub fn run(args: ParticipantArgs) -> Result<()> {
     match args.command {
         ParticipantCommand::New { protocol, study_dir, participants, logs, body_height, handedness } => {
-            let study = load_study(protocol.as_deref())?;
+            let (text, study) = load_protocol(protocol.as_deref())?;
             let dirs = StudyDirs::resolve(study_dir.as_deref(), participants.as_deref(), logs.as_deref());
             if let Some(h) = body_height
                 && !(BODY_HEIGHT_M.0..=BODY_HEIGHT_M.1).contains(&h)
@@ -103,6 +104,15 @@ pub fn run(args: ParticipantArgs) -> Result<()> {
                 return Err(bad(format!(
                     "--body-height is {h}, expected metres from {} to {}",
                     BODY_HEIGHT_M.0, BODY_HEIGHT_M.1
+                )));
+            }
+            // A body the protocol cannot serve is refused now, not with the participant in
+            // the room: no record is written and no slot is taken.
+            if let Some(h) = body_height
+                && let Err(e) = with_body_height(&text, &study.source_name, h)
+            {
+                return Err(bad(format!(
+                    "a {h} m participant cannot take part under this protocol (no record created, no slot taken): {e}"
                 )));
             }
             for missing in dirs.missing() {
