@@ -10,7 +10,9 @@ use handover::select::OutcomeModel;
 
 use handover::session::check_runs;
 
-use super::input::{bad, load_study};
+use super::input::{bad, load_protocol};
+use handover::participant::BODY_HEIGHT_M;
+use handover::protocol::with_body_height;
 
 /// Work with protocol files.
 #[derive(Debug, Args)]
@@ -25,13 +27,58 @@ enum ProtocolCommand {
     Check {
         /// The protocol JSON file.
         file: PathBuf,
+        /// Check it for a participant of this body height (m): the arm scaled as a session
+        /// scales it, every grip of every query reachable.
+        #[arg(long, value_name = "M", conflicts_with = "bodies")]
+        body_height: Option<f64>,
+        /// Report which body heights from 1.50 to 1.95 m (every 5 cm) it serves.
+        #[arg(long)]
+        bodies: bool,
     },
 }
 
+/// The heights `--bodies` checks (m): 1.50, 1.55, …, 1.95.
+const BODY_RANGE_CM: (u32, u32, u32) = (150, 195, 5);
+
 pub fn run(args: ProtocolArgs) -> Result<()> {
     match args.command {
-        ProtocolCommand::Check { file } => {
-            let study = std::sync::Arc::new(load_study(Some(&file))?);
+        ProtocolCommand::Check { file, body_height: _, bodies: true } => {
+            let (text, study) = load_protocol(Some(&file))?;
+            outln!("{}: body heights served (right arm; a mirrored left arm is not modelled yet):", file.display());
+            let mut served = Vec::new();
+            for cm in (BODY_RANGE_CM.0..=BODY_RANGE_CM.1).step_by(BODY_RANGE_CM.2 as usize) {
+                let h = f64::from(cm) / 100.0;
+                match with_body_height(&text, &study.source_name, h) {
+                    Ok(_) => {
+                        served.push(h);
+                        outln!("  {h:.2} m  served");
+                    }
+                    Err(e) => {
+                        let first =
+                            e.problems.first().map_or(String::new(), |p| format!(", e.g. {}: {}", p.path, p.message));
+                        outln!("  {h:.2} m  not served: {} problem(s){first}", e.problems.len())
+                    }
+                }
+            }
+            let all = (BODY_RANGE_CM.1 - BODY_RANGE_CM.0) / BODY_RANGE_CM.2 + 1;
+            outln!("{} of {all} heights served", served.len());
+            Ok(())
+        }
+        ProtocolCommand::Check { file, body_height, bodies: false } => {
+            let (text, study) = load_protocol(Some(&file))?;
+            let study = match body_height {
+                Some(h) => {
+                    if !(BODY_HEIGHT_M.0..=BODY_HEIGHT_M.1).contains(&h) {
+                        return Err(bad(format!(
+                            "--body-height is {h}, expected metres from {} to {}",
+                            BODY_HEIGHT_M.0, BODY_HEIGHT_M.1
+                        )));
+                    }
+                    with_body_height(&text, &study.source_name, h).map_err(|e| bad(e.to_string()))?.1
+                }
+                None => study,
+            };
+            let study = std::sync::Arc::new(study);
             // What a session builds, and one learning step: an accepted protocol runs.
             check_runs(std::sync::Arc::clone(&study))
                 .map_err(|e| bad(format!("{}: the protocol does not run: {e}", file.display())))?;
