@@ -27,16 +27,8 @@ enum ParticipantCommand {
         /// Protocol (default: the embedded protocols/bike-handover.json).
         #[arg(long, value_name = "FILE")]
         protocol: Option<PathBuf>,
-        /// The study directory (records in DIR/participants, logs in DIR/logs).
-        #[arg(long, value_name = "DIR")]
-        study_dir: Option<PathBuf>,
-        /// Where participant records live (default: STUDY_DIR/participants).
-        #[arg(long, value_name = "DIR")]
-        participants: Option<PathBuf>,
-        /// Where session logs live, to count completed sessions per order (default:
-        /// STUDY_DIR/logs).
-        #[arg(long, value_name = "DIR")]
-        logs: Option<PathBuf>,
+        #[command(flatten)]
+        folders: Folders,
         /// Body height in metres (for the arm model).
         #[arg(long, value_name = "M")]
         body_height: Option<f64>,
@@ -87,6 +79,12 @@ struct Folders {
     logs: Option<PathBuf>,
 }
 
+impl Folders {
+    fn resolve(&self) -> StudyDirs {
+        StudyDirs::resolve(self.study_dir.as_deref(), self.participants.as_deref(), self.logs.as_deref())
+    }
+}
+
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum HandArg {
     Left,
@@ -95,9 +93,9 @@ enum HandArg {
 
 pub fn run(args: ParticipantArgs) -> Result<()> {
     match args.command {
-        ParticipantCommand::New { protocol, study_dir, participants, logs, body_height, handedness } => {
+        ParticipantCommand::New { protocol, folders, body_height, handedness } => {
             let (text, study) = load_protocol(protocol.as_deref())?;
-            let dirs = StudyDirs::resolve(study_dir.as_deref(), participants.as_deref(), logs.as_deref());
+            let dirs = folders.resolve();
             if let Some(h) = body_height
                 && !(BODY_HEIGHT_M.0..=BODY_HEIGHT_M.1).contains(&h)
             {
@@ -158,7 +156,7 @@ pub fn run(args: ParticipantArgs) -> Result<()> {
 /// `participant withdraw`.
 fn withdraw(id: &str, delete_data: bool, yes: bool, f: &Folders) -> Result<()> {
     validate_id(id).map_err(|e| bad(e.to_string()))?;
-    let dirs = StudyDirs::resolve(f.study_dir.as_deref(), f.participants.as_deref(), f.logs.as_deref());
+    let dirs = f.resolve();
     let record_path = ParticipantRecord::path(&dirs.participants, id).map_err(|e| bad(e.to_string()))?;
     if !record_path.exists() {
         return Err(bad(format!("{}: no such participant record", record_path.display())));
