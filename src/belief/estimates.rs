@@ -57,8 +57,10 @@ impl Belief {
     /// log Σ_i ω_i Π_t P(obs_t | Q_t, λ_i): the evidence of the observations under this
     /// belief at rationality `alpha` (eq. 4's normaliser, accumulated over every observation;
     /// for a prior belief, the marginal likelihood of the observations). Log-sum-exp, so it
-    /// stays finite for any α at which some particle explains every observation.
-    pub fn log_evidence(&self, observed: &[Observed], alpha: f64) -> Result<f64, BeliefError> {
+    /// stays finite for any α at which some particle explains every observation. The direct,
+    /// one-α reference that `analysis::alpha`'s one-pass grid is tested against.
+    #[cfg(test)]
+    pub(crate) fn log_evidence(&self, observed: &[Observed], alpha: f64) -> Result<f64, BeliefError> {
         let ll = self.per_particle_log_likelihoods(observed, alpha, |_| 0.0)?;
         let terms: Vec<f64> =
             self.weights.iter().zip(&ll).map(|(w, l)| if *w > 0.0 { w.ln() + l } else { f64::NEG_INFINITY }).collect();
