@@ -5,8 +5,9 @@ use std::time::Duration;
 use rand::SeedableRng;
 
 use crate::ergo::Lambda;
+use crate::kinematics::Hand;
 use crate::participant::{ScriptedParticipant, SimulatedPerson};
-use crate::protocol::Study;
+use crate::protocol::{Body, Study};
 use crate::record::{RecordedSession, SubmitError};
 use crate::session::{SessionStart, Stamped, condition_order};
 use crate::{SeededRng, derive_seed};
@@ -15,6 +16,57 @@ mod purpose {
     pub const ID: u64 = 301;
     pub const SESSION: u64 = 302;
     pub const TRUTH: u64 = 303;
+    pub const BODY: u64 = 304;
+}
+
+/// The bodies simulated participants are drawn from: adult stature as an equal mix of women,
+/// N(1.63 m, 0.065 m), and men, N(1.77 m, 0.07 m) (national anthropometric surveys, rounded),
+/// truncated to [`HEIGHT_RANGE_M`]; a share `left_handed` of them left-handed (≈ 10 % of
+/// people are). A fixed height or hand replaces the draw.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BodyPopulation {
+    pub height_m: Option<f64>,
+    pub hand: Option<Hand>,
+    pub left_handed: f64,
+}
+
+/// The heights the population is truncated to (m): 5th percentile women to beyond the 95th
+/// of men.
+pub const HEIGHT_RANGE_M: (f64, f64) = (1.50, 1.95);
+/// The default share of left-handed simulated participants.
+pub const LEFT_HANDED_SHARE: f64 = 0.10;
+/// (mean, sd) of stature (m): women, men.
+const STATURE_M: [(f64, f64); 2] = [(1.63, 0.065), (1.77, 0.07)];
+
+impl Default for BodyPopulation {
+    fn default() -> Self {
+        Self { height_m: None, hand: None, left_handed: LEFT_HANDED_SHARE }
+    }
+}
+
+impl BodyPopulation {
+    /// Simulated participant `index`'s body, determined by the dry run's seed.
+    pub fn draw(&self, seed: u64, index: usize) -> Body {
+        use rand::RngExt;
+        let mut rng = SeededRng::seed_from_u64(derive_seed(seed, index as u64, purpose::BODY));
+        let (mean, sd) = STATURE_M[usize::from(rng.random::<bool>())];
+        let normal = rand_distr::Normal::new(mean, sd).expect("a positive sd");
+        // Truncation by rejection: 99.9 % of draws fall inside within a few tries; the bound
+        // keeps the work finite, and the last draw is clamped.
+        let mut h = mean;
+        for _ in 0..64 {
+            h = rand_distr::Distribution::sample(&normal, &mut rng);
+            if (HEIGHT_RANGE_M.0..=HEIGHT_RANGE_M.1).contains(&h) {
+                break;
+            }
+        }
+        let h = (h.clamp(HEIGHT_RANGE_M.0, HEIGHT_RANGE_M.1) * 1000.0).round() / 1000.0;
+        let left = rng.random::<f64>() < self.left_handed;
+        Body {
+            height_m: Some(self.height_m.unwrap_or(h)),
+            hand: self.hand.unwrap_or(if left { Hand::Left } else { Hand::Right }),
+        }
+    }
 }
 
 /// One simulated participant's session, fully determined by the dry run's seed.

@@ -82,14 +82,6 @@ pub fn new_id<R: rand::Rng + ?Sized>(rng: &mut R) -> String {
     format!("p-{tail}")
 }
 
-/// Which hand the participant prefers.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Handedness {
-    Left,
-    Right,
-}
-
 /// `participants/<id>.json`: only what the study needs; never a name.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -102,8 +94,10 @@ pub struct ParticipantRecord {
     /// Body height (m), for the arm model.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub body_height_m: Option<f64>,
+    /// The dominant hand, with which the participant takes the objects (the right when
+    /// not recorded).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub handedness: Option<Handedness>,
+    pub handedness: Option<crate::kinematics::Hand>,
     /// When the participant withdrew (RFC 3339 UTC): no new session is started for them,
     /// `analyze` leaves their sessions out and their counterbalancing slot is free again.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -122,6 +116,11 @@ pub enum RecordFileError {
 }
 
 impl ParticipantRecord {
+    /// The body the participant's sessions are run for.
+    pub fn body(&self) -> crate::protocol::Body {
+        crate::protocol::Body { height_m: self.body_height_m, hand: self.handedness.unwrap_or_default() }
+    }
+
     /// The record's file in a participants directory.
     pub fn path(dir: &std::path::Path, id: &str) -> Result<std::path::PathBuf, BadId> {
         validate_id(id)?;

@@ -307,6 +307,46 @@ fn an_existing_participant_s_body_height_scales_the_arm() {
 }
 
 #[test]
+fn a_left_handed_short_participant_gets_mirrored_scaled_poses_named_from_both_sides() {
+    let dir = tmpdir("left");
+    let rec = handover::participant::ParticipantRecord {
+        id: "p-left0001".into(),
+        slot: 0,
+        created_at: "2026-11-22T00:00:00Z".into(),
+        body_height_m: Some(1.55),
+        handedness: Some(handover::kinematics::Hand::Left),
+        withdrawn_at: None,
+    };
+    rec.create(&dir.join("participants")).unwrap();
+    let mut cfg = config(&dir, false);
+    cfg.participant = "p-left0001".into();
+    let mut a = App::new(cfg);
+    a.tick(T0);
+    let setup = screen(&mut a, 100, 30);
+    assert!(setup.contains("Hand: the participant's LEFT hand (on your right, facing them)"), "{setup}");
+    assert!(setup.contains("poses ×0.886 of the protocol's 1.75 m body"), "{setup}");
+    press(&mut a, KeyCode::Enter);
+    let s = a.session().unwrap();
+    assert_eq!(s.study().arm.side, handover::kinematics::Hand::Left);
+    let trial = screen(&mut a, 100, 30);
+    assert!(trial.contains("frame        left shoulder") && trial.contains("LEFT hand (on your right"), "{trial}");
+    // The pose shown is the protocol's, scaled by the reach (1.55 / 1.75) and mirrored (y negated).
+    let handover::session::Prompt::Present(view) = a.session().unwrap().prompt() else { panic!("a trial is prompted") };
+    let q = a.session().unwrap().query(view.query).clone();
+    let [x, y, z] = q.query.pose.position;
+    let k = 1.55 / 1.75;
+    let [cx, cy, cz] = q.pose.position;
+    assert!((cx - x * k).abs() < 1e-9 && (cy + y * k).abs() < 1e-9 && (cz - z * k).abs() < 1e-9, "{:?}", q.pose);
+    assert!(trial.contains(&format!("x {cx:+.3}  y {cy:+.3}  z {cz:+.3} m")), "{trial}");
+    trials(&mut a, 1, '1');
+    keys(&mut a, "qy");
+    let log = read_log(&handover::record::mcap_files(&dir.join("logs"))[0]).unwrap();
+    let replayed = handover::record::study_of(&log).unwrap();
+    assert_eq!(replayed.arm.side, handover::kinematics::Hand::Left, "the log holds the protocol as run");
+    assert_eq!(replayed.query(&q.query.id).unwrap().pose, q.pose);
+}
+
+#[test]
 fn a_withdrawn_participant_gets_no_new_session() {
     let dir = tmpdir("withdrawn");
     let rec = handover::participant::ParticipantRecord {

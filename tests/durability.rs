@@ -151,8 +151,10 @@ fn a_full_disk_names_its_cause_and_leaves_only_whole_files() {
         }
     };
     check_whole();
-    let partial =
-        mcap_files(&logs).into_iter().find(|p| !read_log(p).unwrap().finished).expect("the log being written");
+    let partial = mcap_files(&logs)
+        .into_iter()
+        .find(|p| !read_log(p).unwrap().finished)
+        .unwrap_or_else(|| panic!("the log being written: {err}\n{:?}", mcap_files(&logs)));
     fill(&disk);
     // A new participant on a full disk: the cause, and no empty record left behind.
     let parts = disk.join("participants");

@@ -140,3 +140,66 @@ fn text_that_is_not_json_is_refused() {
     let e = Study::from_json("{ not json", "x.json").unwrap_err().to_string();
     assert!(e.starts_with("x.json: invalid protocol"), "{e}");
 }
+
+/// Issue 13's bar: every height from 1.50 to 1.95 m with either hand is served by the default
+/// protocol, every grip of every query reachable; a left arm's feasible sets are the right
+/// arm's mirror images, angle for angle; the poses scale with the reach and the left
+/// poses are the right ones mirrored.
+#[test]
+fn the_default_protocol_serves_every_body_with_either_hand() {
+    use handover::kinematics::Hand;
+    use handover::protocol::{Body, for_body};
+    for cm in (150..=195).step_by(5) {
+        let h = f64::from(cm) / 100.0;
+        let (_, right) = for_body(DEFAULT_PROTOCOL, "default", Body { height_m: Some(h), hand: Hand::Right })
+            .unwrap_or_else(|e| panic!("{h} m right: {e}"));
+        let (text, left) = for_body(DEFAULT_PROTOCOL, "default", Body { height_m: Some(h), hand: Hand::Left })
+            .unwrap_or_else(|e| panic!("{h} m left: {e}"));
+        assert!(text.contains("\"side\":\"left\""), "the text as run says which arm");
+        let scale = right.arm.reach() / (0.186 + 0.146 + 0.4 * 0.108) / 1.75;
+        assert!((right.pose_scale() - h / 1.75).abs() < 1e-12 && (scale - h / 1.75).abs() < 1e-12);
+        for (r, l) in right.all_queries().zip(left.all_queries()) {
+            let id = &r.query.id;
+            assert!(r.feasible.per_region.iter().all(|&n| n > 0), "{h} m right {id}: {:?}", r.feasible.per_region);
+            assert_eq!(r.feasible.per_region, l.feasible.per_region, "{h} m {id}");
+            // The same configurations, enumerated in another order.
+            let sorted = |s: &handover::kinematics::ArmFeasibleSet| {
+                let mut v: Vec<(usize, [i64; 7])> =
+                    s.configs.iter().map(|c| (c.region, c.q.map(|a| (a * 1e6).round() as i64))).collect();
+                v.sort();
+                v
+            };
+            for (a, b) in sorted(&r.feasible).iter().zip(&sorted(&l.feasible)) {
+                assert_eq!(a.0, b.0);
+                assert!(a.1.iter().zip(&b.1).all(|(x, y)| (x - y).abs() <= 1), "{h} m {id}: {a:?} vs {b:?}");
+            }
+            let [x, y, z] = r.pose.position;
+            let [wx, wy, wz] = r.query.pose.position;
+            assert!(
+                (x - wx * h / 1.75).abs() < 1e-12
+                    && (y - wy * h / 1.75).abs() < 1e-12
+                    && (z - wz * h / 1.75).abs() < 1e-12
+            );
+            assert_eq!(r.pose.rpy_deg.map(|v| (v * 1e9).round()), r.query.pose.rpy_deg.map(|v| (v * 1e9).round()));
+            // The left pose: y mirrored, the same height and distance.
+            assert!((l.pose.position[0] - x).abs() < 1e-12 && (l.pose.position[1] + y).abs() < 1e-12);
+            assert!((l.pose.position[2] - z).abs() < 1e-12);
+        }
+    }
+}
+
+/// The worked example of docs/kinematics.md: `bars-chest-turned-left` for a 1.55 m
+/// left-handed participant.
+#[test]
+fn the_worked_example_of_the_kinematics_doc() {
+    use handover::kinematics::Hand;
+    use handover::protocol::{Body, for_body};
+    let (_, s) = for_body(DEFAULT_PROTOCOL, "default", Body { height_m: Some(1.55), hand: Hand::Left }).unwrap();
+    let q = s.query("bars-chest-turned-left").unwrap();
+    assert_eq!(q.query.pose.position, [0.42, -0.09, -0.05]);
+    assert_eq!(q.query.pose.rpy_deg, [0.0, 0.0, 20.0]);
+    let [x, y, z] = q.pose.position;
+    assert!((x - 0.372).abs() < 1e-9 && (y - 0.0797).abs() < 1e-4 && (z + 0.0443).abs() < 1e-4, "{:?}", q.pose);
+    let [r, p, yaw] = q.pose.rpy_deg;
+    assert!(r.abs() < 1e-9 && p.abs() < 1e-9 && (yaw - 160.0).abs() < 1e-9, "{:?}", q.pose);
+}

@@ -292,45 +292,130 @@ fn a_dry_run_versus_a_second_protocol_pairs_the_same_participants() {
 
 #[test]
 fn participant_new_refuses_a_body_the_protocol_cannot_serve_without_taking_a_slot() {
-    // The default protocol's poses are fixed in metres today: a 1.60 m participant cannot
-    // reach some grips (issue: poses that scale with the body). Refused at creation.
+    // The default protocol serves 1.50–1.95 m (its poses scale with the reach, the objects
+    // do not): a 1.40 m participant cannot reach some grips. Refused at creation.
     let dir = tmpdir("body");
-    let (code, out, err) =
-        handover(&["participant", "new", "--body-height", "1.60", "--study-dir", dir.to_str().unwrap()]);
+    let (code, out, err) = handover(&[
+        "participant",
+        "new",
+        "--body-height",
+        "1.40",
+        "--handedness",
+        "left",
+        "--study-dir",
+        dir.to_str().unwrap(),
+    ]);
     assert_eq!(code, 2, "{err}");
     assert!(out.is_empty(), "no id is printed: {out}");
     assert!(
-        err.contains("a 1.6 m participant cannot take part") && err.contains("no feasible arm configuration"),
+        err.contains("a 1.4 m participant's left arm cannot be served")
+            && err.contains("no feasible arm configuration"),
         "{err}"
     );
     assert!(!dir.join("participants").exists(), "no record, no folder");
-    let (code, out, err) =
-        handover(&["participant", "new", "--body-height", "1.80", "--study-dir", dir.to_str().unwrap()]);
+    let (code, out, err) = handover(&[
+        "participant",
+        "new",
+        "--body-height",
+        "1.50",
+        "--handedness",
+        "left",
+        "--study-dir",
+        dir.to_str().unwrap(),
+    ]);
     assert_eq!(code, 0, "{err}");
-    assert!(out.trim().starts_with("p-"), "{out}");
+    let id = out.trim();
+    let record = std::fs::read_to_string(dir.join("participants").join(format!("{id}.json"))).unwrap();
+    assert!(record.contains("\"handedness\": \"left\"") && record.contains("1.5"), "{record}");
 }
 
 #[test]
-fn protocol_check_checks_one_body_or_reports_the_heights_it_serves() {
+fn protocol_check_checks_one_body_or_reports_the_bodies_it_serves() {
     let proto = Path::new(env!("CARGO_MANIFEST_DIR")).join("protocols/bike-handover.json");
     let p = proto.to_str().unwrap();
     let (code, out, err) = handover(&["protocol", "check", p, "--body-height", "1.80"]);
     assert_eq!(code, 0, "{err}");
-    assert!(out.contains("arm of a 1.8 m participant") && out.contains("upper arm 0.335 m"), "{out}");
-    let (code, _, err) = handover(&["protocol", "check", p, "--body-height", "1.60"]);
+    assert!(out.contains("a 1.8 m participant's right arm") && out.contains("upper arm 0.335 m"), "{out}");
+    assert!(out.contains("poses written for a 1.75 m body, scaled ×1.029"), "{out}");
+    let (code, out, err) = handover(&["protocol", "check", p, "--body-height", "1.50", "--handedness", "left"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("left arm") && out.contains("scaled ×0.857"), "{out}");
+    let (code, _, err) = handover(&["protocol", "check", p, "--body-height", "1.40"]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("no feasible arm configuration"), "{err}");
     let (code, _, err) = handover(&["protocol", "check", p, "--body-height", "9"]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--body-height is 9"), "{err}");
-    // Every 5 cm from 1.50 to 1.95 m, each served or not with its first problem; the count
-    // agrees with one-body checks (today's fixed poses serve 1.70 m and up).
+    // Every 5 cm from 1.50 to 1.95 m with either hand: all served, and the rows agree with
+    // the one-body checks above.
     let (code, out, err) = handover(&["protocol", "check", p, "--bodies"]);
     assert_eq!(code, 0, "{err}");
     let rows: Vec<&str> = out.lines().filter(|l| l.trim_start().starts_with("1.")).collect();
-    assert_eq!(rows.len(), 10, "{out}");
-    let served = rows.iter().filter(|r| r.ends_with("served") && !r.contains("not served")).count();
-    assert!(out.contains(&format!("{served} of 10 heights served")), "{out}");
-    assert!(rows.iter().any(|r| r.starts_with("  1.80 m  served")), "{out}");
-    assert!(rows.iter().any(|r| r.starts_with("  1.60 m  not served")), "{out}");
+    assert_eq!(rows.len(), 20, "{out}");
+    assert!(rows.iter().all(|r| r.contains("  served (feasible sets of")), "{out}");
+    assert!(rows.iter().any(|r| r.starts_with("  1.50 m  left   served")), "{out}");
+    assert!(out.contains("20 of 20 bodies served"), "{out}");
+}
+
+/// Dry runs draw bodies from adult stature with a share left-handed, each session run (and
+/// logged) for its body; a fixed body runs whole sessions at both ends of the range with
+/// either hand.
+#[test]
+fn dry_runs_draw_bodies_and_run_whole_sessions_at_the_ends_of_the_range() {
+    let dir = tmpdir("bodies");
+    let mut v: serde_json::Value = serde_json::from_str(handover::protocol::DEFAULT_PROTOCOL).unwrap();
+    v["learning"]["particles"] = 100.into();
+    v["session"]["trials_per_condition"] = 1.into();
+    let proto = dir.join("small.json");
+    std::fs::write(&proto, v.to_string()).unwrap();
+    let (p, logs) = (proto.to_str().unwrap(), dir.join("logs"));
+    let (code, out, err) = handover(&[
+        "dry-run",
+        "--protocol",
+        p,
+        "--participants",
+        "6",
+        "--left-handed-share",
+        "0.5",
+        "--logs",
+        logs.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let bodies: Vec<&str> = out.lines().filter(|l| l.starts_with("pilot-")).collect();
+    assert_eq!(bodies.len(), 6, "{out}");
+    assert!(bodies.iter().any(|l| l.contains("left arm")) && bodies.iter().any(|l| l.contains("right arm")), "{out}");
+    let mut heights = Vec::new();
+    for f in handover::record::mcap_files(&logs) {
+        let log = read_log(&f).unwrap();
+        let study = handover::record::study_of(&log).unwrap();
+        let h = study.protocol.arm.body_height_m.expect("a drawn height is written into the protocol as run");
+        assert!((1.50..=1.95).contains(&h), "{h}");
+        assert!(bodies.iter().any(|l| l.starts_with(&log.start.participant) && l.contains(&format!("a {h} m"))));
+        heights.push(h);
+    }
+    heights.dedup();
+    assert!(heights.len() > 1, "heights vary: {heights:?}");
+    assert!(out.contains("by body (height band"), "{out}");
+    for (h, hand) in [("1.50", "left"), ("1.50", "right"), ("1.95", "left"), ("1.95", "right")] {
+        let logs = dir.join(format!("logs-{h}-{hand}"));
+        let (code, out, err) = handover(&[
+            "dry-run",
+            "--protocol",
+            p,
+            "--body-height",
+            h,
+            "--handedness",
+            hand,
+            "--logs",
+            logs.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{h} {hand}: {err}");
+        assert!(out.contains("(completed; a ") && out.contains(&format!("{hand} arm")), "{out}");
+    }
+    let (code, _, err) = handover(&["dry-run", "--protocol", p, "--left-handed-share", "1.5"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--left-handed-share is 1.5"), "{err}");
+    let (code, _, err) = handover(&["dry-run", "--protocol", p, "--body-height", "1.3", "--handedness", "left"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("no feasible arm configuration"), "{err}");
 }

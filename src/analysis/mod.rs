@@ -20,7 +20,8 @@ pub use alpha::{
     SessionAlpha, alpha_grid, alpha_summary, fit_alpha,
 };
 pub use seeds::{
-    OverSeeds, Paired, SEED_MEASURES, SeedRun, object_shares, over_seeds, paired_across, paired_over_seeds,
+    HEIGHT_BANDS_M, ObjectsByBody, OverSeeds, Paired, SEED_MEASURES, SeedRun, object_shares, objects_by_body,
+    over_seeds, paired_across, paired_over_seeds,
 };
 pub use summary::{CurvePoint, ItemTest, IterationTest, LikertSummary, StudySummary, distinct_q_star, summarise};
 pub use verify::Difference;
@@ -65,6 +66,8 @@ pub struct SessionAnalysis {
     pub completed: bool,
     /// Every handle taken, with the prior, for estimating α ([`fit_session`]).
     pub alpha_evidence: AlphaEvidence,
+    /// The body the session was run for (from the protocol as logged).
+    pub body: crate::protocol::Body,
 }
 
 /// Replays a log and computes its per-session results.
@@ -171,6 +174,7 @@ pub fn analyse_and_verify(log: &LogContents, verify: bool) -> Result<(SessionAna
     let items = &study.protocol.questionnaire.items;
     let completed = matches!(session.prompt(), crate::session::Prompt::Done { completed: true });
     let analysis = SessionAnalysis {
+        body: crate::protocol::Body { height_m: study.protocol.arm.body_height_m, hand: study.arm.side },
         start: log.start.clone(),
         runs: out_runs,
         test_trials: session

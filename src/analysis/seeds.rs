@@ -234,3 +234,95 @@ pub fn object_shares(runs: &[SeedRun]) -> BTreeMap<String, BTreeMap<String, (f64
     }
     out
 }
+
+/// The height bands of [`objects_by_body`] (m): [low, high), the last one closed.
+pub const HEIGHT_BANDS_M: [(f64, f64); 4] = [(1.50, 1.60), (1.60, 1.70), (1.70, 1.80), (1.80, 1.95)];
+
+/// The object finding for one height band and hand: the share of each condition's training
+/// offers that were of `object`, per session, summarised over the band's sessions (each a
+/// different simulated participant), and the paired difference first − second.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ObjectsByBody {
+    /// `1.50–1.60` (m), or `unstated` for sessions run with the protocol's arm lengths.
+    pub band: String,
+    pub hand: &'static str,
+    pub object: String,
+    pub sessions: usize,
+    pub first: String,
+    pub first_share: (f64, f64, f64),
+    pub second: String,
+    pub second_share: (f64, f64, f64),
+    /// first − second: mean, 95 % interval over sessions, two-sided Wilcoxon p.
+    pub difference: (f64, f64, f64),
+    pub p_value: Option<f64>,
+}
+
+fn band_of(height: Option<f64>) -> String {
+    let Some(h) = height else { return "unstated".into() };
+    let last = HEIGHT_BANDS_M.len() - 1;
+    HEIGHT_BANDS_M
+        .iter()
+        .enumerate()
+        .find(|(i, (lo, hi))| h >= *lo && (h < *hi || (*i == last && h <= *hi)))
+        .map_or_else(
+            || format!("outside {:.2}–{:.2}", HEIGHT_BANDS_M[0].0, HEIGHT_BANDS_M[last].1),
+            |(_, (lo, hi))| format!("{lo:.2}–{hi:.2}"),
+        )
+}
+
+/// The share of a session's training offers under `condition` that were of `object`.
+fn share(s: &SessionAnalysis, condition: &str, object: &str) -> Option<f64> {
+    let trials: Vec<_> = s.runs.iter().filter(|r| r.condition == condition).flat_map(|r| &r.trials).collect();
+    (!trials.is_empty()).then(|| trials.iter().filter(|t| t.object == object).count() as f64 / trials.len() as f64)
+}
+
+/// The object finding (which object each condition offers) per height band and hand, over
+/// every session of every seed. Bands and hands without a session are left out.
+pub fn objects_by_body(runs: &[SeedRun]) -> Vec<ObjectsByBody> {
+    let cs = conditions(runs);
+    let (Some(first), Some(second)) = (cs.first(), cs.get(1)) else { return Vec::new() };
+    let sessions: Vec<&SessionAnalysis> = runs.iter().flat_map(|r| &r.sessions).collect();
+    let mut objects: Vec<String> = Vec::new();
+    for t in sessions.iter().flat_map(|s| &s.runs).flat_map(|r| &r.trials) {
+        if !objects.contains(&t.object) {
+            objects.push(t.object.clone());
+        }
+    }
+    let mut bands: Vec<String> = HEIGHT_BANDS_M.iter().map(|(lo, hi)| format!("{lo:.2}–{hi:.2}")).collect();
+    for s in &sessions {
+        let b = band_of(s.body.height_m);
+        if !bands.contains(&b) {
+            bands.push(b);
+        }
+    }
+    let mut out = Vec::new();
+    for band in &bands {
+        for hand in [crate::kinematics::Hand::Right, crate::kinematics::Hand::Left] {
+            let group: Vec<&&SessionAnalysis> =
+                sessions.iter().filter(|s| band_of(s.body.height_m) == *band && s.body.hand == hand).collect();
+            if group.is_empty() {
+                continue;
+            }
+            for object in &objects {
+                let a: Vec<f64> = group.iter().filter_map(|s| share(s, first, object)).collect();
+                let b: Vec<f64> = group.iter().filter_map(|s| share(s, second, object)).collect();
+                let d: Vec<f64> =
+                    group.iter().filter_map(|s| Some(share(s, first, object)? - share(s, second, object)?)).collect();
+                let Some(g) = grouped_differences(&[d]) else { continue };
+                out.push(ObjectsByBody {
+                    band: band.clone(),
+                    hand: hand.name(),
+                    object: object.clone(),
+                    sessions: group.len(),
+                    first: first.clone(),
+                    first_share: mean_ci95(&a),
+                    second: second.clone(),
+                    second_share: mean_ci95(&b),
+                    difference: (g.mean, g.ci_low, g.ci_high),
+                    p_value: g.p_value,
+                });
+            }
+        }
+    }
+    out
+}

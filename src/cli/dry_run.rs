@@ -7,23 +7,26 @@ use std::time::Duration;
 use anyhow::{Context, Result};
 use clap::Args;
 use handover::analysis::{
-    SEED_MEASURES, SeedRun, SessionAnalysis, analyse, object_shares, over_seeds, paired_across, paired_over_seeds,
+    SEED_MEASURES, SeedRun, SessionAnalysis, analyse, object_shares, objects_by_body, over_seeds, paired_across,
+    paired_over_seeds,
 };
-use handover::dryrun::{drive, now_ns, plan};
+use handover::dryrun::{BodyPopulation, drive, now_ns, plan};
 use handover::ergo::Lambda;
-use handover::protocol::{LambdaSpec, Study};
+use handover::protocol::{LambdaSpec, Study, for_body};
 use handover::record::{RecordedSession, new_log_path, read_log};
 use handover::session::{Session, program_letter};
 use handover::study_dir::{ParticipantLock, StudyDirs};
 
-use super::input::{bad, load_protocol, parse_json, read_text};
+use super::input::{HandArg, bad, body_height, load_protocol, parse_json, read_text};
 
 /// Run whole sessions with simulated participants (a rehearsal of the study, or a check of
 /// the protocol). Each participant gets a pilot id and slot, a ground truth from the prior
 /// (or --truth), and takes the offered objects with Boltzmann probability, reporting only
 /// the grip region as a real participant does; the questionnaire is answered reproducibly.
 /// Logs are flagged `pilot` and participants/ is never touched. The same seed gives the
-/// same events.
+/// same events. Bodies are drawn from adult stature (an equal mix of women, N(1.63 m,
+/// 0.065), and men, N(1.77 m, 0.07), truncated to 1.50–1.95 m) with 10 % left-handed, unless
+/// --body-height / --handedness fix them; each session runs the protocol fitted to its body.
 #[derive(Debug, Args)]
 pub struct DryRunArgs {
     /// Protocol (default: the embedded protocols/bike-handover.json).
@@ -46,6 +49,15 @@ pub struct DryRunArgs {
     /// Where logs are written, as LOGS/<id>/<id>_<UTC time>.mcap (default: STUDY_DIR/logs).
     #[arg(long, value_name = "DIR")]
     logs: Option<PathBuf>,
+    /// Every participant's body height (m) instead of a draw from adult stature.
+    #[arg(long, value_name = "M")]
+    body_height: Option<f64>,
+    /// Every participant's dominant hand instead of a draw.
+    #[arg(long, value_enum)]
+    handedness: Option<HandArg>,
+    /// The share of left-handed participants drawn (when --handedness is not given).
+    #[arg(long, value_name = "FRACTION", default_value_t = handover::dryrun::LEFT_HANDED_SHARE)]
+    left_handed_share: f64,
     /// A ground truth for every participant: {"q_star_deg": [7 angles], "w": [7 weights]}.
     #[arg(long, value_name = "FILE")]
     truth: Option<PathBuf>,
@@ -87,6 +99,19 @@ pub fn run(args: DryRunArgs) -> Result<()> {
     if !(1..=1000).contains(&args.seeds) {
         return Err(bad(format!("--seeds is {}, expected 1 to 1000", args.seeds)));
     }
+    if !(0.0..=1.0).contains(&args.left_handed_share) {
+        return Err(bad(format!("--left-handed-share is {}, expected a fraction from 0 to 1", args.left_handed_share)));
+    }
+    let population = BodyPopulation {
+        height_m: args.body_height.map(|h| body_height("--body-height", h)).transpose()?,
+        hand: args.handedness.map(Into::into),
+        left_handed: args.left_handed_share,
+    };
+    // A fixed body the protocol cannot serve is bad input, named before any session runs.
+    if let (Some(h), Some(hand)) = (population.height_m, population.hand) {
+        for_body(&text, &study.source_name, handover::protocol::Body { height_m: Some(h), hand })
+            .map_err(|e| bad(e.to_string()))?;
+    }
     let versus = args.versus.as_deref().map(|p| load_protocol(Some(p))).transpose()?;
     let dirs = StudyDirs::resolve(args.study_dir.as_deref(), None, args.logs.as_deref());
     let protocols = 1 + u64::from(versus.is_some());
@@ -104,11 +129,18 @@ pub fn run(args: DryRunArgs) -> Result<()> {
         indicatif::ProgressBar::hidden()
     };
     let report_each = args.seeds == 1 && versus.is_none();
-    let runs = run_seeds(&study, &text, &args, &dirs.logs, truth.as_ref(), &bar, report_each)?;
+    let runs = run_seeds(&study, &text, &args, &population, &dirs.logs, truth.as_ref(), &bar, report_each)?;
     let second = match &versus {
-        Some((text_b, study_b)) => {
-            Some(run_seeds(&Arc::new(study_b.clone()), text_b, &args, &dirs.logs, truth.as_ref(), &bar, false)?)
-        }
+        Some((text_b, study_b)) => Some(run_seeds(
+            &Arc::new(study_b.clone()),
+            text_b,
+            &args,
+            &population,
+            &dirs.logs,
+            truth.as_ref(),
+            &bar,
+            false,
+        )?),
         None => None,
     };
     bar.finish_and_clear();
@@ -128,11 +160,14 @@ pub fn run(args: DryRunArgs) -> Result<()> {
     Ok(())
 }
 
-/// Every seed's participants under one protocol, each session logged, replayed and analysed.
+/// Every seed's participants under one protocol, each session logged, replayed and analysed,
+/// each run for its participant's body.
+#[allow(clippy::too_many_arguments)]
 fn run_seeds(
     study: &Arc<Study>,
     text: &str,
     args: &DryRunArgs,
+    population: &BodyPopulation,
     logs: &std::path::Path,
     truth: Option<&Lambda>,
     bar: &indicatif::ProgressBar,
@@ -144,16 +179,20 @@ fn run_seeds(
         let mut sessions = Vec::new();
         for i in 0..args.participants {
             let now = chrono::Utc::now();
-            let p = plan(study, seed, i, truth, now.to_rfc3339_opts(chrono::SecondsFormat::Millis, true));
-            let session = Session::new(Arc::clone(study), p.start.clone()).map_err(|e| anyhow::anyhow!("{e}"))?;
+            let body = population.draw(seed, i);
+            let (text, fitted) = for_body(text, &study.source_name, body)
+                .map_err(|e| bad(format!("simulated participant {} of seed {seed}: {e}", i + 1)))?;
+            let fitted = Arc::new(fitted);
+            let p = plan(&fitted, seed, i, truth, now.to_rfc3339_opts(chrono::SecondsFormat::Millis, true));
+            let session = Session::new(Arc::clone(&fitted), p.start.clone()).map_err(|e| anyhow::anyhow!("{e}"))?;
             let path = new_log_path(logs, &p.start.participant, now);
             let _lock = ParticipantLock::acquire(&logs.join(&p.start.participant), &p.start.participant, "dry-run")?;
-            let mut rec = RecordedSession::create(&path, text, session, now_ns())?;
+            let mut rec = RecordedSession::create(&path, &text, session, now_ns())?;
             drive(&mut rec, &p.participant, Duration::from_millis(args.pace))?;
             let path = rec.finish()?;
             let analysis = analysed(&path)?;
             if report_each {
-                report(study, &path, &analysis)?;
+                report(&fitted, &path, &analysis)?;
             }
             sessions.push(analysis);
             bar.inc(1);
@@ -258,6 +297,7 @@ fn print_over_seeds(runs: &[SeedRun], seed: u64, seeds: u64, participants: usize
             .collect();
         outln!("  {c} offered: {}", parts.join(", "));
     }
+    print_by_body(runs)?;
     for measure in SEED_MEASURES {
         outln!("  {}, by iteration:", measure_label(measure));
         let conditions: Vec<&str> = {
@@ -310,12 +350,59 @@ fn print_over_seeds(runs: &[SeedRun], seed: u64, seeds: u64, participants: usize
     Ok(())
 }
 
+/// The object finding per height band and hand, when the sessions span more than one.
+fn print_by_body(runs: &[SeedRun]) -> Result<()> {
+    let rows = objects_by_body(runs);
+    let groups: std::collections::BTreeSet<(&str, &str)> = rows.iter().map(|r| (r.band.as_str(), r.hand)).collect();
+    if groups.len() < 2 {
+        return Ok(());
+    }
+    let pct = |(m, lo, hi): (f64, f64, f64)| {
+        if lo.is_finite() {
+            format!("{:.0} % [{:.0}, {:.0}]", 100.0 * m, 100.0 * lo.max(0.0), 100.0 * hi.min(1.0))
+        } else {
+            format!("{:.0} %", 100.0 * m)
+        }
+    };
+    // The last object's share is the rest.
+    let last = rows.last().map(|r| r.object.clone()).unwrap_or_default();
+    outln!(
+        "  by body (height band in m, [low, high); dominant hand; each session one participant; 95 % interval over sessions, two-sided Wilcoxon; {last}: the rest):"
+    );
+    for r in rows.iter().filter(|r| r.object != last) {
+        let p = r
+            .p_value
+            .map_or("no difference".to_string(), |p| if p < 0.001 { "p<0.001".into() } else { format!("p={p:.3}") });
+        let (d, lo, hi) = r.difference;
+        let diff = if lo.is_finite() {
+            format!("{:+.0} [{:+.0}, {:+.0}] points", 100.0 * d, 100.0 * lo, 100.0 * hi)
+        } else {
+            format!("{:+.0} points", 100.0 * d)
+        };
+        outln!(
+            "    {:<9} {:<5} n={:<3} {}: {} {}, {} {}; {} − {} {diff} ({p})",
+            r.band,
+            r.hand,
+            r.sessions,
+            r.object,
+            r.first,
+            pct(r.first_share),
+            r.second,
+            pct(r.second_share),
+            r.first,
+            r.second
+        );
+    }
+    Ok(())
+}
+
 /// Prints a participant's condition order, objects chosen and test log-likelihoods.
 pub fn report(study: &Study, path: &std::path::Path, a: &SessionAnalysis) -> Result<()> {
     outln!(
-        "{} ({}): log {}",
+        "{} ({}; {}): log {}",
         a.start.participant,
         if a.completed { "completed" } else { "not completed" },
+        a.body,
         path.display()
     );
     for r in &a.runs {

@@ -54,3 +54,25 @@ pub fn load_protocol(path: Option<&Path>) -> anyhow::Result<(String, handover::p
     let study = Study::from_json(&text, &name).map_err(|e| bad(e.to_string()))?;
     Ok((text, study))
 }
+
+/// A hand on the command line: `left` or `right`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum HandArg {
+    Left,
+    Right,
+}
+
+impl From<HandArg> for handover::kinematics::Hand {
+    fn from(h: HandArg) -> Self {
+        match h {
+            HandArg::Left => Self::Left,
+            HandArg::Right => Self::Right,
+        }
+    }
+}
+
+/// A body height from the command line, inside the range a participant record accepts.
+pub fn body_height(flag: &str, h: f64) -> anyhow::Result<f64> {
+    let (lo, hi) = handover::participant::BODY_HEIGHT_M;
+    if (lo..=hi).contains(&h) { Ok(h) } else { Err(bad(format!("{flag} is {h}, expected metres from {lo} to {hi}"))) }
+}

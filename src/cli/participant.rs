@@ -3,14 +3,14 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
-use clap::{Args, Subcommand, ValueEnum};
-use handover::participant::{BODY_HEIGHT_M, Handedness, ParticipantRecord, new_id, validate_id};
+use clap::{Args, Subcommand};
+use handover::participant::{ParticipantRecord, new_id, validate_id};
 use handover::record::least_filled_slot;
 use handover::session::condition_order;
 use handover::study_dir::{ParticipantLock, StudyDirs};
 
-use super::input::{bad, load_protocol};
-use handover::protocol::with_body_height;
+use super::input::{HandArg, bad, body_height as checked_height, load_protocol};
+use handover::protocol::{Body, for_body};
 
 /// Manage pseudonymous participants (no names are ever stored).
 #[derive(Debug, Args)]
@@ -32,7 +32,8 @@ enum ParticipantCommand {
         /// Body height in metres (for the arm model).
         #[arg(long, value_name = "M")]
         body_height: Option<f64>,
-        /// Preferred hand.
+        /// The dominant hand: the participant takes the objects with it, and a left hand is
+        /// modelled as the mirrored arm with mirrored poses (default: right).
         #[arg(long, value_enum)]
         handedness: Option<HandArg>,
     },
@@ -85,32 +86,18 @@ impl Folders {
     }
 }
 
-#[derive(Debug, Clone, Copy, ValueEnum)]
-enum HandArg {
-    Left,
-    Right,
-}
-
 pub fn run(args: ParticipantArgs) -> Result<()> {
     match args.command {
         ParticipantCommand::New { protocol, folders, body_height, handedness } => {
             let (text, study) = load_protocol(protocol.as_deref())?;
             let dirs = folders.resolve();
-            if let Some(h) = body_height
-                && !(BODY_HEIGHT_M.0..=BODY_HEIGHT_M.1).contains(&h)
-            {
-                return Err(bad(format!(
-                    "--body-height is {h}, expected metres from {} to {}",
-                    BODY_HEIGHT_M.0, BODY_HEIGHT_M.1
-                )));
-            }
+            let body_height = body_height.map(|h| checked_height("--body-height", h)).transpose()?;
+            let body = Body { height_m: body_height, hand: handedness.map(Into::into).unwrap_or_default() };
             // A body the protocol cannot serve is refused now, not with the participant in
             // the room: no record is written and no slot is taken.
-            if let Some(h) = body_height
-                && let Err(e) = with_body_height(&text, &study.source_name, h)
-            {
+            if let Err(e) = for_body(&text, &study.source_name, body) {
                 return Err(bad(format!(
-                    "a {h} m participant cannot take part under this protocol (no record created, no slot taken): {e}"
+                    "{body} cannot be served by this protocol (no record created, no slot taken): {e}"
                 )));
             }
             for missing in dirs.missing() {
@@ -122,10 +109,7 @@ pub fn run(args: ParticipantArgs) -> Result<()> {
                 slot,
                 created_at: chrono::Utc::now().to_rfc3339_opts(chrono::SecondsFormat::Secs, true),
                 body_height_m: body_height,
-                handedness: handedness.map(|h| match h {
-                    HandArg::Left => Handedness::Left,
-                    HandArg::Right => Handedness::Right,
-                }),
+                handedness: handedness.map(Into::into),
                 withdrawn_at: None,
             };
             let path = record.create(&dirs.participants).with_context(|| "cannot create the participant record")?;

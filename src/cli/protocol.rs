@@ -10,9 +10,9 @@ use handover::select::OutcomeModel;
 
 use handover::session::check_runs;
 
-use super::input::{bad, load_protocol};
-use handover::participant::BODY_HEIGHT_M;
-use handover::protocol::with_body_height;
+use super::input::{HandArg, bad, body_height as checked_height, load_protocol};
+use handover::kinematics::Hand;
+use handover::protocol::{Body, for_body};
 
 /// Work with protocol files.
 #[derive(Debug, Args)]
@@ -27,11 +27,16 @@ enum ProtocolCommand {
     Check {
         /// The protocol JSON file.
         file: PathBuf,
-        /// Check it for a participant of this body height (m): the arm scaled as a session
-        /// scales it, every grip of every query reachable.
+        /// Check it for a participant of this body height (m): the arm and the poses scaled
+        /// as a session scales them, every grip of every query reachable.
         #[arg(long, value_name = "M", conflicts_with = "bodies")]
         body_height: Option<f64>,
-        /// Report which body heights from 1.50 to 1.95 m (every 5 cm) it serves.
+        /// Check it for a participant with this dominant hand (a left hand: the mirrored arm
+        /// and mirrored poses).
+        #[arg(long, value_enum, conflicts_with = "bodies")]
+        handedness: Option<HandArg>,
+        /// Report which body heights from 1.50 to 1.95 m (every 5 cm), with either hand, it
+        /// serves.
         #[arg(long)]
         bodies: bool,
     },
@@ -42,41 +47,50 @@ const BODY_RANGE_CM: (u32, u32, u32) = (150, 195, 5);
 
 pub fn run(args: ProtocolArgs) -> Result<()> {
     match args.command {
-        ProtocolCommand::Check { file, body_height: _, bodies: true } => {
+        ProtocolCommand::Check { file, bodies: true, .. } => {
             let (text, study) = load_protocol(Some(&file))?;
-            outln!("{}: body heights served (right arm; a mirrored left arm is not modelled yet):", file.display());
-            let mut served = Vec::new();
+            outln!(
+                "{}: bodies served (height × dominant hand; the arm and the poses scaled as a session scales them):",
+                file.display()
+            );
+            let (mut served, mut all) = (0, 0);
             for cm in (BODY_RANGE_CM.0..=BODY_RANGE_CM.1).step_by(BODY_RANGE_CM.2 as usize) {
                 let h = f64::from(cm) / 100.0;
-                match with_body_height(&text, &study.source_name, h) {
-                    Ok(_) => {
-                        served.push(h);
-                        outln!("  {h:.2} m  served");
-                    }
-                    Err(e) => {
-                        let first =
-                            e.problems.first().map_or(String::new(), |p| format!(", e.g. {}: {}", p.path, p.message));
-                        outln!("  {h:.2} m  not served: {} problem(s){first}", e.problems.len())
+                for hand in [Hand::Right, Hand::Left] {
+                    all += 1;
+                    let body = Body { height_m: Some(h), hand };
+                    match for_body(&text, &study.source_name, body) {
+                        Ok((_, s)) => {
+                            served += 1;
+                            let sizes: Vec<usize> = s.all_queries().map(|q| q.feasible.configs.len()).collect();
+                            outln!(
+                                "  {h:.2} m  {:<5}  served (feasible sets of {}–{} configurations)",
+                                hand.name(),
+                                sizes.iter().min().unwrap_or(&0),
+                                sizes.iter().max().unwrap_or(&0)
+                            );
+                        }
+                        Err(e) => {
+                            let first = e
+                                .problems
+                                .first()
+                                .map_or(String::new(), |p| format!(", e.g. {}: {}", p.path, p.message));
+                            outln!("  {h:.2} m  {:<5}  not served: {} problem(s){first}", hand.name(), e.problems.len())
+                        }
                     }
                 }
             }
-            let all = (BODY_RANGE_CM.1 - BODY_RANGE_CM.0) / BODY_RANGE_CM.2 + 1;
-            outln!("{} of {all} heights served", served.len());
+            outln!("{served} of {all} bodies served");
             Ok(())
         }
-        ProtocolCommand::Check { file, body_height, bodies: false } => {
+        ProtocolCommand::Check { file, body_height, handedness, bodies: false } => {
             let (text, study) = load_protocol(Some(&file))?;
-            let study = match body_height {
-                Some(h) => {
-                    if !(BODY_HEIGHT_M.0..=BODY_HEIGHT_M.1).contains(&h) {
-                        return Err(bad(format!(
-                            "--body-height is {h}, expected metres from {} to {}",
-                            BODY_HEIGHT_M.0, BODY_HEIGHT_M.1
-                        )));
-                    }
-                    with_body_height(&text, &study.source_name, h).map_err(|e| bad(e.to_string()))?.1
-                }
-                None => study,
+            let study = if body_height.is_some() || handedness.is_some() {
+                let height_m = body_height.map(|h| checked_height("--body-height", h)).transpose()?;
+                let body = Body { height_m, hand: handedness.map(Into::into).unwrap_or_default() };
+                for_body(&text, &study.source_name, body).map_err(|e| bad(e.to_string()))?.1
+            } else {
+                study
             };
             let study = std::sync::Arc::new(study);
             // What a session builds, and one learning step: an accepted protocol runs.
@@ -94,8 +108,19 @@ pub fn summary(s: &Study) -> String {
     let l = &p.learning;
     let mut out = format!("{}: valid protocol '{}' (sha256 {})\n", s.source_name, p.name, &s.sha256[..12]);
     out += &format!(
-        "  arm: upper arm {:.3} m, forearm {:.3} m, hand {:.3} m\n",
-        s.arm.upper_arm, s.arm.forearm, s.arm.hand
+        "  arm: {} arm, upper arm {:.3} m, forearm {:.3} m, hand {:.3} m{}\n",
+        s.arm.side.name(),
+        s.arm.upper_arm,
+        s.arm.forearm,
+        s.arm.hand,
+        match p.pose_scaling {
+            Some(ps) => format!(
+                "; poses written for a {} m body, scaled ×{:.3} to this arm's reach",
+                ps.reference_body_height_m,
+                s.pose_scale()
+            ),
+            None => "; poses used as written".to_string(),
+        }
     );
     for o in &p.objects {
         let regions: Vec<_> = o.regions.iter().map(|r| r.id.as_str()).collect();

@@ -1,9 +1,9 @@
-//! The 7-DoF human arm (right arm) of sections VI–VII: forward kinematics and the analytic
-//! inverse kinematics by the swivel angle (Tolani, Goswami, Badler 2000).
+//! The 7-DoF human arm of sections VI–VII, right or left: forward kinematics and the
+//! analytic inverse kinematics by the swivel angle (Tolani, Goswami, Badler 2000).
 //!
 //! # Frames and joint conventions
-//! The shoulder frame has its origin at the right shoulder joint, x forward, y to the
-//! person's left, z up. Every segment frame has its segment along its own −z, so at q = 0
+//! The shoulder frame has its origin at the shoulder joint of the arm modelled, x forward,
+//! y to the person's left, z up. Every segment frame has its segment along its own −z, so at q = 0
 //! the arm hangs straight down with the palm facing the body (thumb forward).
 //!
 //! | # | joint | rotation | positive |
@@ -43,6 +43,53 @@ pub const JOINT_NAMES: [&str; JOINTS] = [
 /// A configuration of the 7 joints (rad).
 pub type ArmConfig = [f64; JOINTS];
 
+/// Which arm: the participant's dominant hand.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Hand {
+    #[default]
+    Right,
+    Left,
+}
+
+impl Hand {
+    pub fn name(self) -> &'static str {
+        match self {
+            Hand::Right => "right",
+            Hand::Left => "left",
+        }
+    }
+
+    /// The other hand.
+    pub fn other(self) -> Hand {
+        match self {
+            Hand::Right => Hand::Left,
+            Hand::Left => Hand::Right,
+        }
+    }
+
+    /// A pose in this arm's shoulder frame as the right arm's model sees it: itself for the
+    /// right arm, its mirror image M T M for the left (M = diag(1, −1, 1)).
+    pub fn as_right(self, t: &Isometry3<f64>) -> Isometry3<f64> {
+        match self {
+            Hand::Right => *t,
+            Hand::Left => mirror(t),
+        }
+    }
+}
+
+/// The mirror image M T M of a pose in the sagittal plane (M = diag(1, −1, 1)): the
+/// position's y negated, the rotation conjugated (roll and yaw negated).
+pub fn mirror(t: &Isometry3<f64>) -> Isometry3<f64> {
+    let m = Matrix3::from_diagonal(&Vector3::new(1.0, -1.0, 1.0));
+    let r = m * t.rotation.to_rotation_matrix().matrix() * m;
+    let p = t.translation.vector;
+    Isometry3::from_parts(
+        Translation3::new(p.x, -p.y, p.z),
+        UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r)),
+    )
+}
+
 /// Segment lengths and joint limits of one person's arm.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -55,6 +102,9 @@ pub struct HumanArm {
     pub hand: f64,
     /// [min, max] per joint (rad).
     pub limits: [[f64; 2]; JOINTS],
+    /// Which arm (the right unless stated).
+    #[serde(default)]
+    pub side: Hand,
 }
 
 /// Why an arm description was refused.
@@ -101,7 +151,23 @@ impl HumanArm {
 
     /// Given segment lengths (m), AAOS limits.
     pub fn with_lengths(upper_arm: f64, forearm: f64, hand: f64) -> Self {
-        Self { upper_arm, forearm, hand, limits: AAOS_LIMITS_DEG.map(|[a, b]| [a.to_radians(), b.to_radians()]) }
+        Self {
+            upper_arm,
+            forearm,
+            hand,
+            limits: AAOS_LIMITS_DEG.map(|[a, b]| [a.to_radians(), b.to_radians()]),
+            side: Hand::Right,
+        }
+    }
+
+    /// The same arm on the other side of the body (mirrored).
+    pub fn on_side(self, side: Hand) -> Self {
+        Self { side, ..self }
+    }
+
+    /// Reach from the shoulder to the grasp centre with the arm straight (m).
+    pub fn reach(&self) -> f64 {
+        self.upper_arm + self.forearm + self.hand
     }
 
     /// Checks lengths and limits.
@@ -124,8 +190,22 @@ impl HumanArm {
     }
 
     /// Forward kinematics: the frames of the shoulder, elbow, wrist and hand (grasp point),
-    /// all in the shoulder frame.
+    /// all in the shoulder frame (mirrored for a left arm).
     pub fn forward(&self, q: &ArmConfig) -> ArmFrames {
+        let f = self.forward_right(q);
+        match self.side {
+            Hand::Right => f,
+            Hand::Left => ArmFrames {
+                shoulder: mirror(&f.shoulder),
+                elbow: mirror(&f.elbow),
+                wrist: mirror(&f.wrist),
+                hand: mirror(&f.hand),
+            },
+        }
+    }
+
+    /// Forward kinematics of the right arm with these lengths.
+    pub(crate) fn forward_right(&self, q: &ArmConfig) -> ArmFrames {
         let r_shoulder = ry(-q[0]) * rx(-q[1]) * rz(q[2]);
         let r_elbow = r_shoulder * ry(-q[3]);
         let r_hand = r_elbow * rz(q[4]) * ry(-q[5]) * rx(-q[6]);

@@ -82,9 +82,11 @@ impl HumanArm {
         grasp.translation.vector + grasp.rotation * Vector3::new(0.0, 0.0, self.hand)
     }
 
-    /// Every solution reaching `grasp` at the given swivel angles, inside the joint limits.
-    /// An unreachable grasp gives no solution.
+    /// Every solution reaching `grasp` (in this arm's shoulder frame) at the given swivel
+    /// angles, inside the joint limits. An unreachable grasp gives no solution. A left arm
+    /// solves the mirrored grasp with the right arm's model (the angles are anatomical).
     pub fn inverse(&self, grasp: &Isometry3<f64>, swivels: &[f64]) -> Vec<IkSolution> {
+        let grasp = &self.side.as_right(grasp);
         let mut out = Vec::new();
         let wrist = self.wrist_for(grasp);
         let Some(circle) = ElbowCircle::new(self, &wrist) else {
@@ -136,7 +138,7 @@ impl HumanArm {
 
     /// The swivel angle of a configuration (as [`HumanArm::inverse`] measures it).
     pub fn swivel_angle(&self, q: &ArmConfig) -> Option<f64> {
-        let frames = self.forward(q);
+        let frames = self.forward_right(q);
         let wrist = frames.wrist.translation.vector;
         let elbow = frames.elbow.translation.vector;
         let circle = ElbowCircle::new(self, &wrist)?;
@@ -203,6 +205,37 @@ mod tests {
             let found = sols.iter().any(|s| s.q.iter().zip(&q).all(|(x, y)| (x - y).abs() < 1e-9));
             prop_assert!(found, "{:?} not among {:?}", q, sols);
         }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(100))]
+
+        /// The left arm is the right arm's mirror image with the same anatomical angles, and
+        /// its inverse kinematics reproduces its own grasps.
+        #[test]
+        fn the_left_arm_mirrors_the_right_and_solves_its_own_grasps(q in in_limits()) {
+            let right = arm();
+            let left = arm().on_side(crate::kinematics::Hand::Left);
+            let (fr, fl) = (right.forward(&q), left.forward(&q));
+            prop_assert!(pose_error(&fl.hand, &crate::kinematics::human_arm::mirror(&fr.hand)) < 1e-12);
+            prop_assert!(fl.hand.translation.y == -fr.hand.translation.y);
+            let sols = left.inverse_grid(&fl.hand, 5f64.to_radians());
+            for s in &sols {
+                prop_assert!(pose_error(&left.forward(&s.q).hand, &fl.hand) < 1e-9, "{:?}", s);
+            }
+            prop_assume!(q[3] > 0.05);
+            let phi = left.swivel_angle(&q).unwrap();
+            let found = left.inverse(&fl.hand, &[phi]).iter().any(|s| s.q.iter().zip(&q).all(|(x, y)| (x - y).abs() < 1e-9));
+            prop_assert!(found);
+        }
+    }
+
+    /// Abduction takes a right arm's hand to the right (−y) and a left arm's to the left.
+    #[test]
+    fn abduction_raises_either_arm_away_from_the_body() {
+        let q = [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        assert!(arm().forward(&q).hand.translation.y < -0.3);
+        assert!(arm().on_side(crate::kinematics::Hand::Left).forward(&q).hand.translation.y > 0.3);
     }
 
     #[test]

@@ -13,6 +13,16 @@ pub struct Pose {
 }
 
 impl Pose {
+    /// The pose of an isometry (roll, pitch, yaw in (−180°, 180°]).
+    pub fn from_isometry(t: &Isometry3<f64>) -> Self {
+        // Rounding noise of the rotation (below 1e-9 m or degrees) is cleared, so that a pose
+        // reads as written (no "−0.0").
+        let clean = |v: f64| if v.abs() < 1e-9 { 0.0 } else { v };
+        let (r, p, y) = t.rotation.euler_angles();
+        let v = t.translation.vector;
+        Self { position: [v.x, v.y, v.z].map(clean), rpy_deg: [r, p, y].map(|a| clean(a.to_degrees())) }
+    }
+
     pub fn to_isometry(&self) -> Isometry3<f64> {
         let [r, p, y] = self.rpy_deg.map(f64::to_radians);
         Isometry3::from_parts(

@@ -7,7 +7,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::belief::{ComponentPrior, Prior, PriorError, ResamplePolicy};
 use crate::ergo::{Lambda, LearnMask};
-use crate::kinematics::{ArmFeasibleSet, Discretisation, HumanArm, JOINTS, Object, Pose};
+use nalgebra::{Isometry3, UnitQuaternion};
+
+use crate::kinematics::{ArmFeasibleSet, Discretisation, Hand, HumanArm, JOINTS, Object, Pose, mirror};
 use crate::select::{OutcomeModel, SelectorKind};
 
 pub use validate::{Problem, ProtocolError, limits};
@@ -25,6 +27,9 @@ pub struct Protocol {
     #[serde(default)]
     pub description: String,
     pub arm: ArmSpec,
+    /// How the queries' positions fit the participant's body; absent: used as written.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pose_scaling: Option<PoseScaling>,
     #[serde(default)]
     pub discretisation: Discretisation,
     pub objects: Vec<Object>,
@@ -81,10 +86,25 @@ pub struct LikertItem {
     pub statement: String,
 }
 
+/// Queries' positions are written for a reference body and scale with the participant's
+/// reach: a position p (m, in the shoulder frame) is commanded as p · R / R_ref, where R is
+/// the reach of the arm modelled (upper arm + forearm + hand to the grasp centre) and R_ref
+/// that of a body of `reference_body_height_m` by Winter's fractions. Orientations and the
+/// objects are not scaled.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PoseScaling {
+    pub reference_body_height_m: f64,
+}
+
 /// The person's arm: from body height (Winter's fractions) or given directly.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ArmSpec {
+    /// Which arm is modelled, `right` (default) or `left` (mirrored: the queries' poses are
+    /// mirrored too, see [`commanded_pose`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub side: Option<Hand>,
     #[serde(default)]
     pub body_height_m: Option<f64>,
     #[serde(default)]
@@ -235,6 +255,9 @@ pub struct Study {
 #[derive(Clone, Debug)]
 pub struct ResolvedQuery {
     pub query: Query,
+    /// The pose the robot commands for this participant (scaled and, for a left arm,
+    /// mirrored), in the shoulder frame of the arm modelled.
+    pub pose: Pose,
     /// Index into the protocol's objects.
     pub object: usize,
     /// Indices into the object's regions, in the order offered.
@@ -277,6 +300,11 @@ impl Study {
         Self::from_json(DEFAULT_PROTOCOL, DEFAULT_PROTOCOL_NAME).expect("the embedded protocol is valid (tested)")
     }
 
+    /// The factor the queries' positions are scaled by for this study's arm.
+    pub fn pose_scale(&self) -> f64 {
+        pose_scale(&self.protocol, &self.arm).unwrap_or(1.0)
+    }
+
     /// Every query, training menu first.
     pub fn all_queries(&self) -> impl Iterator<Item = &ResolvedQuery> {
         self.training.iter().chain(&self.test)
@@ -298,18 +326,71 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
     sha2::Sha256::digest(bytes).iter().map(|b| format!("{b:02x}")).collect()
 }
 
-/// The protocol text with the arm scaled to a participant's body height (Winter's
-/// fractions; joint limits kept). The session logs this text, so a replay uses the same arm.
-pub fn with_body_height(text: &str, name: &str, height_m: f64) -> Result<(String, Study), ProtocolError> {
+/// The reach ratio R / R_ref of [`PoseScaling`] for an arm (1 without scaling); `None` for
+/// a reference height no body has.
+pub(crate) fn pose_scale(protocol: &Protocol, arm: &HumanArm) -> Option<f64> {
+    match protocol.pose_scaling {
+        None => Some(1.0),
+        Some(s) => HumanArm::from_height(s.reference_body_height_m).ok().map(|r| arm.reach() / r.reach()),
+    }
+}
+
+/// The pose the robot commands for a query written as `written` (in the protocol's
+/// right-shoulder convention): positions × `scale` (the reach ratio of [`PoseScaling`]); for
+/// a left arm then mirrored in the sagittal plane (M = diag(1, −1, 1): y, roll and yaw
+/// negated) and turned half a turn about the object's own z axis, so that every grip keeps
+/// its colour and sits where the mirror puts it. For objects whose grips are symmetric
+/// under the object's x → −x (both default objects) the left arm's feasible set is then the
+/// right arm's, angle for angle; for any object it is computed for the pose commanded.
+pub fn commanded_pose(written: &Pose, scale: f64, side: Hand) -> Isometry3<f64> {
+    let mut t = Pose { position: written.position.map(|v| v * scale), rpy_deg: written.rpy_deg }.to_isometry();
+    if side == Hand::Left {
+        t = mirror(&t) * UnitQuaternion::from_euler_angles(0.0, 0.0, std::f64::consts::PI);
+    }
+    t
+}
+
+/// The body a session is run for: a height (the protocol's arm when absent) and the hand.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Body {
+    pub height_m: Option<f64>,
+    pub hand: Hand,
+}
+
+impl std::fmt::Display for Body {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.height_m {
+            Some(h) => write!(f, "a {h} m participant's {} arm", self.hand.name()),
+            None => write!(f, "the protocol's body, {} arm", self.hand.name()),
+        }
+    }
+}
+
+/// The protocol text as run for one participant's body: the arm scaled to their height
+/// (Winter's fractions; joint limits kept) and on their dominant side. The session logs
+/// this text, so a replay rebuilds the same arm and the same commanded poses.
+pub fn for_body(text: &str, name: &str, body: Body) -> Result<(String, Study), ProtocolError> {
     let mut v: serde_json::Value = serde_json::from_str(text)
         .map_err(|e| ProtocolError::new(name, vec![Problem { path: String::new(), message: e.to_string() }]))?;
-    let limits = v.get("arm").and_then(|a| a.get("limits_deg")).cloned();
-    let mut arm = serde_json::json!({ "body_height_m": height_m });
-    if let Some(l) = limits {
-        arm["limits_deg"] = l;
+    if !v.get("arm").is_some_and(serde_json::Value::is_object) {
+        // Not a protocol: let the validator name what is missing.
+        return Study::from_json(text, name).map(|s| (text.to_string(), s));
     }
-    v["arm"] = arm;
-    let text = serde_json::to_string_pretty(&v).expect("serialisable");
-    let study = Study::from_json(&text, &format!("{name} (arm of a {height_m} m participant)"))?;
+    let written_side = v["arm"].get("side").and_then(serde_json::Value::as_str).unwrap_or("right");
+    if body.height_m.is_none() && written_side == body.hand.name() {
+        // The protocol's own body: run as written.
+        return Study::from_json(text, name).map(|s| (text.to_string(), s));
+    }
+    if let Some(h) = body.height_m {
+        let limits = v["arm"].get("limits_deg").cloned();
+        v["arm"] = serde_json::json!({ "body_height_m": h });
+        if let Some(l) = limits {
+            v["arm"]["limits_deg"] = l;
+        }
+    }
+    v["arm"]["side"] = serde_json::json!(body.hand.name());
+    // Compact: the text is embedded in every log of the participant.
+    let text = serde_json::to_string(&v).expect("serialisable");
+    let study = Study::from_json(&text, &format!("{name} ({body})"))?;
     Ok((text, study))
 }

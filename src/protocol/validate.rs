@@ -3,9 +3,12 @@
 use std::collections::HashSet;
 use std::fmt;
 
-use super::{ArmSpec, LambdaSpec, LearningSpec, Protocol, Query, QuestionnaireSpec, ResolvedQuery, SessionSpec, Study};
+use super::{
+    ArmSpec, LambdaSpec, LearningSpec, Protocol, Query, QuestionnaireSpec, ResolvedQuery, SessionSpec, Study,
+    commanded_pose,
+};
 use crate::belief::{Prior, ResamplePolicy};
-use crate::kinematics::{HumanArm, JOINT_NAMES, JOINTS, Object, feasible_set};
+use crate::kinematics::{HumanArm, JOINT_NAMES, JOINTS, Object, Pose, feasible_set};
 
 /// One problem in a protocol: where, and what was expected.
 #[derive(Clone, Debug, PartialEq)]
@@ -169,6 +172,7 @@ fn arm(spec: &ArmSpec, p: &mut Problems) -> Option<HumanArm> {
         }
         arm.limits = limits.map(|[a, b]| [a.to_radians(), b.to_radians()]);
     }
+    arm.side = spec.side.unwrap_or_default();
     match arm.validate() {
         Ok(()) => Some(arm),
         Err(e) => {
@@ -406,7 +410,9 @@ fn resolve(
             );
             return out;
         }
-        let feasible = feasible_set(arm, object, &q.pose.to_isometry(), &regions, d);
+        let Some(scale) = super::pose_scale(protocol, arm) else { continue };
+        let pose = commanded_pose(&q.pose, scale, arm.side);
+        let feasible = feasible_set(arm, object, &pose, &regions, d);
         if feasible.configs.len() > limits::CONFIGS_PER_QUERY {
             p.add(
                 path.clone(),
@@ -429,7 +435,7 @@ fn resolve(
                 );
             }
         }
-        out.push(ResolvedQuery { query: q.clone(), object: oi, regions, feasible });
+        out.push(ResolvedQuery { query: q.clone(), pose: Pose::from_isometry(&pose), object: oi, regions, feasible });
     }
     out
 }
@@ -518,6 +524,11 @@ pub(super) fn study(protocol: Protocol, name: &str, sha256: String) -> Result<St
         p.add("name", "is empty, expected the protocol's name");
     }
     let arm = arm(&protocol.arm, &mut p);
+    if let Some(s) = protocol.pose_scaling
+        && let Err(e) = HumanArm::from_height(s.reference_body_height_m)
+    {
+        p.add("pose_scaling.reference_body_height_m", e.to_string());
+    }
     p.text("name", &protocol.name, limits::TEXT);
     p.text("description", &protocol.description, limits::LONG_TEXT);
     let d = &protocol.discretisation;

@@ -108,8 +108,7 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
             let object = session.study().object(q);
             let mut v = trial_fields(index, view, session);
             v["label"] = json!(q.query.label);
-            v["robot_pose"] =
-                json!({"frame": "shoulder", "position": q.query.pose.position, "rpy_deg": q.query.pose.rpy_deg});
+            v["robot_pose"] = json!({"frame": "shoulder", "position": q.pose.position, "rpy_deg": q.pose.rpy_deg});
             v["regions"] = json!(q.regions.iter().map(|&r| object.regions[r].id.clone()).collect::<Vec<_>>());
             v["scores"] = json!(
                 scores
@@ -119,9 +118,9 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                     .collect::<Vec<_>>()
             );
             out.push(("/trial/query", v));
-            let [r, p, y] = q.query.pose.rpy_deg.map(f64::to_radians);
+            let [r, p, y] = q.pose.rpy_deg.map(f64::to_radians);
             let o = UnitQuaternion::from_euler_angles(r, p, y);
-            let [x, yy, z] = q.query.pose.position;
+            let [x, yy, z] = q.pose.position;
             out.push((
                 "/robot/handover_pose",
                 json!({

@@ -15,7 +15,7 @@ use super::keys::{Action, Mode, action_for};
 use crate::analysis::{SessionAnalysis, analyse};
 use crate::dryrun::{now_ns, plan};
 use crate::participant::{ParticipantRecord, ScriptedParticipant, SimulatedPerson, new_id, validate_id};
-use crate::protocol::{Study, with_body_height};
+use crate::protocol::{Study, for_body};
 use crate::record::{
     LogContents, RecordError, RecordedSession, SubmitError, continuation_path, least_filled_slot, log_folder,
     new_log_path, read_log,
@@ -266,13 +266,12 @@ impl App {
                     );
                     (r.id, r.slot, None, Some(why))
                 }
-                Ok(r) => match r.body_height_m.map(|h| with_body_height(&c.protocol_text, &study.source_name, h)) {
-                    Some(Ok((text, scaled))) => {
-                        (study, protocol_text) = (Arc::new(scaled), text);
+                Ok(r) => match for_body(&c.protocol_text, &study.source_name, r.body()) {
+                    Ok((text, fitted)) => {
+                        (study, protocol_text) = (Arc::new(fitted), text);
                         (r.id, r.slot, None, None)
                     }
-                    Some(Err(e)) => (r.id, r.slot, None, Some(e.to_string())),
-                    None => (r.id, r.slot, None, None),
+                    Err(e) => (r.id, r.slot, None, Some(e.to_string())),
                 },
                 Err(e) => (c.participant.clone(), 0, None, Some(e.to_string())),
             }

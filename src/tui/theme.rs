@@ -35,3 +35,9 @@ pub const PRESENT_DONE: &str = "Press Enter when the robot holds the object ther
 pub const GRASP: &str = "Which grip did the participant take?";
 pub const COMPUTING: &str = "computing…";
 pub const PAUSED: &str = "PAUSED — press p to resume";
+
+/// The participant's hand that takes the objects, named from both people's views: the
+/// operator faces the participant, so the participant's right is on the operator's left.
+pub fn hand_sides(hand: crate::kinematics::Hand) -> String {
+    format!("{} hand (on your {}, facing them)", hand.name().to_uppercase(), hand.other().name())
+}

@@ -34,6 +34,21 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
                 format!("{} (existing record)", plan.start.participant)
             };
             lines.push(Line::from(vec![Span::styled("Participant: ", theme::title()), Span::raw(who)]));
+            let s = &plan.study;
+            lines.push(Line::from(vec![
+                Span::styled("Hand: ", theme::title()),
+                Span::raw(format!("the participant's {}", theme::hand_sides(s.arm.side))),
+            ]));
+            lines.push(Line::from(format!(
+                "  arm {:.2} + {:.2} + {:.2} m (upper arm, forearm, hand); poses ×{:.3}{}",
+                s.arm.upper_arm,
+                s.arm.forearm,
+                s.arm.hand,
+                s.pose_scale(),
+                s.protocol
+                    .pose_scaling
+                    .map_or(String::new(), |p| format!(" of the protocol's {} m body", p.reference_body_height_m))
+            )));
             lines.push(Line::from(Span::styled(
                 format!("Order (slot {}), experimenter's view only:", plan.start.slot),
                 theme::title(),

@@ -23,7 +23,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
     };
     let [left, right] = Layout::horizontal([Constraint::Percentage(58), Constraint::Percentage(42)]).areas(area);
     let [instr, grasp, history] =
-        Layout::vertical([Constraint::Length(10), Constraint::Length(6), Constraint::Min(3)]).areas(left);
+        Layout::vertical([Constraint::Length(11), Constraint::Length(6), Constraint::Min(3)]).areas(left);
     instruction(session, &view, awaiting_grasp, frame, instr);
     grasp_prompt(session, &view, awaiting_grasp, frame, grasp);
     history_panel(session, &view, frame, history);
@@ -49,8 +49,9 @@ fn phase_title(session: &Session, v: &TrialView) -> String {
 fn instruction(session: &Session, v: &TrialView, done: bool, frame: &mut Frame, area: Rect) {
     let q = session.query(v.query);
     let object = session.study().object(q);
-    let [x, y, z] = q.query.pose.position;
-    let [r, p, yaw] = q.query.pose.rpy_deg;
+    let [x, y, z] = q.pose.position;
+    let [r, p, yaw] = q.pose.rpy_deg;
+    let side = session.study().arm.side;
     let lines = vec![
         Line::from(Span::styled(theme::PRESENT, if done { theme::dim() } else { theme::instruction() })),
         Line::from(vec![
@@ -60,7 +61,8 @@ fn instruction(session: &Session, v: &TrialView, done: bool, frame: &mut Frame, 
         Line::from(format!("  pose: {}", q.query.label)),
         Line::from(format!("  position     x {x:+.3}  y {y:+.3}  z {z:+.3} m")),
         Line::from(format!("  orientation  roll {r:+.1}°  pitch {p:+.1}°  yaw {yaw:+.1}°")),
-        Line::from("  frame: right shoulder (x forward, y left, z up)"),
+        Line::from(format!("  frame        {} shoulder (x forward, y left, z up)", side.name())),
+        Line::from(format!("  hand         {}", theme::hand_sides(side))),
         Line::from(""),
         Line::from(Span::styled(
             if done { "Presented." } else { theme::PRESENT_DONE },
