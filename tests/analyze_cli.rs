@@ -73,6 +73,7 @@ fn writes_tidy_csv_plots_and_table_one_keeping_pilots_apart() {
         "alpha_curve.csv",
         "fig10_tests.csv",
         "alpha.svg",
+        "objects_by_body.csv",
     ] {
         assert!(out.join(f).exists(), "{f}");
         assert!(out.join("pilot").join(f).exists(), "pilot/{f}");
@@ -94,9 +95,28 @@ fn writes_tidy_csv_plots_and_table_one_keeping_pilots_apart() {
     }
     assert_eq!(b.records().count(), 3 * 2 * 6, "the replayed belief after each iteration");
     let mut s = csv::Reader::from_path(out.join("sessions.csv")).unwrap();
+    let head = s.headers().unwrap().clone();
+    let col = |name: &str| head.iter().position(|h| h == name).unwrap_or_else(|| panic!("{name}"));
     let rows: Vec<_> = s.records().map(|r| r.unwrap()).collect();
     assert_eq!(rows.len(), 1);
     assert_eq!(&rows[0][1], "p-real0001");
+    assert_eq!(&rows[0][col("hand")], "right");
+    // The object finding per height band and hand: each condition's share and the paired
+    // difference, for every band and hand with a session.
+    let mut o = csv::Reader::from_path(out.join("pilot/objects_by_body.csv")).unwrap();
+    let rows: Vec<_> = o.records().map(|r| r.unwrap()).collect();
+    assert!(!rows.is_empty());
+    let sessions: usize = {
+        let mut groups: Vec<(String, String, usize)> =
+            rows.iter().map(|r| (r[0].to_string(), r[1].to_string(), r[2].parse().unwrap())).collect();
+        groups.dedup();
+        groups.iter().map(|g| g.2).sum()
+    };
+    assert_eq!(sessions, 3, "every pilot session in one band and hand: {rows:?}");
+    for r in &rows {
+        let share: f64 = r[5].parse().unwrap();
+        assert!(if r[4].starts_with("share_") { (0.0..=1.0).contains(&share) } else { share.abs() <= 1.0 }, "{r:?}");
+    }
     let (code, json, _) = handover(&["analyze", "--alpha-particles", "300", dir.to_str().unwrap(), "--format", "json"]);
     assert_eq!(code, 0);
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();

@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use handover::analysis::{
-    ALPHA_RANGE, AlphaFit, AlphaSummary, EVIDENCE_PARTICLES, MAX_EVIDENCE_PARTICLES, SUPPORT_DROP, SessionAnalysis,
-    StudySummary, alpha_summary, analyse_and_verify, summarise,
+    ALPHA_RANGE, AlphaFit, AlphaSummary, EVIDENCE_PARTICLES, MAX_EVIDENCE_PARTICLES, SUPPORT_DROP, SeedRun,
+    SessionAnalysis, StudySummary, alpha_summary, analyse_and_verify, objects_by_body, summarise,
 };
 use handover::participant::has_withdrawn;
 use handover::plot::{PooledEvidence, Series, alpha_plot, bar_chart, mean_se_plot};
@@ -30,6 +30,7 @@ pub struct AnalyzeArgs {
     #[arg(required = true, value_name = "LOG|DIR")]
     paths: Vec<PathBuf>,
     /// Write sessions.csv, trials.csv, test_log_likelihood.csv, fig10_tests.csv, beliefs.csv,
+    /// objects_by_body.csv,
     /// questionnaire.csv, alpha.csv, alpha_curve.csv, fig10.svg, objects.svg, alpha.svg and
     /// table1.md here (pilot sessions under DIR/pilot/).
     #[arg(long, value_name = "DIR")]
@@ -459,6 +460,10 @@ fn table(label: &str, group: &[&Analysed], s: &StudySummary, alpha: &AlphaSummar
         .collect::<Vec<_>>()
         .join("; ");
     o += "\n";
+    let runs = [SeedRun { seed: 0, sessions: group.iter().map(|a| a.analysis.clone()).collect() }];
+    for line in super::dry_run::by_body_lines(&runs) {
+        o += &format!("{line}\n");
+    }
     o += &alpha_table(alpha);
     o += "\nTable I — Likert (mean / median [IQR]) and forced choice:\n";
     o += &table1_markdown(s);
@@ -531,6 +536,8 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &Alph
         "forced_choice_program",
         "forced_choice_condition",
         "started_at",
+        "body_height_m",
+        "hand",
         "log",
     ])?;
     for a in group {
@@ -550,10 +557,13 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &Alph
             x.choice.map(program_letter).unwrap_or_default(),
             x.choice.map(cond).unwrap_or_default(),
             x.start.started_at.clone(),
+            x.body.height_m.map_or(String::new(), |h| h.to_string()),
+            x.body.hand.name().to_string(),
             a.log.path.display().to_string(),
         ])?;
     }
     w.flush()?;
+    write_objects_by_body(dir, group)?;
     let mut w = csv::Writer::from_path(dir.join("trials.csv"))?;
     w.write_record([
         "session_id",
@@ -736,6 +746,38 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &Alph
 }
 
 /// alpha.csv (one row per session and one pooled), alpha_curve.csv and alpha.svg.
+/// `objects_by_body.csv`: the object finding per height band and hand, one row per band ×
+/// hand × object × measure (each condition's share of training offers, and their paired
+/// difference with its Wilcoxon p).
+fn write_objects_by_body(dir: &Path, group: &[&Analysed]) -> Result<()> {
+    let runs = [SeedRun { seed: 0, sessions: group.iter().map(|a| a.analysis.clone()).collect() }];
+    let mut w = csv::Writer::from_path(dir.join("objects_by_body.csv"))?;
+    w.write_record(["height_band_m", "hand", "sessions", "object", "measure", "mean", "ci_low", "ci_high", "p_value"])?;
+    let finite = |x: f64| if x.is_finite() { x.to_string() } else { String::new() };
+    for r in objects_by_body(&runs) {
+        let rows = [
+            (format!("share_{}", r.first), r.first_share, None),
+            (format!("share_{}", r.second), r.second_share, None),
+            (format!("difference_{}_minus_{}", r.first, r.second), r.difference, r.p_value),
+        ];
+        for (measure, (m, lo, hi), p) in rows {
+            w.write_record([
+                r.band.clone(),
+                r.hand.to_string(),
+                r.sessions.to_string(),
+                r.object.clone(),
+                measure,
+                m.to_string(),
+                finite(lo),
+                finite(hi),
+                p.map_or(String::new(), |p| p.to_string()),
+            ])?;
+        }
+    }
+    w.flush()?;
+    Ok(())
+}
+
 fn write_alpha(dir: &Path, a: &AlphaSummary) -> Result<()> {
     let mut w = csv::Writer::from_path(dir.join("alpha.csv"))?;
     w.write_record([

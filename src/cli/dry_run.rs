@@ -352,10 +352,19 @@ fn print_over_seeds(runs: &[SeedRun], seed: u64, seeds: u64, participants: usize
 
 /// The object finding per height band and hand, when the sessions span more than one.
 fn print_by_body(runs: &[SeedRun]) -> Result<()> {
+    for line in by_body_lines(runs) {
+        outln!("  {line}");
+    }
+    Ok(())
+}
+
+/// The object finding per height band and hand as text lines (none when every session has
+/// the same band and hand: the overall shares say it all). Shared with `analyze`.
+pub fn by_body_lines(runs: &[SeedRun]) -> Vec<String> {
     let rows = objects_by_body(runs);
     let groups: std::collections::BTreeSet<(&str, &str)> = rows.iter().map(|r| (r.band.as_str(), r.hand)).collect();
     if groups.len() < 2 {
-        return Ok(());
+        return Vec::new();
     }
     let pct = |(m, lo, hi): (f64, f64, f64)| {
         if lo.is_finite() {
@@ -364,23 +373,23 @@ fn print_by_body(runs: &[SeedRun]) -> Result<()> {
             format!("{:.0} %", 100.0 * m)
         }
     };
-    // The last object's share is the rest.
+    // The last object's share is the rest; intervals are cut to the possible range.
     let last = rows.last().map(|r| r.object.clone()).unwrap_or_default();
-    outln!(
-        "  by body (height band in m, [low, high); dominant hand; each session one participant; 95 % interval over sessions, two-sided Wilcoxon; {last}: the rest):"
-    );
+    let mut out = vec![format!(
+        "by body (height band in m, [low, high); dominant hand; each session one participant; 95 % interval over sessions, two-sided Wilcoxon; {last}: the rest):"
+    )];
     for r in rows.iter().filter(|r| r.object != last) {
         let p = r
             .p_value
             .map_or("no difference".to_string(), |p| if p < 0.001 { "p<0.001".into() } else { format!("p={p:.3}") });
         let (d, lo, hi) = r.difference;
         let diff = if lo.is_finite() {
-            format!("{:+.0} [{:+.0}, {:+.0}] points", 100.0 * d, 100.0 * lo, 100.0 * hi)
+            format!("{:+.0} [{:+.0}, {:+.0}] points", 100.0 * d, (100.0 * lo).max(-100.0), (100.0 * hi).min(100.0))
         } else {
             format!("{:+.0} points", 100.0 * d)
         };
-        outln!(
-            "    {:<9} {:<5} n={:<3} {}: {} {}, {} {}; {} − {} {diff} ({p})",
+        out.push(format!(
+            "  {:<9} {:<5} n={:<3} {}: {} {}, {} {}; {} − {} {diff} ({p})",
             r.band,
             r.hand,
             r.sessions,
@@ -391,9 +400,9 @@ fn print_by_body(runs: &[SeedRun]) -> Result<()> {
             pct(r.second_share),
             r.first,
             r.second
-        );
+        ));
     }
-    Ok(())
+    out
 }
 
 /// Prints a participant's condition order, objects chosen and test log-likelihoods.
