@@ -96,6 +96,18 @@ fn every_bad_input_names_its_field() {
         (Box::new(|v| v["arm"]["body_height_m"] = json!(7.0)), "arm.body_height_m"),
         (Box::new(|v| v["arm"] = json!({})), "arm: expected body_height_m"),
         (
+            Box::new(|v| v["arm"]["side"] = json!("both")),
+            "arm.side: unknown variant `both`, expected `right` or `left`",
+        ),
+        (
+            Box::new(|v| v["pose_scaling"]["reference_body_height_m"] = json!(0.1)),
+            "pose_scaling.reference_body_height_m: body height 0.1 m is outside",
+        ),
+        (
+            Box::new(|v| v["pose_scaling"] = json!({"reference": 1.75})),
+            "pose_scaling.reference: unknown field `reference`, expected `reference_body_height_m`",
+        ),
+        (
             Box::new(|v| v["training_menu"][0]["pose"]["position"] = json!([2.0, 0.0, 0.0])),
             "training_menu[0].pose: region 'left-grip'",
         ),
