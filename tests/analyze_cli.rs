@@ -101,6 +101,12 @@ fn writes_tidy_csv_plots_and_table_one_keeping_pilots_apart() {
     assert_eq!(rows.len(), 1);
     assert_eq!(&rows[0][1], "p-real0001");
     assert_eq!(&rows[0][col("hand")], "right");
+    let real = handover::record::mcap_files(&dir)
+        .into_iter()
+        .map(|p| handover::record::read_log(&p).unwrap())
+        .find(|l| l.start.participant == "p-real0001")
+        .unwrap();
+    assert_eq!(&rows[0][col("seed")], real.start.seed.to_string(), "the seed as exact decimal text");
     // The object finding per height band and hand: each condition's share and the paired
     // difference, for every band and hand with a session.
     let mut o = csv::Reader::from_path(out.join("pilot/objects_by_body.csv")).unwrap();

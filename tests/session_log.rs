@@ -57,6 +57,10 @@ fn a_complete_session_logs_every_event_privately() {
     assert_eq!(count("/session/end"), 1);
     assert_eq!(count("/belief"), 2 + 10, "the two priors and one per training response");
     assert!(log.start.pilot);
+    // The seed is a u64, and also text for readers that round integers above 2^53.
+    let start = &log.messages.iter().find(|m| m.topic == "/session/start").unwrap().value;
+    assert_eq!(start["seed_decimal"], serde_json::json!(log.start.seed.to_string()));
+    assert_eq!(start["seed"].as_u64(), Some(log.start.seed));
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;

@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 
 use serde_json::Value;
 
-use crate::record::{LogContents, ReplayStep, initial_beliefs, messages_for};
+use crate::record::{LogContents, ReplayStep, messages_for, start_messages};
 use crate::session::Session;
 
 /// One logged message that the recomputation does not reproduce.
@@ -51,11 +51,7 @@ impl Verifier {
     pub fn visit(&mut self, session: &Session, step: Option<ReplayStep>) {
         match step {
             None => {
-                let mut start = serde_json::to_value(session.start()).expect("serialisable");
-                start["event_index"] = Value::from(0);
-                let mut first = vec![("/session/start", start)];
-                first.extend(initial_beliefs(session));
-                self.expected.insert(0, first);
+                self.expected.insert(0, start_messages(session));
             }
             Some((index, stamped, applied)) => {
                 self.expected.insert(index as u32, messages_for(stamped, index, applied, session));

@@ -63,11 +63,19 @@ fn belief_message(index: usize, run: usize, b: &BeliefSummary, session: &Session
     })
 }
 
-/// The `/belief` messages of both conditions' priors, logged with the start.
-pub fn initial_beliefs(session: &Session) -> Vec<(&'static str, Value)> {
-    (0..session.learners().len())
-        .map(|run| ("/belief", belief_message(0, run, &session.learners()[run].summary, session)))
-        .collect()
+/// The messages of a session's start: `/session/start` and the `/belief` of both
+/// conditions' priors.
+pub fn start_messages(session: &Session) -> Vec<(&'static str, Value)> {
+    let mut start = serde_json::to_value(session.start()).expect("a session start serialises");
+    start["event_index"] = Value::from(0);
+    // JavaScript (Foxglove) reads integers above 2^53 rounded: the seed as text too.
+    start["seed_decimal"] = Value::from(session.start().seed.to_string());
+    let mut out = vec![("/session/start", start)];
+    out.extend(
+        (0..session.learners().len())
+            .map(|run| ("/belief", belief_message(0, run, &session.learners()[run].summary, session))),
+    );
+    out
 }
 
 fn arm_message(time_ns: u64, session: &Session, q: &ArmConfig) -> Value {

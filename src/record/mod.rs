@@ -18,7 +18,7 @@ use serde_json::Value;
 use crate::protocol::{ProtocolError, Study};
 use crate::session::{Applied, Event, Session, SessionError, SessionStart, Stamped};
 
-pub use messages::{event_from_message, initial_beliefs, messages_for, topic_of as event_topic};
+pub use messages::{event_from_message, messages_for, start_messages, topic_of as event_topic};
 pub use schemas::{TOPICS, schema};
 pub use writer::{McapWriter, Sink};
 
@@ -158,11 +158,7 @@ impl Recorder {
         }
         writer.attach(time_ns, time_ns, PROTOCOL_ATTACHMENT, "application/json", protocol_text.as_bytes());
         let mut rec = Self { path: path.to_path_buf(), writer, channels, last_index: 0 };
-        let mut start = serde_json::to_value(session.start()).map_err(|e| rec.not_serialisable(e))?;
-        start["event_index"] = Value::from(0);
-        let mut msgs = vec![("/session/start", start)];
-        msgs.extend(messages::initial_beliefs(session));
-        rec.write(&msgs, 0, time_ns)?;
+        rec.write(&messages::start_messages(session), 0, time_ns)?;
         Ok(rec)
     }
 
@@ -388,12 +384,20 @@ pub fn read_log(path: &Path) -> Result<LogContents, RecordError> {
         messages.iter().find(|m| m.topic == "/session/start").ok_or_else(|| not_log("it has no /session/start"))?;
     let start_time_ns = first.log_time;
     let mut start_value = first.value.clone();
+    let mut seed_decimal = None;
     if let Some(o) = start_value.as_object_mut() {
         o.remove("event_index");
+        seed_decimal = o.remove("seed_decimal");
     }
     let start: SessionStart =
         serde_json::from_value(start_value).map_err(|e| not_log(&format!("/session/start: {e}")))?;
     validate_start(&start).map_err(|e| not_log(&format!("/session/start: {e}")))?;
+    // Logs before the text seed lack it; when present it must be the seed.
+    if let Some(d) = seed_decimal
+        && d.as_str() != Some(start.seed.to_string().as_str())
+    {
+        return Err(not_log(&format!("/session/start: seed_decimal {d} is not the seed {}", start.seed)));
+    }
     let mut events = Vec::new();
     for m in messages.iter().filter(|m| EVENT_TOPICS.contains(&m.topic.as_str())) {
         let event = event_from_message(&m.topic, &m.value).ok_or_else(|| {
