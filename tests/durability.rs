@@ -254,7 +254,7 @@ fn the_console_blocks_on_a_failed_write_until_it_is_retried() {
     let indices: Vec<u64> = log
         .messages
         .iter()
-        .filter(|m| handover::record::EVENT_TOPICS.contains(&m.topic.as_str()))
+        .filter(|m| handover::record::Topic::from_name(&m.topic).is_some_and(handover::record::Topic::is_event))
         .map(|m| m.value["event_index"].as_u64().unwrap())
         .collect();
     assert_eq!(indices, (1..=applied as u64 + 1).collect::<Vec<_>>());

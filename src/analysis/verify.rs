@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 
 use serde_json::Value;
 
-use crate::record::{LogContents, ReplayStep, messages_for, start_messages};
+use crate::record::{LogContents, ReplayStep, Topic, messages_for, start_messages};
 use crate::session::Session;
 
 /// One logged message that the recomputation does not reproduce.
@@ -43,7 +43,7 @@ fn first_difference(path: &str, a: &Value, b: &Value) -> Option<String> {
 /// Collects, during a replay, every message the log should hold.
 #[derive(Default)]
 pub(crate) struct Verifier {
-    expected: BTreeMap<u32, Vec<(&'static str, Value)>>,
+    expected: BTreeMap<u32, Vec<(Topic, Value)>>,
 }
 
 impl Verifier {
@@ -79,7 +79,7 @@ impl Verifier {
                 continue;
             }
             for ((topic, value), (etopic, evalue)) in logged_msgs.iter().zip(exp) {
-                if topic != etopic {
+                if *topic != etopic.name() {
                     differences.push(Difference {
                         topic: topic.to_string(),
                         event_index: *index,

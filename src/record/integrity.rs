@@ -2,7 +2,8 @@
 //! CRC the file carries (attachments, the data section, the summary) and every schema and
 //! channel record against what this version writes.
 
-use super::schemas::{TOPICS, schema};
+use super::Topic;
+use super::schemas::schema;
 
 /// A schema or channel record as read.
 #[derive(Clone, Debug, Default)]
@@ -71,10 +72,10 @@ pub fn check_crcs(bytes: &[u8]) -> Vec<String> {
 pub fn check_declarations(d: &Declared, same_version: bool) -> Vec<String> {
     let mut problems = Vec::new();
     for (id, topic, schema_id, encoding) in &d.channels {
-        if !TOPICS.contains(&topic.as_str()) {
+        let Some(known) = Topic::from_name(topic) else {
             problems.push(format!("channel {id} has the unknown topic '{}'", topic.escape_debug()));
             continue;
-        }
+        };
         if encoding != "json" {
             problems.push(format!("channel {topic}: message encoding '{}', expected 'json'", encoding.escape_debug()));
         }
@@ -82,7 +83,7 @@ pub fn check_declarations(d: &Declared, same_version: bool) -> Vec<String> {
         if copies.is_empty() {
             problems.push(format!("channel {topic}: schema {schema_id} is not in the log"));
         }
-        let (want_name, want) = schema(topic);
+        let (want_name, want) = schema(known);
         for (_, name, schema_encoding, data) in copies {
             if schema_encoding != "jsonschema" {
                 problems.push(format!(

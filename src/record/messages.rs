@@ -3,22 +3,23 @@
 use nalgebra::UnitQuaternion;
 use serde_json::{Value, json};
 
+use super::Topic;
 use crate::kinematics::ArmConfig;
 use crate::session::{Applied, BeliefSummary, Event, Session, Stamped, TrialView, VoidReason, program_letter};
 
 /// The topic an event is logged on.
-pub fn topic_of(e: &Event) -> &'static str {
+pub fn topic_of(e: &Event) -> Topic {
     match e {
-        Event::QueryPresented { .. } => "/trial/query",
-        Event::GraspRecorded { .. } => "/trial/response",
-        Event::TrialVoided { .. } => "/trial/void",
-        Event::GraspUndone => "/trial/undo",
-        Event::Note { .. } => "/notes",
-        Event::Paused => "/session/pause",
-        Event::Resumed => "/session/resume",
-        Event::LikertAnswered { .. } => "/questionnaire/likert",
-        Event::ForcedChoice { .. } => "/questionnaire/choice",
-        Event::Ended | Event::Aborted { .. } => "/session/end",
+        Event::QueryPresented { .. } => Topic::TrialQuery,
+        Event::GraspRecorded { .. } => Topic::TrialResponse,
+        Event::TrialVoided { .. } => Topic::TrialVoid,
+        Event::GraspUndone => Topic::TrialUndo,
+        Event::Note { .. } => Topic::Notes,
+        Event::Paused => Topic::SessionPause,
+        Event::Resumed => Topic::SessionResume,
+        Event::LikertAnswered { .. } => Topic::QuestionnaireLikert,
+        Event::ForcedChoice { .. } => Topic::QuestionnaireChoice,
+        Event::Ended | Event::Aborted { .. } => Topic::SessionEnd,
     }
 }
 
@@ -65,15 +66,15 @@ fn belief_message(index: usize, run: usize, b: &BeliefSummary, session: &Session
 
 /// The messages of a session's start: `/session/start` and the `/belief` of both
 /// conditions' priors.
-pub fn start_messages(session: &Session) -> Vec<(&'static str, Value)> {
+pub fn start_messages(session: &Session) -> Vec<(Topic, Value)> {
     let mut start = serde_json::to_value(session.start()).expect("a session start serialises");
     start["event_index"] = Value::from(0);
     // JavaScript (Foxglove) reads integers above 2^53 rounded: the seed as text too.
     start["seed_decimal"] = Value::from(session.start().seed.to_string());
-    let mut out = vec![("/session/start", start)];
+    let mut out = vec![(Topic::SessionStart, start)];
     out.extend(
         (0..session.learners().len())
-            .map(|run| ("/belief", belief_message(0, run, &session.learners()[run].summary, session))),
+            .map(|run| (Topic::Belief, belief_message(0, run, &session.learners()[run].summary, session))),
     );
     out
 }
@@ -108,7 +109,7 @@ fn arm_message(time_ns: u64, session: &Session, q: &ArmConfig) -> Value {
 }
 
 /// Every message of one applied event.
-pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Session) -> Vec<(&'static str, Value)> {
+pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Session) -> Vec<(Topic, Value)> {
     let mut out = Vec::new();
     match (&s.event, applied) {
         (Event::QueryPresented { .. }, Applied::Presented { view, scores }) => {
@@ -125,12 +126,12 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                     .map(|(s, m)| json!({"query": m.query.id, "information_gain": s.information_gain, "expected_cost": s.expected_cost}))
                     .collect::<Vec<_>>()
             );
-            out.push(("/trial/query", v));
+            out.push((Topic::TrialQuery, v));
             let [r, p, y] = q.pose.rpy_deg.map(f64::to_radians);
             let o = UnitQuaternion::from_euler_angles(r, p, y);
             let [x, yy, z] = q.pose.position;
             out.push((
-                "/robot/handover_pose",
+                Topic::RobotHandoverPose,
                 json!({
                     "timestamp": foxglove_time(s.time_ns),
                     "frame_id": "shoulder",
@@ -145,10 +146,10 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
             v["region"] = json!(region);
             v["config_index"] = json!(record.config);
             v["configuration"] = json!(q);
-            out.push(("/trial/response", v));
-            out.push(("/human/arm", arm_message(s.time_ns, session, &q)));
+            out.push((Topic::TrialResponse, v));
+            out.push((Topic::HumanArm, arm_message(s.time_ns, session, &q)));
             if let (Some(b), Some(run)) = (belief, view.program) {
-                out.push(("/belief", belief_message(index, run, b, session)));
+                out.push((Topic::Belief, belief_message(index, run, b, session)));
             }
         }
         (Event::TrialVoided { reason, detail }, Applied::Voided { view, retracted }) => {
@@ -156,27 +157,27 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
             v["reason"] = serde_json::to_value(reason).expect("serialisable");
             v["detail"] = json!(detail);
             v["retracted"] = json!(retracted);
-            out.push(("/trial/void", v));
+            out.push((Topic::TrialVoid, v));
         }
         (Event::GraspUndone, Applied::Undone { view, belief }) => {
-            out.push(("/trial/undo", trial_fields(index, view, session)));
+            out.push((Topic::TrialUndo, trial_fields(index, view, session)));
             if let (Some(b), Some(run)) = (belief, view.program) {
-                out.push(("/belief", belief_message(index, run, b, session)));
+                out.push((Topic::Belief, belief_message(index, run, b, session)));
             }
         }
         (Event::Note { text }, _) => out.push((
-            "/notes",
+            Topic::Notes,
             json!({"timestamp": foxglove_time(s.time_ns), "level": 2, "message": text, "name": "operator",
                    "file": "", "line": 0, "event_index": index}),
         )),
-        (Event::Paused, _) => out.push(("/session/pause", json!({"event_index": index}))),
-        (Event::Resumed, _) => out.push(("/session/resume", json!({"event_index": index}))),
+        (Event::Paused, _) => out.push((Topic::SessionPause, json!({"event_index": index}))),
+        (Event::Resumed, _) => out.push((Topic::SessionResume, json!({"event_index": index}))),
         (Event::LikertAnswered { program, item, value }, _) => {
             let qn = &session.study().protocol.questionnaire;
             let it = qn.items.iter().find(|i| i.id == *item).expect("applied: a known item");
             let label = &session.start().program_labels[*program];
             out.push((
-                "/questionnaire/likert",
+                Topic::QuestionnaireLikert,
                 json!({
                     "event_index": index,
                     "program": program_letter(*program),
@@ -190,7 +191,7 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
             ));
         }
         (Event::ForcedChoice { program }, _) => out.push((
-            "/questionnaire/choice",
+            Topic::QuestionnaireChoice,
             json!({
                 "event_index": index,
                 "program": program_letter(*program),
@@ -199,9 +200,9 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                 "question": session.study().protocol.questionnaire.forced_choice,
             }),
         )),
-        (Event::Ended, _) => out.push(("/session/end", json!({"event_index": index, "status": "completed"}))),
+        (Event::Ended, _) => out.push((Topic::SessionEnd, json!({"event_index": index, "status": "completed"}))),
         (Event::Aborted { reason }, _) => {
-            out.push(("/session/end", json!({"event_index": index, "status": "aborted", "reason": reason})))
+            out.push((Topic::SessionEnd, json!({"event_index": index, "status": "aborted", "reason": reason})))
         }
         (e, a) => unreachable!("event {e:?} applied as {a:?}"),
     }
@@ -215,26 +216,26 @@ fn program_index(v: &Value) -> Option<usize> {
 }
 
 /// The event an event message records (None if it is malformed).
-pub fn event_from_message(topic: &str, v: &Value) -> Option<Event> {
+pub fn event_from_message(topic: Topic, v: &Value) -> Option<Event> {
     let s = |k: &str| v.get(k).and_then(Value::as_str).map(String::from);
     Some(match topic {
-        "/trial/query" => Event::QueryPresented { query: s("query")? },
-        "/trial/response" => Event::GraspRecorded { region: s("region")? },
-        "/trial/void" => Event::TrialVoided {
+        Topic::TrialQuery => Event::QueryPresented { query: s("query")? },
+        Topic::TrialResponse => Event::GraspRecorded { region: s("region")? },
+        Topic::TrialVoid => Event::TrialVoided {
             reason: serde_json::from_value::<VoidReason>(v.get("reason")?.clone()).ok()?,
             detail: s("detail").unwrap_or_default(),
         },
-        "/trial/undo" => Event::GraspUndone,
-        "/notes" => Event::Note { text: s("message")? },
-        "/session/pause" => Event::Paused,
-        "/session/resume" => Event::Resumed,
-        "/questionnaire/likert" => Event::LikertAnswered {
+        Topic::TrialUndo => Event::GraspUndone,
+        Topic::Notes => Event::Note { text: s("message")? },
+        Topic::SessionPause => Event::Paused,
+        Topic::SessionResume => Event::Resumed,
+        Topic::QuestionnaireLikert => Event::LikertAnswered {
             program: program_index(v.get("program")?)?,
             item: s("item")?,
             value: v.get("value")?.as_i64()?,
         },
-        "/questionnaire/choice" => Event::ForcedChoice { program: program_index(v.get("program")?)? },
-        "/session/end" => match s("status")?.as_str() {
+        Topic::QuestionnaireChoice => Event::ForcedChoice { program: program_index(v.get("program")?)? },
+        Topic::SessionEnd => match s("status")?.as_str() {
             "completed" => Event::Ended,
             _ => Event::Aborted { reason: s("reason").unwrap_or_default() },
         },

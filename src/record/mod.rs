@@ -5,6 +5,7 @@
 mod integrity;
 mod messages;
 mod schemas;
+mod topic;
 mod writer;
 
 use std::collections::HashMap;
@@ -19,22 +20,9 @@ use crate::protocol::{ProtocolError, Study};
 use crate::session::{Applied, Event, Session, SessionError, SessionStart, Stamped};
 
 pub use messages::{event_from_message, messages_for, start_messages, topic_of as event_topic};
-pub use schemas::{TOPICS, schema};
+pub use schemas::schema;
+pub use topic::Topic;
 pub use writer::{McapWriter, Sink};
-
-/// Topics whose messages are events (the others are derived from them).
-pub const EVENT_TOPICS: [&str; 10] = [
-    "/trial/query",
-    "/trial/response",
-    "/trial/void",
-    "/trial/undo",
-    "/notes",
-    "/session/pause",
-    "/session/resume",
-    "/questionnaire/likert",
-    "/questionnaire/choice",
-    "/session/end",
-];
 
 /// Name of the attachment that holds the protocol text.
 pub const PROTOCOL_ATTACHMENT: &str = "protocol.json";
@@ -113,7 +101,7 @@ fn create_unique(path: &Path) -> std::io::Result<(PathBuf, File)> {
 pub struct Recorder {
     path: PathBuf,
     writer: McapWriter<Box<dyn Sink>>,
-    channels: HashMap<&'static str, u16>,
+    channels: HashMap<Topic, u16>,
     /// Index of the last event on disk.
     last_index: usize,
 }
@@ -151,10 +139,10 @@ impl Recorder {
         let library = format!("handover {}", env!("CARGO_PKG_VERSION"));
         let mut writer = McapWriter::new(sink, &library).map_err(commit_err(path, 0))?;
         let mut channels = HashMap::new();
-        for topic in TOPICS {
+        for topic in Topic::ALL {
             let (name, schema) = schema(topic);
             let sid = writer.add_schema(name, "jsonschema", schema.to_string().as_bytes());
-            channels.insert(topic, writer.add_channel(sid, topic, "json"));
+            channels.insert(topic, writer.add_channel(sid, topic.name(), "json"));
         }
         writer.attach(time_ns, time_ns, PROTOCOL_ATTACHMENT, "application/json", protocol_text.as_bytes());
         let mut rec = Self { path: path.to_path_buf(), writer, channels, last_index: 0 };
@@ -190,7 +178,7 @@ impl Recorder {
         RecordError::Io { path: self.path.clone(), source: std::io::Error::other(e) }
     }
 
-    fn write(&mut self, msgs: &[(&'static str, Value)], sequence: u32, time_ns: u64) -> Result<(), RecordError> {
+    fn write(&mut self, msgs: &[(Topic, Value)], sequence: u32, time_ns: u64) -> Result<(), RecordError> {
         for (topic, value) in msgs {
             let data = serde_json::to_vec(value).map_err(|e| self.not_serialisable(e))?;
             let channel = self.channels[topic];
@@ -380,8 +368,10 @@ pub fn read_log(path: &Path) -> Result<LogContents, RecordError> {
         }
     }
     let protocol_text = protocol_text.ok_or_else(|| not_log("it has no protocol attachment"))?;
-    let first =
-        messages.iter().find(|m| m.topic == "/session/start").ok_or_else(|| not_log("it has no /session/start"))?;
+    let first = messages
+        .iter()
+        .find(|m| m.topic == Topic::SessionStart.name())
+        .ok_or_else(|| not_log("it has no /session/start"))?;
     let start_time_ns = first.log_time;
     let mut start_value = first.value.clone();
     let mut seed_decimal = None;
@@ -399,8 +389,8 @@ pub fn read_log(path: &Path) -> Result<LogContents, RecordError> {
         return Err(not_log(&format!("/session/start: seed_decimal {d} is not the seed {}", start.seed)));
     }
     let mut events = Vec::new();
-    for m in messages.iter().filter(|m| EVENT_TOPICS.contains(&m.topic.as_str())) {
-        let event = event_from_message(&m.topic, &m.value).ok_or_else(|| {
+    for (m, topic) in messages.iter().filter_map(|m| Some((m, Topic::from_name(&m.topic).filter(|t| t.is_event())?))) {
+        let event = event_from_message(topic, &m.value).ok_or_else(|| {
             not_log(&format!("a {} message (event {}) cannot be read as an event", m.topic, m.sequence))
         })?;
         validate_event(&event).map_err(|e| not_log(&format!("{} (event {}): {e}", m.topic, m.sequence)))?;
@@ -486,7 +476,7 @@ impl RecordedSession {
         let session = Session::new(Arc::clone(&study), start).map_err(|source| RecordError::Replay {
             path: old.path.clone(),
             index: 0,
-            topic: "/session/start".into(),
+            topic: Topic::SessionStart.to_string(),
             source: Box::new(source),
         })?;
         let mut rec = Self::create(new_path, &old.protocol_text, session, old.start_time_ns.min(time_ns))?;
@@ -495,7 +485,7 @@ impl RecordedSession {
                 SubmitError::Rejected(source) => RecordError::Replay {
                     path: old.path.clone(),
                     index: i + 1,
-                    topic: messages::topic_of(&s.event).into(),
+                    topic: messages::topic_of(&s.event).to_string(),
                     source: Box::new(source),
                 },
                 SubmitError::Log(e) => e,

@@ -2,6 +2,8 @@
 
 use serde_json::{Value, json};
 
+use super::Topic;
+
 fn object(required: &[&str], properties: Value) -> Value {
     json!({
         "$schema": "https://json-schema.org/draft/2020-12/schema",
@@ -54,9 +56,9 @@ fn pose() -> Value {
 }
 
 /// (schema name, schema) of a topic.
-pub fn schema(topic: &str) -> (&'static str, Value) {
+pub fn schema(topic: Topic) -> (&'static str, Value) {
     match topic {
-        "/session/start" => (
+        Topic::SessionStart => (
             "handover.SessionStart",
             object(
                 &[
@@ -91,7 +93,7 @@ pub fn schema(topic: &str) -> (&'static str, Value) {
                 }),
             ),
         ),
-        "/trial/query" => (
+        Topic::TrialQuery => (
             "handover.TrialQuery",
             object(
                 &["event_index", "phase", "trial", "query", "object", "robot_pose", "regions", "scores"],
@@ -113,7 +115,7 @@ pub fn schema(topic: &str) -> (&'static str, Value) {
                 ),
             ),
         ),
-        "/trial/response" => (
+        Topic::TrialResponse => (
             "handover.TrialResponse",
             object(
                 &["event_index", "phase", "trial", "query", "object", "region", "config_index", "configuration"],
@@ -127,7 +129,7 @@ pub fn schema(topic: &str) -> (&'static str, Value) {
                 ),
             ),
         ),
-        "/trial/void" => (
+        Topic::TrialVoid => (
             "handover.TrialVoid",
             object(
                 &["event_index", "phase", "trial", "query", "reason", "detail", "retracted"],
@@ -141,8 +143,8 @@ pub fn schema(topic: &str) -> (&'static str, Value) {
                 ),
             ),
         ),
-        "/trial/undo" => ("handover.TrialUndo", object(&["event_index", "phase", "trial", "query"], trial_fields())),
-        "/belief" => (
+        Topic::TrialUndo => ("handover.TrialUndo", object(&["event_index", "phase", "trial", "query"], trial_fields())),
+        Topic::Belief => (
             "handover.Belief",
             object(
                 &[
@@ -173,7 +175,7 @@ pub fn schema(topic: &str) -> (&'static str, Value) {
                 }),
             ),
         ),
-        "/questionnaire/likert" => (
+        Topic::QuestionnaireLikert => (
             "handover.LikertAnswer",
             object(
                 &["event_index", "program", "program_label", "condition", "item", "statement", "value", "label"],
@@ -189,7 +191,7 @@ pub fn schema(topic: &str) -> (&'static str, Value) {
                 }),
             ),
         ),
-        "/questionnaire/choice" => (
+        Topic::QuestionnaireChoice => (
             "handover.ForcedChoice",
             object(
                 &["event_index", "program", "program_label", "condition", "question"],
@@ -202,11 +204,11 @@ pub fn schema(topic: &str) -> (&'static str, Value) {
                 }),
             ),
         ),
-        "/session/pause" | "/session/resume" => (
-            if topic == "/session/pause" { "handover.SessionPause" } else { "handover.SessionResume" },
+        Topic::SessionPause | Topic::SessionResume => (
+            if topic == Topic::SessionPause { "handover.SessionPause" } else { "handover.SessionResume" },
             object(&["event_index"], json!({"event_index": {"type": "integer", "minimum": 0}})),
         ),
-        "/session/end" => (
+        Topic::SessionEnd => (
             "handover.SessionEnd",
             object(
                 &["event_index", "status"],
@@ -217,14 +219,14 @@ pub fn schema(topic: &str) -> (&'static str, Value) {
                 }),
             ),
         ),
-        "/robot/handover_pose" => (
+        Topic::RobotHandoverPose => (
             "foxglove.PoseInFrame",
             object(
                 &["timestamp", "frame_id", "pose"],
                 json!({"timestamp": time(), "frame_id": {"type": "string"}, "pose": pose()}),
             ),
         ),
-        "/human/arm" => (
+        Topic::HumanArm => (
             "foxglove.SceneUpdate",
             object(
                 &["deletions", "entities"],
@@ -250,7 +252,7 @@ pub fn schema(topic: &str) -> (&'static str, Value) {
                 }),
             ),
         ),
-        "/notes" => (
+        Topic::Notes => (
             "foxglove.Log",
             object(
                 &["timestamp", "level", "message", "name", "file", "line"],
@@ -265,24 +267,5 @@ pub fn schema(topic: &str) -> (&'static str, Value) {
                 }),
             ),
         ),
-        other => unreachable!("no schema for topic {other}"),
     }
 }
-
-/// Every topic, in a fixed order (channels are registered in it).
-pub const TOPICS: [&str; 14] = [
-    "/session/start",
-    "/trial/query",
-    "/trial/response",
-    "/trial/void",
-    "/trial/undo",
-    "/belief",
-    "/questionnaire/likert",
-    "/questionnaire/choice",
-    "/session/pause",
-    "/session/resume",
-    "/session/end",
-    "/robot/handover_pose",
-    "/human/arm",
-    "/notes",
-];

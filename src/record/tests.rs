@@ -102,7 +102,7 @@ fn a_failed_write_changes_nothing_and_a_retry_logs_the_event_once() {
     let indices: Vec<u64> = log
         .messages
         .iter()
-        .filter(|m| EVENT_TOPICS.contains(&m.topic.as_str()))
+        .filter(|m| Topic::from_name(&m.topic).is_some_and(Topic::is_event))
         .map(|m| m.value["event_index"].as_u64().unwrap())
         .collect();
     assert_eq!(indices, vec![1, 2, 3, 4, 5], "one message per event, indices without gaps");
