@@ -256,3 +256,69 @@ fn truncated_foreign_and_resumed_logs() {
     let (code, _, _) = handover(&["analyze", "/nonexistent/dir"]);
     assert_eq!(code, 2);
 }
+
+/// trials.csv has every presentation with what became of it (taken, undone, voided with its
+/// reason), the region's id and label, the mapped configuration and the times; notes.csv
+/// the notes. Both read back with the csv crate.
+#[test]
+fn trials_csv_keeps_undone_and_voided_trials_and_notes_csv_the_notes() {
+    use handover::session::{Event, Stamped, VoidReason};
+    let dir = std::env::temp_dir().join(format!("handover-analyze-{}-voids", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let text = small_protocol_text();
+    let study = Arc::new(Study::from_json(&text, "small").unwrap());
+    let p = plan(&study, 5, 0, None, "2026-11-22T00:00:00Z".into());
+    let session = Session::new(Arc::clone(&study), p.start.clone()).unwrap();
+    let mut rec = RecordedSession::create(
+        &new_log_path(&dir, &p.start.participant, chrono::Utc::now()),
+        &text,
+        session,
+        1_000_000_000,
+    )
+    .unwrap();
+    let mut t = 1_000_000_000u64;
+    let mut submit = |rec: &mut RecordedSession, event: Event| {
+        t += 1_500_000_000;
+        rec.submit(Stamped { time_ns: t, event }).unwrap();
+    };
+    let next = |rec: &RecordedSession| p.participant.respond(rec.session()).unwrap();
+    for event in ["presented", "taken", "undone", "taken again", "the second trial presented"] {
+        let e = if event == "undone" { Event::GraspUndone } else { next(&rec) };
+        submit(&mut rec, e);
+    }
+    submit(&mut rec, Event::TrialVoided { reason: VoidReason::Other, detail: "robot slipped".into() });
+    submit(&mut rec, Event::Note { text: "participant, asked, said \"fine\"".into() });
+    drive(&mut rec, &p.participant, Duration::ZERO).unwrap();
+    rec.finish().unwrap();
+    let out = dir.join("out");
+    let (code, _, err) =
+        handover(&["analyze", "--alpha-particles", "300", dir.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let mut r = csv::Reader::from_path(out.join("pilot/trials.csv")).unwrap();
+    let head = r.headers().unwrap().clone();
+    let col = |name: &str| head.iter().position(|h| h == name).unwrap_or_else(|| panic!("{name}"));
+    let rows: Vec<csv::StringRecord> = r.records().map(|x| x.unwrap()).collect();
+    let status: Vec<&str> = rows.iter().map(|x| &x[col("status")]).collect();
+    assert_eq!(&status[..4], ["undone", "taken", "voided", "taken"], "{status:?}");
+    assert_eq!(status.iter().filter(|s| **s == "taken").count(), 26, "every trial taken once in the end");
+    assert_eq!(&rows[2][col("void_reason")], "other");
+    assert_eq!(&rows[2][col("void_detail")], "robot slipped");
+    assert!(rows[2][col("region")].is_empty() && rows[2][col("config_index")].is_empty());
+    assert_eq!(&rows[0][col("presented_at")], &rows[1][col("presented_at")], "the same presentation, answered again");
+    assert_eq!(&rows[1][col("presented_at")], "1970-01-01T00:00:02.500Z");
+    assert_eq!(&rows[1][col("responded_at")], "1970-01-01T00:00:07.000Z");
+    let taken = &rows[1];
+    let q = study.query(&taken[col("query")]).unwrap();
+    let k: usize = taken[col("config_index")].parse().unwrap();
+    let label = study.object(q).regions.iter().find(|g| g.id == taken[col("region")]).unwrap().label.clone();
+    assert_eq!(&taken[col("region_label")], label);
+    for (j, name) in handover::kinematics::JOINT_NAMES.iter().enumerate() {
+        let v: f64 = taken[col(&format!("q_{name}_rad"))].parse().unwrap();
+        assert_eq!(v, q.feasible.configs[k].q[j], "{name}");
+    }
+    let mut n = csv::Reader::from_path(out.join("pilot/notes.csv")).unwrap();
+    let notes: Vec<csv::StringRecord> = n.records().map(|x| x.unwrap()).collect();
+    assert_eq!(notes.len(), 1);
+    assert_eq!(&notes[0][4], "participant, asked, said \"fine\"");
+    assert_eq!(&notes[0][2], "7");
+}

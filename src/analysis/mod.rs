@@ -2,6 +2,7 @@
 //! after every training iteration scored on the session's own test responses.
 
 mod alpha;
+mod rows;
 mod seeds;
 mod summary;
 mod verify;
@@ -19,6 +20,7 @@ pub use alpha::{
     ALPHA_RANGE, AlphaEvidence, AlphaFit, AlphaSummary, EVIDENCE_PARTICLES, MAX_EVIDENCE_PARTICLES, SUPPORT_DROP,
     SessionAlpha, alpha_grid, alpha_summary, fit_alpha,
 };
+pub use rows::{NoteRow, TrialRow, TrialStatus, rfc3339_ms, trial_columns};
 pub use seeds::{
     HEIGHT_BANDS_M, ObjectsByBody, OverSeeds, Paired, SEED_MEASURES, SeedRun, object_shares, objects_by_body,
     over_seeds, paired_across, paired_over_seeds,
@@ -68,6 +70,10 @@ pub struct SessionAnalysis {
     pub alpha_evidence: AlphaEvidence,
     /// The body the session was run for (from the protocol as logged).
     pub body: crate::protocol::Body,
+    /// Every presentation of a query and what became of it, in order.
+    pub trial_rows: Vec<TrialRow>,
+    /// The experimenter's notes, in order.
+    pub notes: Vec<NoteRow>,
 }
 
 /// Replays a log and computes its per-session results.
@@ -83,6 +89,7 @@ pub fn analyse_and_verify(log: &LogContents, verify: bool) -> Result<(SessionAna
     // Beliefs (and their summaries) after each training iteration, per run (index 0: the prior).
     let mut snapshots: Vec<Vec<(Belief, BeliefSummary)>> = Vec::new();
     let mut verifier = Verifier::default();
+    let mut rows = rows::RowCollector::default();
     let snapshot = |session: &Session, run: usize| {
         let l = &session.learners()[run];
         (l.belief.clone(), l.summary.clone())
@@ -90,6 +97,9 @@ pub fn analyse_and_verify(log: &LogContents, verify: bool) -> Result<(SessionAna
     let session = replay_with(Arc::clone(&study), log, |session, step| {
         if verify {
             verifier.visit(session, step);
+        }
+        if let Some((index, stamped, applied)) = step {
+            rows.visit(session, index, stamped, applied);
         }
         if snapshots.is_empty() {
             snapshots = (0..session.learners().len()).map(|run| vec![snapshot(session, run)]).collect();
@@ -175,6 +185,8 @@ pub fn analyse_and_verify(log: &LogContents, verify: bool) -> Result<(SessionAna
     let completed = matches!(session.prompt(), crate::session::Prompt::Done { completed: true });
     let analysis = SessionAnalysis {
         body: crate::protocol::Body { height_m: study.protocol.arm.body_height_m, hand: study.arm.side },
+        trial_rows: rows.trials,
+        notes: rows.notes,
         start: log.start.clone(),
         runs: out_runs,
         test_trials: session

@@ -7,7 +7,8 @@ use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use handover::analysis::{
     ALPHA_RANGE, AlphaFit, AlphaSummary, EVIDENCE_PARTICLES, MAX_EVIDENCE_PARTICLES, SUPPORT_DROP, SeedRun,
-    SessionAnalysis, StudySummary, alpha_summary, analyse_and_verify, objects_by_body, summarise,
+    SessionAnalysis, StudySummary, alpha_summary, analyse_and_verify, objects_by_body, rfc3339_ms, summarise,
+    trial_columns,
 };
 use handover::participant::has_withdrawn;
 use handover::plot::{PooledEvidence, Series, alpha_plot, bar_chart, mean_se_plot};
@@ -29,8 +30,8 @@ pub struct AnalyzeArgs {
     /// Session logs (.mcap) or directories searched recursively.
     #[arg(required = true, value_name = "LOG|DIR")]
     paths: Vec<PathBuf>,
-    /// Write sessions.csv, trials.csv, test_log_likelihood.csv, fig10_tests.csv, beliefs.csv,
-    /// objects_by_body.csv,
+    /// Write sessions.csv, trials.csv (every presentation: taken, undone or voided),
+    /// notes.csv, test_log_likelihood.csv, fig10_tests.csv, beliefs.csv, objects_by_body.csv,
     /// questionnaire.csv, alpha.csv, alpha_curve.csv, fig10.svg, objects.svg, alpha.svg and
     /// table1.md here (pilot sessions under DIR/pilot/).
     #[arg(long, value_name = "DIR")]
@@ -567,45 +568,29 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &Alph
     w.flush()?;
     write_objects_by_body(dir, group)?;
     let mut w = csv::Writer::from_path(dir.join("trials.csv"))?;
-    w.write_record([
-        "session_id",
-        "participant",
-        "phase",
-        "condition",
-        "program",
-        "trial",
-        "query",
-        "object",
-        "region",
-    ])?;
+    let mut head = vec!["session_id".to_string(), "participant".to_string()];
+    head.extend(trial_columns());
+    w.write_record(&head)?;
     for a in group {
         let x = &a.analysis;
-        for r in &x.runs {
-            for t in &r.trials {
-                w.write_record([
-                    &x.start.session_id,
-                    &x.start.participant,
-                    "training",
-                    &r.condition,
-                    &program_letter(r.program),
-                    &t.trial.to_string(),
-                    &t.query,
-                    &t.object,
-                    &t.region,
-                ])?;
-            }
+        for t in &x.trial_rows {
+            let mut row = vec![x.start.session_id.clone(), x.start.participant.clone()];
+            row.extend(t.values());
+            w.write_record(&row)?;
         }
-        for (k, (q, o, reg)) in x.test_trials.iter().enumerate() {
+    }
+    w.flush()?;
+    let mut w = csv::Writer::from_path(dir.join("notes.csv"))?;
+    w.write_record(["session_id", "participant", "event_index", "time", "text"])?;
+    for a in group {
+        let x = &a.analysis;
+        for n in &x.notes {
             w.write_record([
-                &x.start.session_id,
-                &x.start.participant,
-                "test",
-                "",
-                "",
-                &(k + 1).to_string(),
-                q,
-                o,
-                reg,
+                x.start.session_id.clone(),
+                x.start.participant.clone(),
+                n.event_index.to_string(),
+                rfc3339_ms(n.time_ns),
+                n.text.clone(),
             ])?;
         }
     }
