@@ -74,6 +74,8 @@ fn writes_tidy_csv_plots_and_table_one_keeping_pilots_apart() {
         "fig10_tests.csv",
         "alpha.svg",
         "objects_by_body.csv",
+        "belief_summary.csv",
+        "notes.csv",
     ] {
         assert!(out.join(f).exists(), "{f}");
         assert!(out.join("pilot").join(f).exists(), "pilot/{f}");
@@ -89,11 +91,39 @@ fn writes_tidy_csv_plots_and_table_one_keeping_pilots_apart() {
     assert_eq!((&tests[0][4], &tests[0][7]), ("0", ""), "iteration 0: the same prior, no test");
     assert!(tests[1..].iter().all(|t| &t[3] == "3"), "3 pairs per iteration");
     assert!(stdout.contains("active − passive (p)"), "{stdout}");
+    // beliefs.csv is long: session × condition × iteration × parameter × joint × estimate.
     let mut b = csv::Reader::from_path(out.join("pilot/beliefs.csv")).unwrap();
-    for h in ["mean_q_star_deg_elbow_flexion", "map_q_star_deg_elbow_flexion", "ci_low_q_star_deg_elbow_flexion"] {
-        assert!(b.headers().unwrap().iter().any(|x| x == h), "{h}");
-    }
-    assert_eq!(b.records().count(), 3 * 2 * 6, "the replayed belief after each iteration");
+    let head: Vec<String> = b.headers().unwrap().iter().map(String::from).collect();
+    assert_eq!(
+        head,
+        [
+            "session_id",
+            "participant",
+            "condition",
+            "program",
+            "iteration",
+            "parameter",
+            "joint",
+            "estimate",
+            "value",
+            "unit"
+        ]
+    );
+    let rows: Vec<csv::StringRecord> = b.records().map(|r| r.unwrap()).collect();
+    assert_eq!(
+        rows.len(),
+        3 * 2 * 6 * 2 * 7 * 5,
+        "the replayed belief after each iteration, every component and estimate"
+    );
+    let elbow_mean = rows
+        .iter()
+        .find(|r| &r[5] == "q_star" && &r[6] == "elbow_flexion" && &r[7] == "mean" && &r[4] == "0")
+        .expect("the prior mean of the elbow");
+    assert_eq!(&elbow_mean[9], "deg");
+    let v: f64 = elbow_mean[8].parse().unwrap();
+    assert!((40.0..=130.0).contains(&v), "inside the elbow's prior range in degrees: {v}");
+    let mut e = csv::Reader::from_path(out.join("pilot/belief_summary.csv")).unwrap();
+    assert_eq!(e.records().count(), 3 * 2 * 6);
     let mut s = csv::Reader::from_path(out.join("sessions.csv")).unwrap();
     let head = s.headers().unwrap().clone();
     let col = |name: &str| head.iter().position(|h| h == name).unwrap_or_else(|| panic!("{name}"));

@@ -31,7 +31,8 @@ pub struct AnalyzeArgs {
     #[arg(required = true, value_name = "LOG|DIR")]
     paths: Vec<PathBuf>,
     /// Write sessions.csv, trials.csv (every presentation: taken, undone or voided),
-    /// notes.csv, test_log_likelihood.csv, fig10_tests.csv, beliefs.csv, objects_by_body.csv,
+    /// notes.csv, test_log_likelihood.csv, fig10_tests.csv, beliefs.csv (long),
+    /// belief_summary.csv, objects_by_body.csv,
     /// questionnaire.csv, alpha.csv, alpha_curve.csv, fig10.svg, objects.svg, alpha.svg and
     /// table1.md here (pilot sessions under DIR/pilot/).
     #[arg(long, value_name = "DIR")]
@@ -638,20 +639,62 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &Alph
         ])?;
     }
     w.flush()?;
+    // Long: one row per session × condition × iteration × parameter × joint × estimate.
     let mut w = csv::Writer::from_path(dir.join("beliefs.csv"))?;
     let joints = handover::kinematics::JOINT_NAMES;
-    let mut header: Vec<String> =
-        ["session_id", "participant", "condition", "program", "iteration", "entropy", "ess"].map(String::from).to_vec();
-    for part in ["mean", "map", "ci_low", "ci_high", "grid_mode"] {
-        header.extend(joints.iter().map(|j| format!("{part}_q_star_deg_{j}")));
-        header.extend(joints.iter().map(|j| format!("{part}_w_{j}")));
-    }
-    w.write_record(&header)?;
+    w.write_record([
+        "session_id",
+        "participant",
+        "condition",
+        "program",
+        "iteration",
+        "parameter",
+        "joint",
+        "estimate",
+        "value",
+        "unit",
+    ])?;
     for a in group {
         let x = &a.analysis;
         for r in &x.runs {
             for b in &r.beliefs {
-                let mut row = vec![
+                let estimates = [
+                    ("mean", &b.mean),
+                    ("map", &b.map),
+                    ("ci90_low", &b.ci_low),
+                    ("ci90_high", &b.ci_high),
+                    ("grid_mode", &b.grid_mode),
+                ];
+                for (estimate, l) in estimates {
+                    for (parameter, values, unit) in [("q_star", &l.q_star, "deg"), ("w", &l.w, "")] {
+                        for (j, v) in values.iter().enumerate() {
+                            let value = if unit == "deg" { v.to_degrees() } else { *v };
+                            w.write_record([
+                                x.start.session_id.as_str(),
+                                x.start.participant.as_str(),
+                                r.condition.as_str(),
+                                &program_letter(r.program),
+                                &b.iteration.to_string(),
+                                parameter,
+                                joints.get(j).copied().unwrap_or_default(),
+                                estimate,
+                                &value.to_string(),
+                                unit,
+                            ])?;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    w.flush()?;
+    let mut w = csv::Writer::from_path(dir.join("belief_summary.csv"))?;
+    w.write_record(["session_id", "participant", "condition", "program", "iteration", "entropy_nats", "ess"])?;
+    for a in group {
+        let x = &a.analysis;
+        for r in &x.runs {
+            for b in &r.beliefs {
+                w.write_record([
                     x.start.session_id.clone(),
                     x.start.participant.clone(),
                     r.condition.clone(),
@@ -659,12 +702,7 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &Alph
                     b.iteration.to_string(),
                     b.entropy.to_string(),
                     b.ess.to_string(),
-                ];
-                for l in [&b.mean, &b.map, &b.ci_low, &b.ci_high, &b.grid_mode] {
-                    row.extend(l.q_star.iter().map(|v| v.to_degrees().to_string()));
-                    row.extend(l.w.iter().map(|v| v.to_string()));
-                }
-                w.write_record(&row)?;
+                ])?;
             }
         }
     }
