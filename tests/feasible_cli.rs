@@ -44,10 +44,20 @@ fn csv_has_one_row_per_configuration() {
     let mut rows = csv::Reader::from_reader(out.as_bytes());
     let header = rows.headers().unwrap().clone();
     assert_eq!(&header[0], "query");
-    assert_eq!(&header[3], "shoulder_flexion");
-    assert_eq!(header.len(), 3 + 7 + 12);
-    let queries: std::collections::BTreeSet<String> = rows.records().map(|r| r.unwrap()[0].to_string()).collect();
+    assert_eq!((&header[2], &header[4]), ("config_index", "region_label"));
+    assert_eq!(&header[5], "q_shoulder_flexion_rad");
+    assert_eq!(&header[12], "shoulder_x_m");
+    assert_eq!(header.len(), 5 + 7 + 12);
+    let records: Vec<csv::StringRecord> = rows.records().map(|r| r.unwrap()).collect();
+    let queries: std::collections::BTreeSet<String> = records.iter().map(|r| r[0].to_string()).collect();
     assert_eq!(queries.len(), 24);
+    // config_index counts each query's feasible set from 0, as the logs index it.
+    let study = handover::protocol::Study::default_study();
+    for q in study.all_queries() {
+        let idx: Vec<usize> = records.iter().filter(|r| r[0] == q.query.id).map(|r| r[2].parse().unwrap()).collect();
+        assert_eq!(idx, (0..q.feasible.configs.len()).collect::<Vec<_>>(), "{}", q.query.id);
+    }
+    assert!(records.iter().any(|r| &r[4] == "Left grip (blue)"));
 }
 
 #[test]

@@ -22,7 +22,9 @@ pub struct FeasibleArgs {
     /// Only this query (an id from training_menu or test_set).
     #[arg(long, value_name = "ID")]
     query: Option<String>,
-    /// Output format on stdout: `json` (nested, with arm points) or `csv` (one row per configuration).
+    /// Output format on stdout: `json` (nested, with arm points) or `csv` (one row per
+    /// configuration: its index in the query's feasible set — the `config_index` of the
+    /// logs — region id and label, joint angles in radians, arm points in metres).
     #[arg(long, value_enum, default_value_t = Format::Json)]
     format: Format,
     /// Also write one SVG per query into DIR: 2-D projections of the feasible set in
@@ -124,16 +126,23 @@ pub fn run(args: FeasibleArgs) -> Result<()> {
         }
         Format::Csv => {
             let mut w = csv::Writer::from_writer(&mut stdout);
-            let mut header = vec!["query".to_string(), "object".into(), "region".into()];
-            header.extend(JOINT_NAMES.iter().map(|n| n.to_string()));
+            let mut header = ["query", "object", "config_index", "region", "region_label"].map(String::from).to_vec();
+            header.extend(JOINT_NAMES.iter().map(|n| format!("q_{n}_rad")));
             for p in ["shoulder", "elbow", "wrist", "hand"] {
-                header.extend(["x", "y", "z"].iter().map(|a| format!("{p}_{a}")));
+                header.extend(["x", "y", "z"].iter().map(|a| format!("{p}_{a}_m")));
             }
             w.write_record(&header)?;
             for q in &queries {
                 let regions = region_ids(&study, q);
-                for c in &q.feasible.configs {
-                    let mut row = vec![q.query.id.clone(), q.query.object.clone(), regions[c.region].to_string()];
+                let object = study.object(q);
+                for (k, c) in q.feasible.configs.iter().enumerate() {
+                    let mut row = vec![
+                        q.query.id.clone(),
+                        q.query.object.clone(),
+                        k.to_string(),
+                        regions[c.region].to_string(),
+                        object.regions[q.regions[c.region]].label.clone(),
+                    ];
                     row.extend(c.q.iter().map(|v| v.to_string()));
                     for p in arm.points(&c.q) {
                         row.extend([p.x, p.y, p.z].iter().map(|v| v.to_string()));
