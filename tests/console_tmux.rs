@@ -64,7 +64,7 @@ fn the_console_runs_a_session_in_a_real_terminal() {
     let proto = small_protocol(&dir);
     let name = format!("handover-e2e-{}", std::process::id());
     let cmd = format!(
-        "{} run --protocol {} --logs {} --participants {} --seed 5; sleep 30",
+        "{} run --protocol {} --logs {} --participants-dir {} --seed 5; sleep 30",
         env!("CARGO_BIN_EXE_handover"),
         proto.display(),
         dir.join("logs").display(),

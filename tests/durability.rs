@@ -160,7 +160,7 @@ fn a_full_disk_names_its_cause_and_leaves_only_whole_files() {
     let parts = disk.join("participants");
     let (code, _, err) = handover(
         &dir,
-        &["participant", "new", "--participants", parts.to_str().unwrap(), "--logs", logs.to_str().unwrap()],
+        &["participant", "new", "--participants-dir", parts.to_str().unwrap(), "--logs", logs.to_str().unwrap()],
     );
     assert_eq!(code, 1, "{err}");
     assert!(err.contains("No space left on device"), "{err}");

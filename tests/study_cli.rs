@@ -64,8 +64,14 @@ fn protocol_check_summarises_or_lists_every_problem() {
 fn participant_new_creates_a_pseudonymous_record_in_the_least_filled_slot() {
     let dir = tmpdir("participants");
     let (parts, logs) = (dir.join("participants"), dir.join("logs"));
-    let (code, out, err) =
-        handover(&["participant", "new", "--participants", parts.to_str().unwrap(), "--logs", logs.to_str().unwrap()]);
+    let (code, out, err) = handover(&[
+        "participant",
+        "new",
+        "--participants-dir",
+        parts.to_str().unwrap(),
+        "--logs",
+        logs.to_str().unwrap(),
+    ]);
     assert_eq!(code, 0, "{err}");
     let id = out.trim();
     assert!(handover::participant::validate_id(id).is_ok(), "{id}");
@@ -88,12 +94,18 @@ fn participant_new_creates_a_pseudonymous_record_in_the_least_filled_slot() {
         !parts.join("pilot").exists() && std::fs::read_dir(&parts).unwrap().count() == 1,
         "dry runs never touch participants/"
     );
-    let (_, out2, _) =
-        handover(&["participant", "new", "--participants", parts.to_str().unwrap(), "--logs", logs.to_str().unwrap()]);
+    let (_, out2, _) = handover(&[
+        "participant",
+        "new",
+        "--participants-dir",
+        parts.to_str().unwrap(),
+        "--logs",
+        logs.to_str().unwrap(),
+    ]);
     let v2: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(parts.join(format!("{}.json", out2.trim()))).unwrap()).unwrap();
     assert_eq!(v2["slot"], 0);
-    let (code, show, _) = handover(&["participant", "show", id, "--participants", parts.to_str().unwrap()]);
+    let (code, show, _) = handover(&["participant", "show", id, "--participants-dir", parts.to_str().unwrap()]);
     assert_eq!(code, 0);
     assert!(show.contains(id));
 }
@@ -117,8 +129,14 @@ fn a_completed_real_session_fills_its_slot() {
         }
         rec.finish().unwrap();
     }
-    let (code, out, err) =
-        handover(&["participant", "new", "--participants", parts.to_str().unwrap(), "--logs", logs.to_str().unwrap()]);
+    let (code, out, err) = handover(&[
+        "participant",
+        "new",
+        "--participants-dir",
+        parts.to_str().unwrap(),
+        "--logs",
+        logs.to_str().unwrap(),
+    ]);
     assert_eq!(code, 0, "{err}");
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(parts.join(format!("{}.json", out.trim()))).unwrap()).unwrap();
@@ -130,13 +148,13 @@ fn a_completed_real_session_fills_its_slot() {
 fn participant_ids_that_are_not_pseudonyms_are_refused() {
     let dir = tmpdir("ids");
     for bad in ["../etc/passwd", "a b", "p.1", "", "x/y", &"x".repeat(33)] {
-        let (code, _, err) = handover(&["participant", "show", bad, "--participants", dir.to_str().unwrap()]);
+        let (code, _, err) = handover(&["participant", "show", bad, "--participants-dir", dir.to_str().unwrap()]);
         assert_eq!(code, 2, "{bad}: {err}");
         assert!(err.contains("invalid"), "{err}");
         let (code, _, err) = handover(&["run", "--participant", bad]);
         assert_eq!(code, 2, "run --participant {bad}: {err}");
     }
-    let (code, _, err) = handover(&["participant", "show", "p-unknown", "--participants", dir.to_str().unwrap()]);
+    let (code, _, err) = handover(&["participant", "show", "p-unknown", "--participants-dir", dir.to_str().unwrap()]);
     assert_eq!(code, 2, "{err}");
 }
 

@@ -53,7 +53,7 @@ pub struct AnalyzeArgs {
     #[arg(long, value_name = "DIR")]
     study_dir: Option<PathBuf>,
     /// Where participant records live (default: STUDY_DIR/participants).
-    #[arg(long, value_name = "DIR")]
+    #[arg(long = "participants-dir", value_name = "DIR")]
     participants: Option<PathBuf>,
 }
 

@@ -32,7 +32,7 @@ pub struct RunArgs {
     #[arg(long, value_name = "DIR")]
     logs: Option<PathBuf>,
     /// Where participant records live (default: STUDY_DIR/participants).
-    #[arg(long, value_name = "DIR")]
+    #[arg(long = "participants-dir", value_name = "DIR")]
     participants: Option<PathBuf>,
     /// Let a simulated participant answer (a rehearsal; the log is flagged pilot).
     #[arg(long)]

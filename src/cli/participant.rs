@@ -57,12 +57,8 @@ enum ParticipantCommand {
     Show {
         /// The participant's id.
         id: String,
-        /// The study directory (records in DIR/participants).
-        #[arg(long, value_name = "DIR")]
-        study_dir: Option<PathBuf>,
-        /// Where participant records live (default: STUDY_DIR/participants).
-        #[arg(long, value_name = "DIR")]
-        participants: Option<PathBuf>,
+        #[command(flatten)]
+        folders: Folders,
     },
 }
 
@@ -73,7 +69,7 @@ struct Folders {
     #[arg(long, value_name = "DIR")]
     study_dir: Option<PathBuf>,
     /// Where participant records live (default: STUDY_DIR/participants).
-    #[arg(long, value_name = "DIR")]
+    #[arg(long = "participants-dir", value_name = "DIR")]
     participants: Option<PathBuf>,
     /// Where session logs live (default: STUDY_DIR/logs).
     #[arg(long, value_name = "DIR")]
@@ -127,9 +123,9 @@ pub fn run(args: ParticipantArgs) -> Result<()> {
             Ok(())
         }
         ParticipantCommand::Withdraw { id, delete_data, yes, folders } => withdraw(&id, delete_data, yes, &folders),
-        ParticipantCommand::Show { id, study_dir, participants } => {
+        ParticipantCommand::Show { id, folders } => {
             validate_id(&id).map_err(|e| bad(e.to_string()))?;
-            let dirs = StudyDirs::resolve(study_dir.as_deref(), participants.as_deref(), None);
+            let dirs = folders.resolve();
             let rec = ParticipantRecord::load(&dirs.participants, &id).map_err(|e| bad(e.to_string()))?;
             outln!("{}", serde_json::to_string_pretty(&rec)?);
             Ok(())
