@@ -437,3 +437,23 @@ fn dry_runs_draw_bodies_and_run_whole_sessions_at_the_ends_of_the_range() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("no feasible arm configuration"), "{err}");
 }
+
+/// Shell completions and the manual page are generated from the one command-line definition.
+#[test]
+fn completions_and_the_man_page_cover_every_subcommand() {
+    let (code, bash, err) = handover(&["completions", "bash"]);
+    assert_eq!(code, 0, "{err}");
+    let (code, man, err) = handover(&["man"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(man.contains(".TH handover 1"), "{man}");
+    for sub in ["run", "dry-run", "analyze", "participant", "protocol", "resume", "simulate", "front", "feasible"] {
+        assert!(
+            bash.contains(&format!("handover__subcmd__{}", sub.replace('-', "__subcmd__"))),
+            "bash completes {sub}"
+        );
+        assert!(man.contains(&format!("handover\\-{}(1)", sub.replace('-', "\\-"))), "man lists {sub}");
+    }
+    assert!(bash.contains("--participants-dir") && bash.contains("--body-height"));
+    let (code, _, err) = handover(&["completions", "nosh"]);
+    assert_eq!(code, 2, "{err}");
+}

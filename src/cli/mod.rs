@@ -79,6 +79,15 @@ enum Command {
     Resume(resume::ResumeArgs),
     /// Analyse session logs (Fig. 10, Table I), optionally verifying every derived value.
     Analyze(analyze::AnalyzeArgs),
+    /// Print a shell completion script on stdout, e.g.
+    /// `handover completions bash > ~/.local/share/bash-completion/completions/handover`.
+    Completions {
+        /// The shell.
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
+    },
+    /// Print the manual page (roff) on stdout, e.g. `handover man > handover.1; man ./handover.1`.
+    Man,
 }
 
 /// Runs the chosen subcommand.
@@ -97,6 +106,17 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::DryRun(args) => dry_run::run(args),
         Command::Resume(args) => resume::run(args),
         Command::Analyze(args) => analyze::run(args),
+        Command::Completions { shell } => {
+            use clap::CommandFactory;
+            let mut out = std::io::stdout().lock();
+            clap_complete::generate(shell, &mut Cli::command(), "handover", &mut out);
+            Ok(())
+        }
+        Command::Man => {
+            use clap::CommandFactory;
+            clap_mangen::Man::new(Cli::command()).render(&mut std::io::stdout().lock())?;
+            Ok(())
+        }
     }
 }
 
