@@ -277,11 +277,16 @@ fn share(s: &SessionAnalysis, condition: &str, object: &str) -> Option<f64> {
 }
 
 /// The object finding (which object each condition offers) per height band and hand, over
-/// every session of every seed. Bands and hands without a session are left out.
-pub fn objects_by_body(runs: &[SeedRun]) -> Vec<ObjectsByBody> {
-    let cs = conditions(runs);
-    let (Some(first), Some(second)) = (cs.first(), cs.get(1)) else { return Vec::new() };
-    let sessions: Vec<&SessionAnalysis> = runs.iter().flat_map(|r| &r.sessions).collect();
+/// the given sessions (every session of every seed of a dry run, or a study's logs). Bands
+/// and hands without a session are left out.
+pub fn objects_by_body(sessions: &[&SessionAnalysis]) -> Vec<ObjectsByBody> {
+    let mut cs: Vec<&str> = Vec::new();
+    for r in sessions.iter().flat_map(|s| &s.runs) {
+        if !cs.contains(&r.condition.as_str()) {
+            cs.push(&r.condition);
+        }
+    }
+    let (Some(&first), Some(&second)) = (cs.first(), cs.get(1)) else { return Vec::new() };
     let mut objects: Vec<String> = Vec::new();
     for t in sessions.iter().flat_map(|s| &s.runs).flat_map(|r| &r.trials) {
         if !objects.contains(&t.object) {
@@ -289,7 +294,7 @@ pub fn objects_by_body(runs: &[SeedRun]) -> Vec<ObjectsByBody> {
         }
     }
     let mut bands: Vec<String> = HEIGHT_BANDS_M.iter().map(|(lo, hi)| format!("{lo:.2}–{hi:.2}")).collect();
-    for s in &sessions {
+    for s in sessions {
         let b = band_of(s.body.height_m);
         if !bands.contains(&b) {
             bands.push(b);
@@ -298,8 +303,8 @@ pub fn objects_by_body(runs: &[SeedRun]) -> Vec<ObjectsByBody> {
     let mut out = Vec::new();
     for band in &bands {
         for hand in [crate::kinematics::Hand::Right, crate::kinematics::Hand::Left] {
-            let group: Vec<&&SessionAnalysis> =
-                sessions.iter().filter(|s| band_of(s.body.height_m) == *band && s.body.hand == hand).collect();
+            let group: Vec<&SessionAnalysis> =
+                sessions.iter().copied().filter(|s| band_of(s.body.height_m) == *band && s.body.hand == hand).collect();
             if group.is_empty() {
                 continue;
             }
@@ -314,9 +319,9 @@ pub fn objects_by_body(runs: &[SeedRun]) -> Vec<ObjectsByBody> {
                     hand: hand.name(),
                     object: object.clone(),
                     sessions: group.len(),
-                    first: first.clone(),
+                    first: first.to_string(),
                     first_share: mean_ci95(&a),
-                    second: second.clone(),
+                    second: second.to_string(),
                     second_share: mean_ci95(&b),
                     difference: (g.mean, g.ci_low, g.ci_high),
                     p_value: g.p_value,

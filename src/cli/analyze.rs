@@ -6,9 +6,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use handover::analysis::{
-    ALPHA_RANGE, AlphaFit, AlphaSummary, EVIDENCE_PARTICLES, MAX_EVIDENCE_PARTICLES, SUPPORT_DROP, SeedRun,
-    SessionAnalysis, StudySummary, alpha_summary, analyse_and_verify, objects_by_body, rfc3339_ms, summarise,
-    trial_columns,
+    ALPHA_RANGE, AlphaFit, AlphaSummary, EVIDENCE_PARTICLES, MAX_EVIDENCE_PARTICLES, SUPPORT_DROP, SessionAnalysis,
+    StudySummary, alpha_summary, analyse_and_verify, objects_by_body, rfc3339_ms, summarise, trial_columns,
 };
 use handover::participant::has_withdrawn;
 use handover::plot::{PooledEvidence, Series, alpha_plot, bar_chart, mean_se_plot};
@@ -462,8 +461,8 @@ fn table(label: &str, group: &[&Analysed], s: &StudySummary, alpha: &AlphaSummar
         .collect::<Vec<_>>()
         .join("; ");
     o += "\n";
-    let runs = [SeedRun { seed: 0, sessions: group.iter().map(|a| a.analysis.clone()).collect() }];
-    for line in super::dry_run::by_body_lines(&runs) {
+    let sessions: Vec<&SessionAnalysis> = group.iter().map(|a| &a.analysis).collect();
+    for line in super::by_body::lines(&sessions) {
         o += &format!("{line}\n");
     }
     o += &alpha_table(alpha);
@@ -775,11 +774,11 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &Alph
 /// hand × object × measure (each condition's share of training offers, and their paired
 /// difference with its Wilcoxon p).
 fn write_objects_by_body(dir: &Path, group: &[&Analysed]) -> Result<()> {
-    let runs = [SeedRun { seed: 0, sessions: group.iter().map(|a| a.analysis.clone()).collect() }];
+    let sessions: Vec<&SessionAnalysis> = group.iter().map(|a| &a.analysis).collect();
     let mut w = csv::Writer::from_path(dir.join("objects_by_body.csv"))?;
     w.write_record(["height_band_m", "hand", "sessions", "object", "measure", "mean", "ci_low", "ci_high", "p_value"])?;
     let finite = |x: f64| if x.is_finite() { x.to_string() } else { String::new() };
-    for r in objects_by_body(&runs) {
+    for r in objects_by_body(&sessions) {
         let rows = [
             (format!("share_{}", r.first), r.first_share, None),
             (format!("share_{}", r.second), r.second_share, None),

@@ -7,8 +7,7 @@ use std::time::Duration;
 use anyhow::{Context, Result};
 use clap::Args;
 use handover::analysis::{
-    SEED_MEASURES, SeedRun, SessionAnalysis, analyse, object_shares, objects_by_body, over_seeds, paired_across,
-    paired_over_seeds,
+    SEED_MEASURES, SeedRun, SessionAnalysis, analyse, object_shares, over_seeds, paired_across, paired_over_seeds,
 };
 use handover::dryrun::{BodyPopulation, drive, now_ns, plan};
 use handover::ergo::Lambda;
@@ -352,57 +351,11 @@ fn print_over_seeds(runs: &[SeedRun], seed: u64, seeds: u64, participants: usize
 
 /// The object finding per height band and hand, when the sessions span more than one.
 fn print_by_body(runs: &[SeedRun]) -> Result<()> {
-    for line in by_body_lines(runs) {
+    let sessions: Vec<&SessionAnalysis> = runs.iter().flat_map(|r| &r.sessions).collect();
+    for line in super::by_body::lines(&sessions) {
         outln!("  {line}");
     }
     Ok(())
-}
-
-/// The object finding per height band and hand as text lines (none when every session has
-/// the same band and hand: the overall shares say it all). Shared with `analyze`.
-pub fn by_body_lines(runs: &[SeedRun]) -> Vec<String> {
-    let rows = objects_by_body(runs);
-    let groups: std::collections::BTreeSet<(&str, &str)> = rows.iter().map(|r| (r.band.as_str(), r.hand)).collect();
-    if groups.len() < 2 {
-        return Vec::new();
-    }
-    let pct = |(m, lo, hi): (f64, f64, f64)| {
-        if lo.is_finite() {
-            format!("{:.0} % [{:.0}, {:.0}]", 100.0 * m, 100.0 * lo.max(0.0), 100.0 * hi.min(1.0))
-        } else {
-            format!("{:.0} %", 100.0 * m)
-        }
-    };
-    // The last object's share is the rest; intervals are cut to the possible range.
-    let last = rows.last().map(|r| r.object.clone()).unwrap_or_default();
-    let mut out = vec![format!(
-        "by body (height band in m, [low, high); dominant hand; each session one participant; 95 % interval over sessions, two-sided Wilcoxon; {last}: the rest):"
-    )];
-    for r in rows.iter().filter(|r| r.object != last) {
-        let p = r
-            .p_value
-            .map_or("no difference".to_string(), |p| if p < 0.001 { "p<0.001".into() } else { format!("p={p:.3}") });
-        let (d, lo, hi) = r.difference;
-        let diff = if lo.is_finite() {
-            format!("{:+.0} [{:+.0}, {:+.0}] points", 100.0 * d, (100.0 * lo).max(-100.0), (100.0 * hi).min(100.0))
-        } else {
-            format!("{:+.0} points", 100.0 * d)
-        };
-        out.push(format!(
-            "  {:<9} {:<5} n={:<3} {}: {} {}, {} {}; {} − {} {diff} ({p})",
-            r.band,
-            r.hand,
-            r.sessions,
-            r.object,
-            r.first,
-            pct(r.first_share),
-            r.second,
-            pct(r.second_share),
-            r.first,
-            r.second
-        ));
-    }
-    out
 }
 
 /// Prints a participant's condition order, objects chosen and test log-likelihoods.

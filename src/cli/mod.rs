@@ -21,6 +21,7 @@ macro_rules! out {
 }
 
 mod analyze;
+mod by_body;
 mod console;
 mod dry_run;
 mod feasible;
