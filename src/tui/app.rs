@@ -11,7 +11,7 @@ use std::time::Duration;
 use rand::RngExt;
 use ratatui::crossterm::event::KeyEvent;
 
-use super::keys::{Action, Mode, action_for};
+use super::keys::{Action, Counts, Mode, action_for};
 use crate::analysis::{SessionAnalysis, analyse};
 use crate::dryrun::{now_ns, plan};
 use crate::participant::{ParticipantRecord, ScriptedParticipant, SimulatedPerson, new_id, validate_id};
@@ -350,6 +350,20 @@ impl App {
         }
     }
 
+    /// How many grip regions are offered now, scale points and void reasons there are: the
+    /// digits that act.
+    pub fn counts(&self) -> Counts {
+        let regions = match self.session().map(|s| (s.prompt(), s)) {
+            Some((Prompt::Grasp(v) | Prompt::Present(v), s)) => s.query(v.query).regions.len(),
+            _ => 0,
+        };
+        Counts {
+            regions,
+            scale_points: self.config.study.protocol.questionnaire.scale.len(),
+            void_reasons: crate::session::VoidReason::ALL.len(),
+        }
+    }
+
     /// A key press: applied now, or queued while work is under way; ignored while the
     /// terminal is too small to show what it would do.
     pub fn key(&mut self, key: KeyEvent) {
@@ -360,7 +374,7 @@ impl App {
             self.pending.push_back(key);
             return;
         }
-        if let Some(action) = action_for(self.mode(), key) {
+        if let Some(action) = action_for(self.mode(), key, self.counts()) {
             self.update(action);
         }
     }

@@ -55,102 +55,322 @@ pub enum Action {
     Retry,
 }
 
-fn digit(c: char, max: usize) -> Option<usize> {
-    let d = c.to_digit(10)? as usize;
-    (1..=max).contains(&d).then(|| d - 1)
+/// The keys a binding answers to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Keys {
+    Char(char),
+    Enter,
+    Esc,
+    Tab,
+    Left,
+    Right,
+    Backspace,
+    /// A digit 1..=n, n the count of what is picked ([`Counts`]).
+    Digits(Picked),
+    /// Any printable character (a line editor).
+    Typed,
 }
 
-/// The intent of a key press in a mode (None: the key does nothing there).
-pub fn action_for(mode: Mode, key: KeyEvent) -> Option<Action> {
+/// What a digit picks, whose count bounds the digits that act.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Picked {
+    /// The grip regions offered.
+    Region,
+    /// The Likert scale's points.
+    ScalePoint,
+    /// The void reasons.
+    VoidReason,
+}
+
+/// How many of each [`Picked`] there are now.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Counts {
+    pub regions: usize,
+    pub scale_points: usize,
+    pub void_reasons: usize,
+}
+
+impl Counts {
+    fn of(self, p: Picked) -> usize {
+        match p {
+            Picked::Region => self.regions,
+            Picked::ScalePoint => self.scale_points,
+            Picked::VoidReason => self.void_reasons,
+        }
+    }
+}
+
+/// What a binding does.
+#[derive(Clone, Copy, Debug)]
+pub enum Does {
+    Is(Action),
+    /// The digit's 0-based index picks.
+    Pick(fn(usize) -> Action),
+    /// The character typed.
+    Type,
+}
+
+/// Where the help overlay lists a binding.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Section {
+    Trial,
+    Questionnaire,
+    Setup,
+    /// Dialogs and editors (their keys are shown in them and in the footer, not in help).
+    Dialog,
+}
+
+/// One key binding: the one table the key map, the help overlay and the footer hints are
+/// all derived from.
+pub struct Binding {
+    pub keys: Keys,
+    pub modes: &'static [Mode],
+    pub does: Does,
+    /// The footer's short text ("" = not in the footer).
+    pub hint: &'static str,
+    /// The help overlay's text ("" = not in help).
+    pub help: &'static str,
+    pub section: Section,
+}
+
+use Mode as M;
+const TRIAL: &[Mode] = &[M::Present, M::Grasp];
+const IN_SESSION: &[Mode] = &[M::Present, M::Grasp, M::Questionnaire];
+const COMMON: &[Mode] = &[M::Setup, M::Present, M::Grasp, M::Questionnaire, M::Paused, M::Summary];
+
+const fn bind(
+    keys: Keys,
+    modes: &'static [Mode],
+    does: Does,
+    hint: &'static str,
+    help: &'static str,
+    section: Section,
+) -> Binding {
+    Binding { keys, modes, does, hint, help, section }
+}
+
+/// Every key binding, in the order the footer lists them.
+pub const BINDINGS: &[Binding] = &[
+    // Dialogs and editors take their keys first.
+    bind(Keys::Enter, &[M::LineEdit], Does::Is(Action::Confirm), "save", "", Section::Dialog),
+    bind(Keys::Esc, &[M::LineEdit], Does::Is(Action::Cancel), "cancel", "", Section::Dialog),
+    bind(Keys::Backspace, &[M::LineEdit], Does::Is(Action::Backspace), "", "", Section::Dialog),
+    bind(Keys::Typed, &[M::LineEdit], Does::Type, "", "", Section::Dialog),
+    bind(Keys::Esc, &[M::Help], Does::Is(Action::Cancel), "close help", "", Section::Dialog),
+    bind(Keys::Char('?'), &[M::Help], Does::Is(Action::Cancel), "", "", Section::Dialog),
+    bind(Keys::Char('q'), &[M::Help], Does::Is(Action::Cancel), "", "", Section::Dialog),
+    bind(Keys::Enter, &[M::Help], Does::Is(Action::Cancel), "", "", Section::Dialog),
+    bind(Keys::Char('y'), &[M::ConfirmQuit], Does::Is(Action::Yes), "quit", "", Section::Dialog),
+    bind(Keys::Enter, &[M::ConfirmQuit], Does::Is(Action::Yes), "", "", Section::Dialog),
+    bind(Keys::Char('n'), &[M::ConfirmQuit], Does::Is(Action::No), "stay", "", Section::Dialog),
+    bind(Keys::Esc, &[M::ConfirmQuit], Does::Is(Action::No), "", "", Section::Dialog),
+    bind(Keys::Char('a'), &[M::ConfirmQuit], Does::Is(Action::Abort), "abort session", "", Section::Dialog),
+    bind(Keys::Char('r'), &[M::WriteFailed], Does::Is(Action::Retry), "retry the write", "", Section::Dialog),
+    bind(Keys::Char('q'), &[M::WriteFailed], Does::Is(Action::Quit), "quit (resumable)", "", Section::Dialog),
+    bind(
+        Keys::Digits(Picked::VoidReason),
+        &[M::VoidReason],
+        Does::Pick(Action::VoidReason),
+        "reason",
+        "",
+        Section::Dialog,
+    ),
+    bind(Keys::Esc, &[M::VoidReason], Does::Is(Action::Cancel), "cancel", "", Section::Dialog),
+    // Setup.
+    bind(Keys::Enter, &[M::Setup], Does::Is(Action::Confirm), "start", "start the session", Section::Setup),
+    bind(
+        Keys::Char('e'),
+        &[M::Setup],
+        Does::Is(Action::EditParticipant),
+        "participant id",
+        "type an existing participant id (or 'new')",
+        Section::Setup,
+    ),
+    // Trials.
+    bind(
+        Keys::Enter,
+        &[M::Present],
+        Does::Is(Action::Confirm),
+        "presented",
+        "the robot holds the object at the pose",
+        Section::Trial,
+    ),
+    bind(
+        Keys::Digits(Picked::Region),
+        &[M::Grasp],
+        Does::Pick(Action::Region),
+        "grip taken",
+        "the grip region taken, in the order listed",
+        Section::Trial,
+    ),
+    bind(
+        Keys::Char('u'),
+        &[M::Present],
+        Does::Is(Action::Undo),
+        "undo",
+        "undo the last recorded grasp (until the next query)",
+        Section::Trial,
+    ),
+    bind(
+        Keys::Char('x'),
+        TRIAL,
+        Does::Is(Action::Void),
+        "void",
+        "void the trial, then choose a reason (it is repeated)",
+        Section::Trial,
+    ),
+    // The questionnaire.
+    bind(
+        Keys::Digits(Picked::ScalePoint),
+        &[M::Questionnaire],
+        Does::Pick(Action::Likert),
+        "answer",
+        "answer the statement",
+        Section::Questionnaire,
+    ),
+    bind(Keys::Left, &[M::Questionnaire], Does::Is(Action::Prev), "move", "previous statement", Section::Questionnaire),
+    bind(Keys::Right, &[M::Questionnaire], Does::Is(Action::Next), "move", "next statement", Section::Questionnaire),
+    bind(
+        Keys::Char('a'),
+        &[M::Questionnaire],
+        Does::Is(Action::Choice(0)),
+        "choice",
+        "forced choice: Program A",
+        Section::Questionnaire,
+    ),
+    bind(
+        Keys::Char('b'),
+        &[M::Questionnaire],
+        Does::Is(Action::Choice(1)),
+        "choice",
+        "forced choice: Program B",
+        Section::Questionnaire,
+    ),
+    bind(
+        Keys::Enter,
+        &[M::Questionnaire],
+        Does::Is(Action::Confirm),
+        "next/finish",
+        "next; at the end, finish the session",
+        Section::Questionnaire,
+    ),
+    // In a session, and everywhere.
+    bind(Keys::Char('p'), &[M::Paused], Does::Is(Action::Pause), "resume", "", Section::Trial),
+    bind(
+        Keys::Char('n'),
+        &[M::Present, M::Grasp, M::Questionnaire, M::Paused],
+        Does::Is(Action::Note),
+        "note",
+        "add a note (Enter saves, Esc cancels)",
+        Section::Trial,
+    ),
+    bind(Keys::Char('p'), IN_SESSION, Does::Is(Action::Pause), "pause", "pause / resume", Section::Trial),
+    bind(
+        Keys::Tab,
+        TRIAL,
+        Does::Is(Action::SwitchJoints),
+        "joints",
+        "switch the joints of the particle view",
+        Section::Trial,
+    ),
+    bind(Keys::Enter, &[M::Summary], Does::Is(Action::Quit), "exit", "", Section::Dialog),
+    bind(Keys::Char('?'), COMMON, Does::Is(Action::Help), "help", "this help", Section::Trial),
+    bind(
+        Keys::Char('q'),
+        COMMON,
+        Does::Is(Action::Quit),
+        "quit",
+        "quit (asks first; the session can be resumed; or a: abort it for good)",
+        Section::Trial,
+    ),
+];
+
+fn matches(keys: Keys, code: KeyCode, counts: Counts) -> Option<Option<usize>> {
+    match (keys, code) {
+        (Keys::Char(a), KeyCode::Char(b)) if a == b => Some(None),
+        (Keys::Enter, KeyCode::Enter)
+        | (Keys::Esc, KeyCode::Esc)
+        | (Keys::Tab, KeyCode::Tab)
+        | (Keys::Left, KeyCode::Left)
+        | (Keys::Right, KeyCode::Right)
+        | (Keys::Backspace, KeyCode::Backspace) => Some(None),
+        (Keys::Typed, KeyCode::Char(_)) => Some(None),
+        (Keys::Digits(p), KeyCode::Char(c)) => {
+            let d = c.to_digit(10)? as usize;
+            (1..=counts.of(p).min(9)).contains(&d).then(|| Some(d - 1))
+        }
+        _ => None,
+    }
+}
+
+/// The intent of a key press in a mode (None: the key does nothing there). Digits act only
+/// up to the count of what they pick.
+pub fn action_for(mode: Mode, key: KeyEvent, counts: Counts) -> Option<Action> {
     if key.kind == KeyEventKind::Release {
         return None;
     }
     if key.modifiers.contains(KeyModifiers::CONTROL) && key.code == KeyCode::Char('c') {
         return Some(Action::Quit);
     }
-    use Action as A;
-    use KeyCode as K;
-    match mode {
-        Mode::LineEdit => match key.code {
-            K::Enter => Some(A::Confirm),
-            K::Esc => Some(A::Cancel),
-            K::Backspace => Some(A::Backspace),
-            K::Char(c) => Some(A::Char(c)),
-            _ => None,
+    BINDINGS.iter().filter(|b| b.modes.contains(&mode)).find_map(|b| {
+        let digit = matches(b.keys, key.code, counts)?;
+        Some(match (b.does, digit, key.code) {
+            (Does::Is(a), _, _) => a,
+            (Does::Pick(f), Some(i), _) => f(i),
+            (Does::Type, _, KeyCode::Char(c)) => Action::Char(c),
+            _ => return None,
+        })
+    })
+}
+
+/// How a binding's keys are written on screen (`1–4` for digits, with the count now).
+pub fn key_label(keys: Keys, counts: Counts) -> String {
+    match keys {
+        Keys::Char(c) => c.to_string(),
+        Keys::Enter => "Enter".into(),
+        Keys::Esc => "Esc".into(),
+        Keys::Tab => "Tab".into(),
+        Keys::Left => "←".into(),
+        Keys::Right => "→".into(),
+        Keys::Backspace => "Backspace".into(),
+        Keys::Typed => "text".into(),
+        Keys::Digits(p) => match counts.of(p).min(9) {
+            0 | 1 => "1".into(),
+            n => format!("1–{n}"),
         },
-        Mode::Help => match key.code {
-            K::Esc | K::Char('?') | K::Char('q') | K::Enter => Some(A::Cancel),
-            _ => None,
-        },
-        Mode::ConfirmQuit => match key.code {
-            K::Char('y') | K::Enter => Some(A::Yes),
-            K::Char('n') | K::Esc => Some(A::No),
-            K::Char('a') => Some(A::Abort),
-            _ => None,
-        },
-        Mode::WriteFailed => match key.code {
-            K::Char('r') => Some(A::Retry),
-            K::Char('q') => Some(A::Quit),
-            _ => None,
-        },
-        Mode::VoidReason => match key.code {
-            K::Esc => Some(A::Cancel),
-            K::Char(c) => digit(c, 4).map(A::VoidReason),
-            _ => None,
-        },
-        _ => {
-            let common = match key.code {
-                K::Char('?') => Some(A::Help),
-                K::Char('q') => Some(A::Quit),
-                _ => None,
-            };
-            if common.is_some() {
-                return common;
-            }
-            match (mode, key.code) {
-                (Mode::Setup, K::Enter) => Some(A::Confirm),
-                (Mode::Setup, K::Char('e')) => Some(A::EditParticipant),
-                (Mode::Summary, K::Enter) => Some(A::Quit),
-                (Mode::Paused, K::Char('p')) => Some(A::Pause),
-                (Mode::Paused, K::Char('n')) => Some(A::Note),
-                (Mode::Present | Mode::Grasp | Mode::Questionnaire, K::Char('p')) => Some(A::Pause),
-                (Mode::Present | Mode::Grasp | Mode::Questionnaire, K::Char('n')) => Some(A::Note),
-                (Mode::Present | Mode::Grasp, K::Char('x')) => Some(A::Void),
-                (Mode::Present | Mode::Grasp, K::Tab) => Some(A::SwitchJoints),
-                (Mode::Present, K::Enter) => Some(A::Confirm),
-                (Mode::Present, K::Char('u')) => Some(A::Undo),
-                (Mode::Grasp, K::Char(c)) => digit(c, 9).map(A::Region),
-                (Mode::Questionnaire, K::Char('a')) => Some(A::Choice(0)),
-                (Mode::Questionnaire, K::Char('b')) => Some(A::Choice(1)),
-                (Mode::Questionnaire, K::Char(c)) => digit(c, 9).map(A::Likert),
-                (Mode::Questionnaire, K::Left) => Some(A::Prev),
-                (Mode::Questionnaire, K::Right) => Some(A::Next),
-                (Mode::Questionnaire, K::Enter) => Some(A::Confirm),
-                _ => None,
-            }
-        }
     }
 }
 
-/// The help overlay's lines: key and what it does.
-pub const HELP: [(&str, &str); 16] = [
-    ("Enter", "confirm / next (robot holds the object; start; finish)"),
-    ("1–9", "the grip region taken, in the order listed"),
-    ("u", "undo the last recorded grasp (until the next query)"),
-    ("x", "void the trial, then choose a reason (it is repeated)"),
-    ("n", "add a note (Enter saves, Esc cancels)"),
-    ("p", "pause / resume"),
-    ("Tab", "switch the joints of the particle view"),
-    ("?", "this help"),
-    ("q", "quit (asks first; the session can be resumed; or a: abort it for good)"),
-    ("Questionnaire", ""),
-    ("1–5", "answer the statement"),
-    ("← / →", "previous / next statement"),
-    ("a / b", "forced choice: Program A / Program B"),
-    ("Enter", "next; at the end, finish the session"),
-    ("Setup", ""),
-    ("e", "type an existing participant id (or 'new')"),
-];
+/// The footer's hints for a mode: (keys, what), in table order; bindings of one action
+/// with the same hint are merged ("←/→").
+pub fn hints(mode: Mode, counts: Counts) -> Vec<(String, &'static str)> {
+    let mut out: Vec<(String, &'static str)> = Vec::new();
+    for b in BINDINGS.iter().filter(|b| b.modes.contains(&mode) && !b.hint.is_empty()) {
+        let keys = key_label(b.keys, counts);
+        match out.last_mut() {
+            Some((k, hint)) if *hint == b.hint => *k = format!("{k}/{keys}"),
+            _ => out.push((keys, b.hint)),
+        }
+    }
+    out
+}
+
+/// The help overlay's sections: (heading, [(keys, what)]), from the same table.
+pub fn help(counts: Counts) -> Vec<(&'static str, Vec<(String, &'static str)>)> {
+    [(Section::Trial, "Trials"), (Section::Questionnaire, "Questionnaire"), (Section::Setup, "Setup")]
+        .into_iter()
+        .map(|(section, heading)| {
+            let mut lines: Vec<(String, &'static str)> = Vec::new();
+            for b in BINDINGS.iter().filter(|b| b.section == section && !b.help.is_empty()) {
+                let line = (key_label(b.keys, counts), b.help);
+                if !lines.contains(&line) {
+                    lines.push(line);
+                }
+            }
+            (heading, lines)
+        })
+        .collect()
+}
 
 #[cfg(test)]
 mod tests {
@@ -160,12 +380,19 @@ mod tests {
         KeyEvent::new(code, KeyModifiers::NONE)
     }
 
+    const COUNTS: Counts = Counts { regions: 2, scale_points: 5, void_reasons: 4 };
+
+    fn action_for(mode: Mode, key: KeyEvent) -> Option<Action> {
+        super::action_for(mode, key, COUNTS)
+    }
+
     #[test]
     fn trial_keys() {
         assert_eq!(action_for(Mode::Present, key(KeyCode::Enter)), Some(Action::Confirm));
         assert_eq!(action_for(Mode::Present, key(KeyCode::Char('u'))), Some(Action::Undo));
         assert_eq!(action_for(Mode::Grasp, key(KeyCode::Char('2'))), Some(Action::Region(1)));
         assert_eq!(action_for(Mode::Grasp, key(KeyCode::Char('0'))), None);
+        assert_eq!(action_for(Mode::Grasp, key(KeyCode::Char('3'))), None, "two regions offered");
         assert_eq!(action_for(Mode::Grasp, key(KeyCode::Enter)), None, "a grasp needs a region");
         assert_eq!(action_for(Mode::Present, key(KeyCode::Char('1'))), None, "no region before the query");
         for m in [Mode::Present, Mode::Grasp] {
@@ -182,6 +409,7 @@ mod tests {
     fn questionnaire_keys() {
         let q = Mode::Questionnaire;
         assert_eq!(action_for(q, key(KeyCode::Char('5'))), Some(Action::Likert(4)));
+        assert_eq!(action_for(q, key(KeyCode::Char('6'))), None, "a 5-point scale");
         assert_eq!(action_for(q, key(KeyCode::Left)), Some(Action::Prev));
         assert_eq!(action_for(q, key(KeyCode::Right)), Some(Action::Next));
         assert_eq!(action_for(q, key(KeyCode::Char('a'))), Some(Action::Choice(0)));
@@ -208,5 +436,49 @@ mod tests {
         assert_eq!(action_for(Mode::Paused, key(KeyCode::Enter)), None);
         let ctrl_c = KeyEvent::new(KeyCode::Char('c'), KeyModifiers::CONTROL);
         assert_eq!(action_for(Mode::LineEdit, ctrl_c), Some(Action::Quit));
+    }
+
+    /// The footer and the help say what the key map does: every hint's keys act in its
+    /// mode, and the digits shown are the digits taken.
+    #[test]
+    fn footer_and_help_are_the_key_map() {
+        let modes = [
+            Mode::Setup,
+            Mode::Present,
+            Mode::Grasp,
+            Mode::Questionnaire,
+            Mode::Paused,
+            Mode::Summary,
+            Mode::Help,
+            Mode::ConfirmQuit,
+            Mode::VoidReason,
+            Mode::LineEdit,
+            Mode::WriteFailed,
+        ];
+        for mode in modes {
+            let hints = hints(mode, COUNTS);
+            assert!(!hints.is_empty(), "{mode:?} has a footer");
+            for b in BINDINGS.iter().filter(|b| b.modes.contains(&mode)) {
+                let code = match b.keys {
+                    Keys::Char(c) => KeyCode::Char(c),
+                    Keys::Enter => KeyCode::Enter,
+                    Keys::Esc => KeyCode::Esc,
+                    Keys::Tab => KeyCode::Tab,
+                    Keys::Left => KeyCode::Left,
+                    Keys::Right => KeyCode::Right,
+                    Keys::Backspace => KeyCode::Backspace,
+                    Keys::Typed => KeyCode::Char('z'),
+                    Keys::Digits(_) => KeyCode::Char('1'),
+                };
+                assert!(action_for(mode, key(code)).is_some(), "{mode:?}: {:?} is bound", b.keys);
+            }
+        }
+        assert_eq!(hints(Mode::Grasp, COUNTS)[0], ("1–2".to_string(), "grip taken"));
+        assert!(hints(Mode::Questionnaire, COUNTS).contains(&("←/→".to_string(), "move")));
+        let sections = help(COUNTS);
+        let questionnaire = &sections.iter().find(|(h, _)| *h == "Questionnaire").unwrap().1;
+        assert!(questionnaire.contains(&("1–5".to_string(), "answer the statement")));
+        let with_seven = help(Counts { scale_points: 7, ..COUNTS });
+        assert!(with_seven.iter().any(|(_, l)| l.contains(&("1–7".to_string(), "answer the statement"))));
     }
 }

@@ -40,7 +40,7 @@ pub fn render(app: &App, frame: &mut Frame) {
     frame.render_widget(Paragraph::new(Line::from(Span::styled(msg, theme::instruction()))), status);
     frame.render_widget(Paragraph::new(key_hints(app)), keys);
     match &app.overlay {
-        Some(Overlay::Help) => overlays::help(frame, area),
+        Some(Overlay::Help) => overlays::help(app, frame, area),
         Some(Overlay::ConfirmQuit) => overlays::confirm_quit(app, frame, area),
         Some(Overlay::VoidReason) => overlays::void_reason(frame, area),
         Some(Overlay::Note(text)) => overlays::line_editor(frame, area, "Note (Enter saves, Esc cancels)", text),
@@ -79,45 +79,7 @@ fn hint<'a>(k: &'a str, what: &'a str) -> [Span<'a>; 2] {
 }
 
 fn key_hints(app: &App) -> Line<'static> {
-    use super::keys::Mode;
-    let pairs: &[(&str, &str)] = match app.mode() {
-        Mode::Setup => &[("Enter", "start"), ("e", "participant id"), ("?", "help"), ("q", "quit")],
-        Mode::Present => &[
-            ("Enter", "presented"),
-            ("u", "undo"),
-            ("x", "void"),
-            ("n", "note"),
-            ("p", "pause"),
-            ("Tab", "joints"),
-            ("?", "help"),
-            ("q", "quit"),
-        ],
-        Mode::Grasp => &[
-            ("1–9", "grip taken"),
-            ("x", "void"),
-            ("n", "note"),
-            ("p", "pause"),
-            ("Tab", "joints"),
-            ("?", "help"),
-            ("q", "quit"),
-        ],
-        Mode::Questionnaire => &[
-            ("1–5", "answer"),
-            ("←/→", "move"),
-            ("a/b", "choice"),
-            ("Enter", "next/finish"),
-            ("n", "note"),
-            ("?", "help"),
-            ("q", "quit"),
-        ],
-        Mode::Paused => &[("p", "resume"), ("n", "note"), ("q", "quit")],
-        Mode::Summary => &[("Enter/q", "exit")],
-        Mode::Help => &[("Esc", "close help")],
-        Mode::ConfirmQuit => &[("y", "quit"), ("n", "stay"), ("a", "abort session")],
-        Mode::VoidReason => &[("1–4", "reason"), ("Esc", "cancel")],
-        Mode::LineEdit => &[("Enter", "save"), ("Esc", "cancel")],
-        Mode::WriteFailed => &[("r", "retry the write"), ("q", "quit (resumable)")],
-    };
+    let pairs = super::keys::hints(app.mode(), app.counts());
     Line::from(
         pairs
             .iter()

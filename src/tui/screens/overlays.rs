@@ -7,7 +7,6 @@ use ratatui::widgets::{Block, Clear, Paragraph, Wrap};
 
 use crate::session::VoidReason;
 use crate::tui::app::App;
-use crate::tui::keys::HELP;
 use crate::tui::theme;
 
 fn centred(area: Rect, width: u16, height: u16) -> Rect {
@@ -25,17 +24,14 @@ fn dialog(frame: &mut Frame, area: Rect, title: &str, lines: Vec<Line>, width: u
     );
 }
 
-pub fn help(frame: &mut Frame, area: Rect) {
-    let lines: Vec<Line> = HELP
-        .iter()
-        .map(|(k, w)| {
-            if w.is_empty() {
-                Line::from(Span::styled(k.to_string(), theme::title()))
-            } else {
-                Line::from(vec![Span::styled(format!(" {k:<6} "), theme::key()), Span::raw(format!(" {w}"))])
-            }
-        })
-        .collect();
+pub fn help(app: &App, frame: &mut Frame, area: Rect) {
+    let mut lines: Vec<Line> = Vec::new();
+    for (heading, keys) in crate::tui::keys::help(app.counts()) {
+        lines.push(Line::from(Span::styled(heading.to_string(), theme::title())));
+        for (k, w) in keys {
+            lines.push(Line::from(vec![Span::styled(format!(" {k:<6} "), theme::key()), Span::raw(format!(" {w}"))]));
+        }
+    }
     dialog(frame, area, " Keys (Esc closes) ", lines, 72);
 }
 
