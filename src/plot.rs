@@ -52,13 +52,22 @@ pub fn scatter_grid(path: &Path, title: &str, panels: &[ScatterPanel], cols: usi
     for (panel, area) in panels.iter().zip(areas) {
         let xs = range(panel.groups.iter().flat_map(|g| g.points.iter().map(|p| p.0)));
         let ys = range(panel.groups.iter().flat_map(|g| g.points.iter().map(|p| p.1)));
+        let ys = ys.start..ys.end + (ys.end - ys.start) * legend_headroom(panel.groups.len());
+        let (x_span, y_span) = (xs.end - xs.start, ys.end - ys.start);
         let mut chart = ChartBuilder::on(&area)
             .margin(10)
             .x_label_area_size(40)
             .y_label_area_size(50)
             .build_cartesian_2d(xs, ys)
             .map_err(|e| err(&e))?;
-        chart.configure_mesh().x_desc(panel.x_label).y_desc(panel.y_label).draw().map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc(panel.x_label)
+            .y_desc(panel.y_label)
+            .x_label_formatter(&|x| tick_label(*x, x_span))
+            .y_label_formatter(&|y| tick_label(*y, y_span))
+            .draw()
+            .map_err(|e| err(&e))?;
         for (k, g) in panel.groups.iter().enumerate() {
             let colour = PALETTE[k % PALETTE.len()];
             chart
@@ -86,41 +95,87 @@ fn legend<'a, 'b: 'a>(chart: &mut Chart<'a, 'b>, position: SeriesLabelPosition) 
         .map_err(|e| e.to_string())
 }
 
-/// One line of a line plot: (x, mean, standard error) points.
+/// One line of a line plot: (x, mean, half-width of its band) points.
 pub struct Series<'a> {
     pub name: &'a str,
     pub points: Vec<(f64, f64, f64)>,
 }
 
-/// Mean ± standard error against x, one line and shaded band per series (as the paper's
-/// Fig. 2, 8 and 10).
-pub fn mean_se_plot(path: &Path, title: &str, x_label: &str, y_label: &str, series: &[Series]) -> Result<(), String> {
+/// A line plot of means with bands against an integer x (iterations).
+pub struct LinePlot<'a> {
+    /// Names the measure and the data (pilot or real sessions, simulated trials).
+    pub title: &'a str,
+    pub x_label: &'a str,
+    /// With its unit.
+    pub y_label: &'a str,
+    /// What the shaded band is (a legend entry): "± 1 s.e. over sessions".
+    pub band: &'a str,
+    pub series: Vec<Series<'a>>,
+}
+
+/// Tick labels with as many decimals as the ticks' spacing (about a tenth of the axis'
+/// span) needs: no "-14000.0", no "2.0" where "2" is meant.
+fn tick_label(v: f64, span: f64) -> String {
+    let step = (span / 10.0).max(1e-12);
+    let decimals = (-step.log10()).ceil().clamp(0.0, 6.0) as usize;
+    let text = format!("{v:.decimals$}");
+    // "-0" reads as a value below zero.
+    if text.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
+        text.trim_start_matches('-').into()
+    } else {
+        text
+    }
+}
+
+/// Room above the data for a legend of `entries` lines (a fraction of the data's span), so
+/// that the legend never covers a point.
+fn legend_headroom(entries: usize) -> f64 {
+    0.09 * (entries as f64 + 1.0)
+}
+
+/// Means with shaded bands against integer x, one line per series (as the paper's Fig. 2, 8
+/// and 10): ticks at the integers, the legend above the data, the band named in it.
+pub fn mean_se_plot(path: &Path, plot: &LinePlot) -> Result<(), String> {
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let root = SVGBackend::new(path, (720, 480)).into_drawing_area();
+    let root = SVGBackend::new(path, (760, 500)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
-    let x_min = series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).fold(f64::INFINITY, f64::min);
-    let x_max = series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).fold(f64::NEG_INFINITY, f64::max);
-    let xs = if x_min.is_finite() { (x_min - 0.2)..(x_max + 0.2) } else { 0.0..1.0 };
+    let finite = || plot.series.iter().flat_map(|s| &s.points).filter(|p| p.1.is_finite() && p.2.is_finite());
+    let x_min = finite().map(|p| p.0).fold(f64::INFINITY, f64::min);
+    let x_max = finite().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
+    let (x_min, x_max) = if x_min.is_finite() { (x_min.floor(), x_max.ceil()) } else { (0.0, 1.0) };
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for p in series.iter().flat_map(|s| &s.points).filter(|p| p.1.is_finite()) {
+    for p in finite() {
         lo = lo.min(p.1 - p.2);
         hi = hi.max(p.1 + p.2);
     }
     if !lo.is_finite() {
         (lo, hi) = (0.0, 1.0);
     }
-    let pad = ((hi - lo) * 0.08).max(1e-9);
+    let span = (hi - lo).max(1e-9);
+    let top = hi + span * legend_headroom(plot.series.len() + 1);
+    let bottom = lo - span * 0.05;
     let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 20))
+        .caption(plot.title, ("sans-serif", 17))
         .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(70)
-        .build_cartesian_2d(xs, (lo - pad)..(hi + pad))
+        .x_label_area_size(42)
+        .y_label_area_size(72)
+        .build_cartesian_2d(x_min - 0.3..x_max + 0.3, bottom..top)
         .map_err(|e| err(&e))?;
-    chart.configure_mesh().x_desc(x_label).y_desc(y_label).draw().map_err(|e| err(&e))?;
-    for (k, s) in series.iter().enumerate() {
+    chart
+        .configure_mesh()
+        .x_desc(plot.x_label)
+        .y_desc(plot.y_label)
+        // At most one label per integer: plotters then steps by 1, 2 or 5, all integers.
+        .x_labels(((x_max - x_min) as usize + 1).min(13))
+        .x_label_formatter(&|x| {
+            if (x - x.round()).abs() < 1e-6 { format!("{}", x.round() as i64) } else { String::new() }
+        })
+        .y_label_formatter(&|y| tick_label(*y, top - bottom))
+        .draw()
+        .map_err(|e| err(&e))?;
+    for (k, s) in plot.series.iter().enumerate() {
         let colour = PALETTE[k % PALETTE.len()];
-        let pts: Vec<_> = s.points.iter().filter(|p| p.1.is_finite()).copied().collect();
+        let pts: Vec<_> = s.points.iter().filter(|p| p.1.is_finite() && p.2.is_finite()).copied().collect();
         let mut band: Vec<(f64, f64)> = pts.iter().map(|p| (p.0, p.1 + p.2)).collect();
         band.extend(pts.iter().rev().map(|p| (p.0, p.1 - p.2)));
         chart.draw_series(std::iter::once(Polygon::new(band, colour.mix(0.15).filled()))).map_err(|e| err(&e))?;
@@ -131,11 +186,18 @@ pub fn mean_se_plot(path: &Path, title: &str, x_label: &str, y_label: &str, seri
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2)));
         chart.draw_series(pts.iter().map(|p| Circle::new((p.0, p.1), 3, colour.filled()))).map_err(|e| err(&e))?;
     }
-    // Keep the legend away from where the lines end.
-    let ends_high = series.iter().filter_map(|s| s.points.last()).map(|p| p.1).sum::<f64>()
-        / series.len().max(1) as f64
-        > (lo + hi) / 2.0;
-    legend(&mut chart, if ends_high { SeriesLabelPosition::LowerRight } else { SeriesLabelPosition::UpperRight })
+    let grey = RGBColor(120, 120, 120);
+    chart
+        .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
+        .map_err(|e| err(&e))?
+        .label(format!("shaded: {}", plot.band))
+        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], grey.mix(0.3).filled()));
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
         .map_err(|e| err(&e))?;
     root.present().map_err(|e| err(&e))?;
     Ok(())
@@ -154,12 +216,13 @@ pub fn bar_chart(
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let max = groups.iter().flat_map(|g| g.1.iter().copied()).fold(1.0f64, f64::max);
     let n = categories.len().max(1);
+    let top = max * (1.05 + legend_headroom(groups.len()));
     let mut chart = ChartBuilder::on(&root)
         .caption(title, ("sans-serif", 20))
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(60)
-        .build_cartesian_2d(0.0..n as f64, 0.0..max * 1.15)
+        .build_cartesian_2d(0.0..n as f64, 0.0..top)
         .map_err(|e| err(&e))?;
     let cats = categories.to_vec();
     chart
@@ -171,6 +234,7 @@ pub fn bar_chart(
             if (x - k as f64 - 0.5).abs() < 0.01 { cats.get(k).cloned().unwrap_or_default() } else { String::new() }
         })
         .y_desc(y_label)
+        .y_label_formatter(&|y| tick_label(*y, top))
         .draw()
         .map_err(|e| err(&e))?;
     let width = 0.8 / groups.len().max(1) as f64;
@@ -368,4 +432,18 @@ pub fn front_plot(path: &Path, title: &str, panels: &[FrontPanel]) -> Result<(),
     }
     root.present().map_err(|e| err(&e))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::tick_label;
+
+    #[test]
+    fn tick_labels_carry_the_decimals_their_spacing_needs() {
+        assert_eq!(tick_label(-14000.0, 20000.0), "-14000");
+        assert_eq!(tick_label(14.0, 18.0), "14");
+        assert_eq!(tick_label(1.5, 5.0), "1.5");
+        assert_eq!(tick_label(0.25, 0.5), "0.25");
+        assert_eq!(tick_label(-0.0001, 10.0), "0");
+    }
 }

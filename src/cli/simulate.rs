@@ -8,7 +8,7 @@ use clap::{Args, ValueEnum};
 use handover::belief::Estimate;
 use handover::ergo::LearnMask;
 use handover::experiment::{self, Arm7, PairedTest, Planar2, Scenario, Settings, SummaryRow, paired_tests, summarise};
-use handover::plot::{Series, mean_se_plot};
+use handover::plot::{LinePlot, Series, mean_se_plot};
 use handover::select::{DEFAULT_BUDGET_EPSILON, DEFAULT_HYBRID_BETA, SelectorKind, Tradeoff};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -90,11 +90,11 @@ enum ScenarioName {
 
 /// Measures plotted, with their axis labels.
 const PLOTTED: [(&str, &str); 5] = [
-    ("density_at_truth", "P(λ*) (kernel density of the belief at the truth)"),
-    ("log_density_at_truth", "log P(λ*)"),
-    ("distance_to_truth", "‖estimate − λ*‖"),
-    ("test_log_likelihood", "test-set log-likelihood of the estimate"),
-    ("true_cost", "true cost of the chosen query"),
+    ("density_at_truth", "P(λ*): kernel density of the belief at the truth"),
+    ("log_density_at_truth", "log P(λ*) (nats)"),
+    ("distance_to_truth", "‖estimate − λ*‖ (rad; weights unitless)"),
+    ("test_log_likelihood", "test-set log-likelihood of the estimate (nats)"),
+    ("true_cost", "true cost of the query answered (eq. 2, rad²)"),
 ];
 
 struct Checked {
@@ -201,16 +201,27 @@ pub fn run(args: SimulateArgs) -> Result<()> {
                         .collect(),
                 })
                 .collect();
+            // The prior's test log-likelihood is far below every later one: from iteration 1
+            // the differences between algorithms are visible (iteration 0 is in summary.csv).
+            let from = if measure == "test_log_likelihood" { 1.0 } else { 0.0 };
+            let series: Vec<Series> = series
+                .into_iter()
+                .map(|s| Series { name: s.name, points: s.points.into_iter().filter(|p| p.0 >= from).collect() })
+                .collect();
             let title = format!(
-                "{} — learning {}, {} trials × {} seeds, estimate {} (band: 95 % CI)",
+                "{}{} — simulated {}, learning {}, {} trials × {} seeds, estimate: {}",
+                measure.replace('_', " "),
+                if from > 0.0 { " (from iteration 1)" } else { "" },
                 scenario.name(),
                 settings.learn,
                 settings.trials,
                 args.seeds,
                 settings.estimate.name()
             );
-            mean_se_plot(&dir.join(format!("{measure}.svg")), &title, "iteration", label, &series)
-                .map_err(anyhow::Error::msg)?;
+            let band = if args.seeds > 1 { "95 % CI over the seeds' means" } else { "95 % CI over trials" };
+            let plot =
+                LinePlot { title: &title, x_label: "iteration (queries answered)", y_label: label, band, series };
+            mean_se_plot(&dir.join(format!("{measure}.svg")), &plot).map_err(anyhow::Error::msg)?;
         }
         eprintln!("wrote {}/{{metrics,summary,tests}}.csv and one SVG per measure", dir.display());
     }
