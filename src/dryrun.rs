@@ -9,7 +9,7 @@ use crate::kinematics::Hand;
 use crate::participant::{ScriptedParticipant, SimulatedPerson};
 use crate::protocol::{Body, Study};
 use crate::record::{RecordedSession, SubmitError};
-use crate::session::{SessionStart, Stamped, condition_order};
+use crate::session::{Event, SessionStart, Stamped, condition_order};
 use crate::{SeededRng, derive_seed};
 
 mod purpose {
@@ -112,14 +112,32 @@ pub fn now_ns() -> u64 {
     std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64)
 }
 
-/// Lets the participant answer every prompt until the session is over, waiting `pace`
-/// between actions.
+/// How long each action takes in a dry run's log time (seconds): the robot moving the object
+/// to the pose and the participant taking it, reading and answering a statement, choosing.
+/// A stated assumption, so that a dry-run log plays back in Foxglove as a session would.
+pub fn simulated_seconds(event: &Event) -> u64 {
+    match event {
+        Event::QueryPresented { .. } => 8,
+        Event::GraspRecorded { .. } => 4,
+        Event::LikertAnswered { .. } => 6,
+        Event::ForcedChoice { .. } => 10,
+        _ => 2,
+    }
+}
+
+/// Lets the participant answer every prompt until the session is over. With a `pace`, it
+/// waits that long between actions and stamps them with the clock (a rehearsal to watch);
+/// without, it does not wait and stamps each action [`simulated_seconds`] after the last one
+/// logged.
 pub fn drive(rec: &mut RecordedSession, participant: &ScriptedParticipant, pace: Duration) -> Result<(), SubmitError> {
     while let Some(event) = participant.respond(rec.session()) {
-        if !pace.is_zero() {
+        let time_ns = if pace.is_zero() {
+            rec.last_time_ns() + simulated_seconds(&event) * 1_000_000_000
+        } else {
             std::thread::sleep(pace);
-        }
-        rec.submit(Stamped { time_ns: now_ns(), event })?;
+            now_ns()
+        };
+        rec.submit(Stamped { time_ns, event })?;
     }
     Ok(())
 }

@@ -55,7 +55,15 @@ fn a_complete_session_logs_every_event_privately() {
     assert_eq!(count("/questionnaire/likert"), 8);
     assert_eq!(count("/questionnaire/choice"), 1);
     assert_eq!(count("/session/end"), 1);
-    assert_eq!(count("/belief"), 2 + 10, "the two priors and one per training response");
+    assert_eq!(
+        count("/belief/active") + count("/belief/passive"),
+        2 + 10,
+        "the two priors and one per training response, each on its condition's topic"
+    );
+    assert_eq!(count("/belief/active"), count("/belief/passive"));
+    assert_eq!(count("/human/joints"), 26);
+    assert_eq!(count("/scene/object"), 26);
+    assert_eq!(count("/test/log_likelihood"), 2, "one per condition at the end");
     assert!(log.start.pilot);
     // The seed is a u64, and also text for readers that round integers above 2^53.
     let start = &log.messages.iter().find(|m| m.topic == "/session/start").unwrap().value;

@@ -9,10 +9,8 @@ mod verify;
 
 use std::sync::Arc;
 
-use crate::belief::{Belief, TestExample, posterior_predictive_log_likelihood, test_log_likelihood};
-use crate::ergo::Observation;
+use crate::belief::{Belief, posterior_predictive_log_likelihood};
 use crate::record::{LogContents, RecordError, replay_with, study_of};
-use crate::select::OutcomeModel;
 use crate::session::{Applied, BeliefSummary, Phase, Session, SessionStart};
 
 pub use crate::stats::{Wilcoxon, mean, median, quantile, standard_error, wilcoxon_signed_rank};
@@ -88,7 +86,7 @@ pub fn analyse_and_verify(log: &LogContents, verify: bool) -> Result<(SessionAna
     let runs = log.start.condition_order.len();
     // Beliefs (and their summaries) after each training iteration, per run (index 0: the prior).
     let mut snapshots: Vec<Vec<(Belief, BeliefSummary)>> = Vec::new();
-    let mut verifier = Verifier::default();
+    let mut verifier = Verifier::new(log.start_time_ns);
     let mut rows = rows::RowCollector::default();
     let snapshot = |session: &Session, run: usize| {
         let l = &session.learners()[run];
@@ -119,19 +117,7 @@ pub fn analyse_and_verify(log: &LogContents, verify: bool) -> Result<(SessionAna
     })?;
     let differences = if verify { verifier.differences(log) } else { Vec::new() };
     let ctx = session.context();
-    let tests: Vec<TestExample> = session
-        .trials()
-        .iter()
-        .filter(|t| t.phase == Phase::Test)
-        .map(|t| {
-            let set = session.set(t.query).clone();
-            let observation = match ctx.observation {
-                OutcomeModel::Configuration => Observation::Config(t.config),
-                OutcomeModel::Region => Observation::Region(set.regions()[t.region].clone().collect()),
-            };
-            TestExample { set, observation }
-        })
-        .collect();
+    let tests = session.test_examples();
     let region_id = |t: &crate::session::TrialRecord| {
         let q = session.query(t.query);
         study.object(q).regions[q.regions[t.region]].id.clone()
@@ -144,7 +130,7 @@ pub fn analyse_and_verify(log: &LogContents, verify: bool) -> Result<(SessionAna
             (Vec::new(), Vec::new())
         } else {
             (
-                modes.iter().map(|m| test_log_likelihood(m, &tests, ctx.alpha).expect("logged indices")).collect(),
+                session.test_log_likelihoods(run, &tests),
                 beliefs
                     .iter()
                     .map(|b| posterior_predictive_log_likelihood(b, &tests, ctx.alpha).expect("logged indices"))

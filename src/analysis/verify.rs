@@ -41,17 +41,22 @@ fn first_difference(path: &str, a: &Value, b: &Value) -> Option<String> {
 }
 
 /// Collects, during a replay, every message the log should hold.
-#[derive(Default)]
 pub(crate) struct Verifier {
     expected: BTreeMap<u32, Vec<(Topic, Value)>>,
+    /// The log time of the start (the start's derived messages carry it).
+    start_time_ns: u64,
 }
 
 impl Verifier {
+    pub fn new(start_time_ns: u64) -> Self {
+        Self { expected: BTreeMap::new(), start_time_ns }
+    }
+
     /// Records the messages of the start (no step) or of one replayed event.
     pub fn visit(&mut self, session: &Session, step: Option<ReplayStep>) {
         match step {
             None => {
-                self.expected.insert(0, start_messages(session));
+                self.expected.insert(0, start_messages(session, self.start_time_ns));
             }
             Some((index, stamped, applied)) => {
                 self.expected.insert(index as u32, messages_for(stamped, index, applied, session));

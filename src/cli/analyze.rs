@@ -10,7 +10,7 @@ use handover::analysis::{
     StudySummary, alpha_summary, analyse_and_verify, objects_by_body, rfc3339_ms, summarise, trial_columns,
 };
 use handover::participant::has_withdrawn;
-use handover::plot::{PooledEvidence, Series, alpha_plot, bar_chart, mean_se_plot};
+use handover::plot::{LinePlot, PooledEvidence, Series, alpha_plot, bar_chart, mean_se_plot};
 use handover::record::{LogContents, mcap_files, read_log, study_of};
 use handover::session::program_letter;
 use handover::study_dir::StudyDirs;
@@ -750,8 +750,18 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &Alph
         } else {
             "test-set log-likelihood of the posterior mean"
         };
-        mean_se_plot(&dir.join(file), &format!("Fig. 10 — {} sessions", s.sessions), "training iteration", y, &series)
-            .map_err(anyhow::Error::msg)?;
+        let kind = if group.first().is_some_and(|a| a.log.start.pilot) { "pilot (simulated)" } else { "real" };
+        let measure = if predictive { "posterior-predictive" } else { "posterior mean's" };
+        let title = format!("Fig. 10: {measure} test log-likelihood — {} {kind} sessions", s.sessions);
+        let y_label = format!("{y} (nats)");
+        let plot = LinePlot {
+            title: &title,
+            x_label: "training iteration (handovers learned from)",
+            y_label: &y_label,
+            band: "± 1 s.e. over sessions",
+            series,
+        };
+        mean_se_plot(&dir.join(file), &plot).map_err(anyhow::Error::msg)?;
     }
     let objects: Vec<String> = {
         let mut v: Vec<String> = s.objects.values().flat_map(|m| m.keys().cloned()).collect();
@@ -763,7 +773,9 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &Alph
         .iter()
         .map(|c| (c.clone(), objects.iter().map(|o| s.objects[c].get(o).copied().unwrap_or(0) as f64).collect()))
         .collect();
-    bar_chart(&dir.join("objects.svg"), "Objects offered in training", "times offered", &objects, &groups)
+    let kind = if group.first().is_some_and(|a| a.log.start.pilot) { "pilot (simulated)" } else { "real" };
+    let title = format!("Objects offered in training, by condition — {} {kind} sessions", s.sessions);
+    bar_chart(&dir.join("objects.svg"), &title, "times offered (training trials)", &objects, &groups)
         .map_err(anyhow::Error::msg)?;
     std::fs::write(dir.join("table1.md"), format!("# Table I — {} sessions\n\n{}", s.sessions, table1_markdown(s)))?;
     write_alpha(dir, alpha)

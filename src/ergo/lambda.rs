@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 /// λ = [q*, w]: the most comfortable configuration and the per-joint weights (eq. 2).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Lambda {
     pub q_star: Vec<f64>,
     pub w: Vec<f64>,

@@ -10,7 +10,7 @@ pub mod swivel_ik;
 pub mod tsr;
 
 pub use feasible::{ArmFeasibleSet, Discretisation, FeasibleConfig, feasible_set};
-pub use human_arm::{ArmConfig, ArmError, ArmFrames, Hand, HumanArm, JOINT_NAMES, JOINTS, mirror};
+pub use human_arm::{ArmConfig, ArmError, ArmFrames, Hand, HumanArm, JOINT_NAMES, JOINTS, UPPER_ARM_FRACTION, mirror};
 pub use object::{GripRegion, Object};
 pub use planar::{PlanarArm, PlanarConfig, PlanarObject};
 pub use swivel_ik::{IkSolution, swivel_grid};

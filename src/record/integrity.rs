@@ -95,7 +95,7 @@ pub fn check_declarations(d: &Declared, same_version: bool) -> Vec<String> {
                 problems.push(format!("{topic}: schema name '{}', expected '{want_name}'", name.escape_debug()));
             }
             if same_version {
-                if data.as_slice() != want.to_string().as_bytes() {
+                if data.as_slice() != want.as_bytes() {
                     problems.push(format!("{topic}: the schema differs from the one this version writes"));
                 }
             } else if serde_json::from_slice::<serde_json::Value>(data).map_or(true, |v| !v.is_object()) {

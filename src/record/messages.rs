@@ -1,11 +1,17 @@
 //! The messages each event is logged as, and the event each event message is read back as.
 
-use nalgebra::UnitQuaternion;
-use serde_json::{Value, json};
+use serde_json::Value;
 
 use super::Topic;
+use super::foxglove::{self, PoseInFrame, SceneUpdate, Time};
+use super::scene;
+use super::types::{
+    BeliefMessage, EndStatus, ForcedChoice, Interval, JointAngles, LikertAnswer, QueryScore, RobotPose, SessionEnd,
+    SessionMark, SessionStartMessage, TestLogLikelihood, TrialFields, TrialQuery, TrialResponse, TrialUndo, TrialVoid,
+    program_index,
+};
 use crate::kinematics::ArmConfig;
-use crate::session::{Applied, BeliefSummary, Event, Session, Stamped, TrialView, VoidReason, program_letter};
+use crate::session::{Applied, BeliefSummary, Event, Session, Stamped, TrialView, program_letter};
 
 /// The topic an event is logged on.
 pub fn topic_of(e: &Event) -> Topic {
@@ -23,222 +29,258 @@ pub fn topic_of(e: &Event) -> Topic {
     }
 }
 
-fn foxglove_time(ns: u64) -> Value {
-    json!({"sec": ns / 1_000_000_000, "nsec": ns % 1_000_000_000})
+fn value<T: serde::Serialize>(m: &T) -> Value {
+    serde_json::to_value(m).expect("a message struct serialises to JSON")
 }
 
-fn trial_fields(index: usize, view: &TrialView, session: &Session) -> Value {
+fn trial_fields(index: usize, view: &TrialView, session: &Session) -> TrialFields {
     let q = session.query(view.query);
-    let mut v = json!({
-        "event_index": index,
-        "phase": view.phase.name(),
-        "trial": view.trial,
-        "query": q.query.id,
-        "object": q.query.object,
-    });
-    if let Some(c) = view.condition {
-        v["condition"] = json!(c.name());
+    TrialFields {
+        event_index: index as u32,
+        phase: view.phase.into(),
+        condition: view.condition.map(|c| c.name().to_string()),
+        program: view.program.map(program_letter),
+        trial: view.trial as u32,
+        query: q.query.id.clone(),
+        object: q.query.object.clone(),
     }
-    if let Some(p) = view.program {
-        v["program"] = json!(program_letter(p));
-    }
-    v
 }
 
-fn belief_message(index: usize, run: usize, b: &BeliefSummary, session: &Session) -> Value {
-    json!({
-        "event_index": index,
-        "condition": session.learners()[run].condition.name(),
-        "program": program_letter(run),
-        "iteration": b.iteration,
-        "observation": session.context().observation.name(),
-        "mean": {"q_star": b.mean.q_star, "w": b.mean.w},
-        "map": {"q_star": b.map.q_star, "w": b.map.w},
-        "ci90": {
-            "low": {"q_star": b.ci_low.q_star, "w": b.ci_low.w},
-            "high": {"q_star": b.ci_high.q_star, "w": b.ci_high.w}
-        },
-        "grid_mode": {"q_star": b.grid_mode.q_star, "w": b.grid_mode.w},
-        "entropy": b.entropy,
-        "ess": b.ess,
-    })
+fn belief_message(index: usize, run: usize, b: &BeliefSummary, session: &Session) -> (Topic, Value) {
+    let condition = session.learners()[run].condition;
+    let m = BeliefMessage {
+        event_index: index as u32,
+        condition: condition.name().to_string(),
+        program: program_letter(run),
+        iteration: b.iteration as u32,
+        observation: session.context().observation.name().to_string(),
+        mean: b.mean.clone(),
+        map: b.map.clone(),
+        ci90: Interval { low: b.ci_low.clone(), high: b.ci_high.clone() },
+        grid_mode: b.grid_mode.clone(),
+        entropy: b.entropy,
+        ess: b.ess,
+    };
+    (Topic::Belief(condition), value(&m))
 }
 
-/// The messages of a session's start: `/session/start` and the `/belief` of both
-/// conditions' priors.
-pub fn start_messages(session: &Session) -> Vec<(Topic, Value)> {
-    let mut start = serde_json::to_value(session.start()).expect("a session start serialises");
-    start["event_index"] = Value::from(0);
-    // JavaScript (Foxglove) reads integers above 2^53 rounded: the seed as text too.
-    start["seed_decimal"] = Value::from(session.start().seed.to_string());
-    let mut out = vec![(Topic::SessionStart, start)];
+/// The messages of a session's start: `/session/start`, the frames and the body, and the
+/// `/belief/<condition>` of both conditions' priors.
+pub fn start_messages(session: &Session, time_ns: u64) -> Vec<(Topic, Value)> {
+    let start = SessionStartMessage {
+        event_index: 0,
+        start: session.start().clone(),
+        seed_decimal: Some(session.start().seed.to_string()),
+    };
+    let arm = &session.study().arm;
+    let mut out = vec![
+        (Topic::SessionStart, value(&start)),
+        (Topic::Transforms, value(&scene::start_transforms(time_ns, arm))),
+        (Topic::HumanArm, value(&SceneUpdate { deletions: Vec::new(), entities: vec![scene::body(time_ns, arm)] })),
+    ];
     out.extend(
-        (0..session.learners().len())
-            .map(|run| (Topic::Belief, belief_message(0, run, &session.learners()[run].summary, session))),
+        (0..session.learners().len()).map(|run| belief_message(0, run, &session.learners()[run].summary, session)),
     );
     out
 }
 
-fn arm_message(time_ns: u64, session: &Session, q: &ArmConfig) -> Value {
-    let pts: Vec<Value> = session.study().arm.points(q).iter().map(|p| json!({"x": p.x, "y": p.y, "z": p.z})).collect();
-    let identity =
-        json!({"position": {"x": 0.0, "y": 0.0, "z": 0.0}, "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}});
-    json!({
-        "deletions": [],
-        "entities": [{
-            "timestamp": foxglove_time(time_ns),
-            "frame_id": "shoulder",
-            "id": "human_arm",
-            "lifetime": {"sec": 0, "nsec": 0},
-            "frame_locked": false,
-            "metadata": [],
-            "arrows": [], "cubes": [], "spheres": [], "cylinders": [],
-            "lines": [{
-                "type": 0,
-                "pose": identity,
-                "thickness": 0.03,
-                "scale_invariant": false,
-                "points": pts,
-                "color": {"r": 0.9, "g": 0.6, "b": 0.2, "a": 1.0},
-                "colors": [],
-                "indices": []
-            }],
-            "triangles": [], "texts": [], "models": []
-        }]
-    })
+fn region_labels(session: &Session, view: &TrialView) -> Vec<(String, String)> {
+    let q = session.query(view.query);
+    let object = session.study().object(q);
+    q.regions.iter().map(|&r| (object.regions[r].id.clone(), object.regions[r].label.clone())).collect()
 }
 
 /// Every message of one applied event.
 pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Session) -> Vec<(Topic, Value)> {
     let mut out = Vec::new();
+    let study = session.study();
     match (&s.event, applied) {
         (Event::QueryPresented { .. }, Applied::Presented { view, scores }) => {
             let q = session.query(view.query);
-            let object = session.study().object(q);
-            let mut v = trial_fields(index, view, session);
-            v["label"] = json!(q.query.label);
-            v["robot_pose"] = json!({"frame": "shoulder", "position": q.pose.position, "rpy_deg": q.pose.rpy_deg});
-            v["regions"] = json!(q.regions.iter().map(|&r| object.regions[r].id.clone()).collect::<Vec<_>>());
-            v["scores"] = json!(
-                scores
+            let (regions, region_labels): (Vec<_>, Vec<_>) = region_labels(session, view).into_iter().unzip();
+            let m = TrialQuery {
+                trial: trial_fields(index, view, session),
+                label: q.query.label.clone(),
+                robot_pose: RobotPose {
+                    frame: scene::SHOULDER.into(),
+                    position: q.pose.position,
+                    rpy_deg: q.pose.rpy_deg,
+                },
+                regions,
+                region_labels,
+                scores: scores
                     .iter()
-                    .zip(&session.study().training)
-                    .map(|(s, m)| json!({"query": m.query.id, "information_gain": s.information_gain, "expected_cost": s.expected_cost}))
-                    .collect::<Vec<_>>()
-            );
-            out.push((Topic::TrialQuery, v));
-            let [r, p, y] = q.pose.rpy_deg.map(f64::to_radians);
-            let o = UnitQuaternion::from_euler_angles(r, p, y);
-            let [x, yy, z] = q.pose.position;
-            out.push((
-                Topic::RobotHandoverPose,
-                json!({
-                    "timestamp": foxglove_time(s.time_ns),
-                    "frame_id": "shoulder",
-                    "pose": {"position": {"x": x, "y": yy, "z": z},
-                             "orientation": {"x": o.i, "y": o.j, "z": o.k, "w": o.w}}
-                }),
-            ));
+                    .zip(&study.training)
+                    .map(|(s, m)| QueryScore {
+                        query: m.query.id.clone(),
+                        information_gain: s.information_gain,
+                        expected_cost: s.expected_cost,
+                    })
+                    .collect(),
+            };
+            out.push((Topic::TrialQuery, value(&m)));
+            let pose = PoseInFrame {
+                timestamp: Time::from_ns(s.time_ns),
+                frame_id: scene::SHOULDER.into(),
+                pose: foxglove::Pose::from_isometry(&q.pose.to_isometry()),
+            };
+            out.push((Topic::RobotHandoverPose, value(&pose)));
+            out.push((Topic::Transforms, value(&scene::query_transforms(s.time_ns, &study.arm, q))));
+            out.push((Topic::ObjectScene, value(&scene::object(s.time_ns, study.object(q), q))));
         }
         (Event::GraspRecorded { region }, Applied::Responded { view, record, belief }) => {
-            let q: ArmConfig = session.set(view.query).configs().config(record.config).try_into().expect("7 joints");
-            let mut v = trial_fields(index, view, session);
-            v["region"] = json!(region);
-            v["config_index"] = json!(record.config);
-            v["configuration"] = json!(q);
-            out.push((Topic::TrialResponse, v));
-            out.push((Topic::HumanArm, arm_message(s.time_ns, session, &q)));
+            let configuration = session.set(view.query).configs().config(record.config);
+            let q: ArmConfig = std::array::from_fn(|j| configuration.get(j).copied().unwrap_or(0.0));
+            let label = region_labels(session, view).into_iter().find(|(id, _)| id == region).map(|(_, l)| l);
+            let m = TrialResponse {
+                trial: trial_fields(index, view, session),
+                region: region.clone(),
+                region_label: label,
+                config_index: record.config as u32,
+                configuration: configuration.to_vec(),
+            };
+            out.push((Topic::TrialResponse, value(&m)));
+            out.push((Topic::HumanArm, value(&scene::arm(s.time_ns, &study.arm, &q))));
+            let joints = JointAngles {
+                trial: trial_fields(index, view, session),
+                config_index: record.config as u32,
+                deg: q.map(f64::to_degrees).into(),
+                rad: q.into(),
+            };
+            out.push((Topic::HumanJoints, value(&joints)));
             if let (Some(b), Some(run)) = (belief, view.program) {
-                out.push((Topic::Belief, belief_message(index, run, b, session)));
+                out.push(belief_message(index, run, b, session));
             }
         }
         (Event::TrialVoided { reason, detail }, Applied::Voided { view, retracted }) => {
-            let mut v = trial_fields(index, view, session);
-            v["reason"] = serde_json::to_value(reason).expect("serialisable");
-            v["detail"] = json!(detail);
-            v["retracted"] = json!(retracted);
-            out.push((Topic::TrialVoid, v));
+            let m = TrialVoid {
+                trial: trial_fields(index, view, session),
+                reason: *reason,
+                detail: detail.clone(),
+                retracted: *retracted,
+            };
+            out.push((Topic::TrialVoid, value(&m)));
         }
         (Event::GraspUndone, Applied::Undone { view, belief }) => {
-            out.push((Topic::TrialUndo, trial_fields(index, view, session)));
+            out.push((Topic::TrialUndo, value(&TrialUndo { trial: trial_fields(index, view, session) })));
             if let (Some(b), Some(run)) = (belief, view.program) {
-                out.push((Topic::Belief, belief_message(index, run, b, session)));
+                out.push(belief_message(index, run, b, session));
             }
         }
-        (Event::Note { text }, _) => out.push((
-            Topic::Notes,
-            json!({"timestamp": foxglove_time(s.time_ns), "level": 2, "message": text, "name": "operator",
-                   "file": "", "line": 0, "event_index": index}),
-        )),
-        (Event::Paused, _) => out.push((Topic::SessionPause, json!({"event_index": index}))),
-        (Event::Resumed, _) => out.push((Topic::SessionResume, json!({"event_index": index}))),
-        (Event::LikertAnswered { program, item, value }, _) => {
-            let qn = &session.study().protocol.questionnaire;
-            let it = qn.items.iter().find(|i| i.id == *item).expect("applied: a known item");
+        (Event::Note { text }, _) => {
+            let m = foxglove::Log {
+                timestamp: Time::from_ns(s.time_ns),
+                level: 2,
+                message: text.clone(),
+                name: "operator".into(),
+                file: String::new(),
+                line: 0,
+            };
+            out.push((Topic::Notes, value(&m)));
+        }
+        (Event::Paused, _) => out.push((Topic::SessionPause, value(&SessionMark { event_index: index as u32 }))),
+        (Event::Resumed, _) => out.push((Topic::SessionResume, value(&SessionMark { event_index: index as u32 }))),
+        (Event::LikertAnswered { program, item, value: answer }, _) => {
+            let qn = &study.protocol.questionnaire;
             let label = &session.start().program_labels[*program];
+            let m = LikertAnswer {
+                event_index: index as u32,
+                program: program_letter(*program),
+                program_label: label.clone(),
+                condition: session.learners()[*program].condition.name().to_string(),
+                item: item.clone(),
+                statement: qn
+                    .items
+                    .iter()
+                    .find(|i| i.id == *item)
+                    .map(|i| i.statement.replace("{program}", label))
+                    .unwrap_or_default(),
+                value: *answer,
+                label: qn.scale.iter().find(|p| p.value == *answer).map(|p| p.label.clone()).unwrap_or_default(),
+            };
+            out.push((Topic::QuestionnaireLikert, value(&m)));
+        }
+        (Event::ForcedChoice { program }, _) => {
+            let m = ForcedChoice {
+                event_index: index as u32,
+                program: program_letter(*program),
+                program_label: session.start().program_labels[*program].clone(),
+                condition: session.learners()[*program].condition.name().to_string(),
+                question: study.protocol.questionnaire.forced_choice.clone(),
+            };
+            out.push((Topic::QuestionnaireChoice, value(&m)));
+        }
+        (Event::Ended, _) => {
             out.push((
-                Topic::QuestionnaireLikert,
-                json!({
-                    "event_index": index,
-                    "program": program_letter(*program),
-                    "program_label": label,
-                    "condition": session.learners()[*program].condition.name(),
-                    "item": item,
-                    "statement": it.statement.replace("{program}", label),
-                    "value": value,
-                    "label": qn.scale.iter().find(|p| p.value == *value).map(|p| p.label.clone()).unwrap_or_default(),
-                }),
+                Topic::SessionEnd,
+                value(&SessionEnd { event_index: index as u32, status: EndStatus::Completed, reason: None }),
             ));
+            let tests = session.test_examples();
+            for run in 0..session.learners().len() {
+                let log_likelihood = session.test_log_likelihoods(run, &tests);
+                if log_likelihood.is_empty() {
+                    continue;
+                }
+                let m = TestLogLikelihood {
+                    event_index: index as u32,
+                    condition: session.learners()[run].condition.name().to_string(),
+                    program: program_letter(run),
+                    log_likelihood,
+                    test_trials: tests.len() as u32,
+                };
+                out.push((Topic::TestLogLikelihood, value(&m)));
+            }
         }
-        (Event::ForcedChoice { program }, _) => out.push((
-            Topic::QuestionnaireChoice,
-            json!({
-                "event_index": index,
-                "program": program_letter(*program),
-                "program_label": session.start().program_labels[*program],
-                "condition": session.learners()[*program].condition.name(),
-                "question": session.study().protocol.questionnaire.forced_choice,
-            }),
+        (Event::Aborted { reason }, _) => out.push((
+            Topic::SessionEnd,
+            value(&SessionEnd { event_index: index as u32, status: EndStatus::Aborted, reason: Some(reason.clone()) }),
         )),
-        (Event::Ended, _) => out.push((Topic::SessionEnd, json!({"event_index": index, "status": "completed"}))),
-        (Event::Aborted { reason }, _) => {
-            out.push((Topic::SessionEnd, json!({"event_index": index, "status": "aborted", "reason": reason})))
-        }
-        (e, a) => unreachable!("event {e:?} applied as {a:?}"),
+        // An event is logged with what the session made of it; no other pairs arise.
+        _ => {}
     }
     out
 }
 
-fn program_index(v: &Value) -> Option<usize> {
-    let s = v.as_str()?;
-    let c = s.bytes().next()?;
-    (s.len() == 1 && c.is_ascii_uppercase()).then(|| (c - b'A') as usize)
+fn typed<T: serde::de::DeserializeOwned>(v: &Value) -> Option<T> {
+    serde_json::from_value(v.clone()).ok()
 }
 
 /// The event an event message records (None if it is malformed).
 pub fn event_from_message(topic: Topic, v: &Value) -> Option<Event> {
-    let s = |k: &str| v.get(k).and_then(Value::as_str).map(String::from);
     Some(match topic {
-        Topic::TrialQuery => Event::QueryPresented { query: s("query")? },
-        Topic::TrialResponse => Event::GraspRecorded { region: s("region")? },
-        Topic::TrialVoid => Event::TrialVoided {
-            reason: serde_json::from_value::<VoidReason>(v.get("reason")?.clone()).ok()?,
-            detail: s("detail").unwrap_or_default(),
-        },
-        Topic::TrialUndo => Event::GraspUndone,
-        Topic::Notes => Event::Note { text: s("message")? },
-        Topic::SessionPause => Event::Paused,
-        Topic::SessionResume => Event::Resumed,
-        Topic::QuestionnaireLikert => Event::LikertAnswered {
-            program: program_index(v.get("program")?)?,
-            item: s("item")?,
-            value: v.get("value")?.as_i64()?,
-        },
-        Topic::QuestionnaireChoice => Event::ForcedChoice { program: program_index(v.get("program")?)? },
-        Topic::SessionEnd => match s("status")?.as_str() {
-            "completed" => Event::Ended,
-            _ => Event::Aborted { reason: s("reason").unwrap_or_default() },
-        },
+        Topic::TrialQuery => Event::QueryPresented { query: typed::<TrialQuery>(v)?.trial.query },
+        Topic::TrialResponse => Event::GraspRecorded { region: typed::<TrialResponse>(v)?.region },
+        Topic::TrialVoid => {
+            let m = typed::<TrialVoid>(v)?;
+            Event::TrialVoided { reason: m.reason, detail: m.detail }
+        }
+        Topic::TrialUndo => {
+            typed::<TrialUndo>(v)?;
+            Event::GraspUndone
+        }
+        Topic::Notes => Event::Note { text: typed::<foxglove::Log>(v)?.message },
+        Topic::SessionPause => {
+            typed::<SessionMark>(v)?;
+            Event::Paused
+        }
+        Topic::SessionResume => {
+            typed::<SessionMark>(v)?;
+            Event::Resumed
+        }
+        Topic::QuestionnaireLikert => {
+            let m = typed::<LikertAnswer>(v)?;
+            Event::LikertAnswered { program: program_index(&m.program)?, item: m.item, value: m.value }
+        }
+        Topic::QuestionnaireChoice => {
+            Event::ForcedChoice { program: program_index(&typed::<ForcedChoice>(v)?.program)? }
+        }
+        Topic::SessionEnd => {
+            let m = typed::<SessionEnd>(v)?;
+            match m.status {
+                EndStatus::Completed => Event::Ended,
+                EndStatus::Aborted => Event::Aborted { reason: m.reason.unwrap_or_default() },
+            }
+        }
         _ => return None,
     })
 }

@@ -2,10 +2,13 @@
 //! unchunked and synced to disk after every event, so that a crash loses nothing. Also the
 //! reader (tolerant of a truncated tail) and the replay that rebuilds a session from a log.
 
+pub mod foxglove;
 mod integrity;
 mod messages;
+mod scene;
 mod schemas;
 mod topic;
+pub mod types;
 mod writer;
 
 use std::collections::HashMap;
@@ -80,6 +83,20 @@ pub fn continuation_path(old: &LogContents, time: chrono::DateTime<chrono::Utc>)
 
 /// Creates `path` owner-only, or, if that name is taken, `<stem>-2.mcap`, `-3`, … (two
 /// consoles started in the same second each get their own file; nothing is overwritten).
+/// When a log file was created, from the name [`log_path_in`] and [`create_unique`] give it:
+/// (`YYYYMMDDTHHMMSSZ`, the `-k` suffix of a name taken in the same second, 1 without).
+fn created_key(path: &Path) -> Option<(String, u32)> {
+    let stem = path.file_stem()?.to_str()?;
+    let (_, stamp) = stem.rsplit_once('_')?;
+    let (time, k) = match stamp.split_once('-') {
+        Some((t, k)) => (t, k.parse().ok()?),
+        None => (stamp, 1),
+    };
+    let digits = |s: &str| s.bytes().all(|b| b.is_ascii_digit());
+    (time.len() == 16 && digits(&time[..8]) && &time[8..9] == "T" && digits(&time[9..15]) && time.ends_with('Z'))
+        .then(|| (time.to_string(), k))
+}
+
 fn create_unique(path: &Path) -> std::io::Result<(PathBuf, File)> {
     let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     let mut candidate = path.to_path_buf();
@@ -104,6 +121,8 @@ pub struct Recorder {
     channels: HashMap<Topic, u16>,
     /// Index of the last event on disk.
     last_index: usize,
+    /// Log time of the last message on disk.
+    last_time_ns: u64,
 }
 
 impl Recorder {
@@ -139,14 +158,17 @@ impl Recorder {
         let library = format!("handover {}", env!("CARGO_PKG_VERSION"));
         let mut writer = McapWriter::new(sink, &library).map_err(commit_err(path, 0))?;
         let mut channels = HashMap::new();
-        for topic in Topic::ALL {
+        let conditions = &session.start().condition_order;
+        let mut schema_ids: HashMap<&str, u16> = HashMap::new();
+        for topic in Topic::ALL.into_iter().filter(|t| t.used_by(conditions)) {
             let (name, schema) = schema(topic);
-            let sid = writer.add_schema(name, "jsonschema", schema.to_string().as_bytes());
+            let sid =
+                *schema_ids.entry(name).or_insert_with(|| writer.add_schema(name, "jsonschema", schema.as_bytes()));
             channels.insert(topic, writer.add_channel(sid, topic.name(), "json"));
         }
         writer.attach(time_ns, time_ns, PROTOCOL_ATTACHMENT, "application/json", protocol_text.as_bytes());
-        let mut rec = Self { path: path.to_path_buf(), writer, channels, last_index: 0 };
-        rec.write(&messages::start_messages(session), 0, time_ns)?;
+        let mut rec = Self { path: path.to_path_buf(), writer, channels, last_index: 0, last_time_ns: time_ns };
+        rec.write(&messages::start_messages(session, time_ns), 0, time_ns)?;
         Ok(rec)
     }
 
@@ -169,8 +191,17 @@ impl Recorder {
     pub fn record(&mut self, stamped: &Stamped, applied: &Applied, session: &Session) -> Result<(), RecordError> {
         let index = self.last_index + 1;
         let msgs = messages_for(stamped, index, applied, session);
+        let topic = messages::topic_of(&stamped.event);
+        if !msgs.iter().any(|(t, _)| *t == topic) {
+            // An event is never dropped: one the log cannot hold stops the session.
+            return Err(RecordError::Io {
+                path: self.path.clone(),
+                source: std::io::Error::other(format!("the event {:?} was applied as {applied:?}", stamped.event)),
+            });
+        }
         self.write(&msgs, index as u32, stamped.time_ns)?;
         self.last_index = index;
+        self.last_time_ns = stamped.time_ns;
         Ok(())
     }
 
@@ -181,7 +212,10 @@ impl Recorder {
     fn write(&mut self, msgs: &[(Topic, Value)], sequence: u32, time_ns: u64) -> Result<(), RecordError> {
         for (topic, value) in msgs {
             let data = serde_json::to_vec(value).map_err(|e| self.not_serialisable(e))?;
-            let channel = self.channels[topic];
+            let Some(&channel) = self.channels.get(topic) else {
+                let why = format!("{topic} has no channel in this log");
+                return Err(RecordError::Io { path: self.path.clone(), source: std::io::Error::other(why) });
+            };
             self.writer.message(&writer::Message { channel, sequence, log_time: time_ns, data: &data });
         }
         self.writer.commit().map_err(commit_err(&self.path, self.last_index))
@@ -498,6 +532,11 @@ impl RecordedSession {
         &self.session
     }
 
+    /// Log time of the last event on disk (of the start before any).
+    pub fn last_time_ns(&self) -> u64 {
+        self.recorder.last_time_ns
+    }
+
     pub fn path(&self) -> &Path {
         self.recorder.path()
     }
@@ -553,11 +592,13 @@ pub fn lineage(log: &LogContents) -> Lineage {
     let mut seen = std::collections::HashSet::new();
     loop {
         let current = newest.map_or_else(|| file_name(&log.path), |l| file_name(&l.path));
-        // Of several continuations (a fork), the one written last.
+        // Of several continuations (a fork), the one created last: by the UTC time its name
+        // was given (a dry run's log times are simulated and say nothing of when a file was
+        // written), then by its last log time.
         let next = children(&current)
             .into_iter()
             .filter(|l| seen.insert(l.path.clone()))
-            .max_by_key(|l| (l.messages.last().map_or(0, |m| m.log_time), l.path.clone()));
+            .max_by_key(|l| (created_key(&l.path), l.messages.last().map_or(0, |m| m.log_time), l.path.clone()));
         match next {
             Some(l) => newest = Some(l),
             None => break,

@@ -5,6 +5,7 @@ use super::*;
 use crate::dryrun::plan;
 use crate::participant::ScriptedParticipant;
 use crate::protocol::DEFAULT_PROTOCOL;
+use crate::session::VoidReason;
 
 /// A disk in memory that can fill up: a write past `capacity` writes what fits and fails
 /// with ENOSPC, as a full file system does.
@@ -107,4 +108,161 @@ fn a_failed_write_changes_nothing_and_a_retry_logs_the_event_once() {
         .collect();
     assert_eq!(indices, vec![1, 2, 3, 4, 5], "one message per event, indices without gaps");
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Reads a logged message back into the struct of its topic and writes it again.
+fn read_back(topic: Topic, v: &Value) -> Result<Value, serde_json::Error> {
+    use super::foxglove as fx;
+    use super::types as t;
+    fn again<T: serde::de::DeserializeOwned + serde::Serialize>(v: &Value) -> Result<Value, serde_json::Error> {
+        serde_json::to_value(serde_json::from_value::<T>(v.clone())?)
+    }
+    match topic {
+        Topic::SessionStart => again::<t::SessionStartMessage>(v),
+        Topic::TrialQuery => again::<t::TrialQuery>(v),
+        Topic::TrialResponse => again::<t::TrialResponse>(v),
+        Topic::TrialVoid => again::<t::TrialVoid>(v),
+        Topic::TrialUndo => again::<t::TrialUndo>(v),
+        Topic::Belief(_) => again::<t::BeliefMessage>(v),
+        Topic::QuestionnaireLikert => again::<t::LikertAnswer>(v),
+        Topic::QuestionnaireChoice => again::<t::ForcedChoice>(v),
+        Topic::SessionPause | Topic::SessionResume => again::<t::SessionMark>(v),
+        Topic::SessionEnd => again::<t::SessionEnd>(v),
+        Topic::HumanJoints => again::<t::JointAngles>(v),
+        Topic::TestLogLikelihood => again::<t::TestLogLikelihood>(v),
+        Topic::RobotHandoverPose => again::<fx::PoseInFrame>(v),
+        Topic::HumanArm | Topic::ObjectScene => again::<fx::SceneUpdate>(v),
+        Topic::Transforms => again::<fx::FrameTransforms>(v),
+        Topic::Notes => again::<fx::Log>(v),
+    }
+}
+
+/// A whole session with every kind of event: each message validates against the schema its
+/// channel embeds (Foxglove's own for `foxglove.*`) and reads back into the same value.
+#[test]
+fn every_logged_message_validates_against_its_schema_and_reads_back() {
+    let (study, text) = small_study();
+    let p = plan(&study, 9, 0, None, "2026-11-22T00:00:00Z".into());
+    let dir = std::env::temp_dir().join(format!("handover-readback-{}", std::process::id()));
+    let path = dir.join("p_20261122T000000Z.mcap");
+    let session = Session::new(Arc::clone(&study), p.start.clone()).unwrap();
+    let mut rec = RecordedSession::create(&path, &text, session, 1_000).unwrap();
+    let mut t = 1_000;
+    let mut submit = |rec: &mut RecordedSession, event: Event| {
+        t += 1_000_000_000;
+        rec.submit(Stamped { time_ns: t, event }).unwrap();
+    };
+    let (mut step, mut voided) = (0, false);
+    while !matches!(rec.session().prompt(), crate::session::Prompt::Done { .. }) {
+        let e = p.participant.respond(rec.session()).unwrap();
+        let response = matches!(e, Event::GraspRecorded { .. });
+        submit(&mut rec, e);
+        step += 1;
+        match step {
+            2 => {
+                submit(&mut rec, Event::GraspUndone);
+                submit(&mut rec, Event::Note { text: "participant asked to repeat".into() });
+            }
+            4.. if response && !voided => {
+                voided = true;
+                submit(&mut rec, Event::TrialVoided { reason: VoidReason::Dropped, detail: "slipped".into() })
+            }
+            6 => {
+                submit(&mut rec, Event::Paused);
+                submit(&mut rec, Event::Resumed);
+            }
+            _ => {}
+        }
+    }
+    let path = rec.finish().unwrap();
+    let log = read_log(&path).unwrap();
+    let mut schemas: HashMap<String, jsonschema::Validator> = HashMap::new();
+    for topic in Topic::ALL.into_iter().filter(|t| t.used_by(&log.start.condition_order)) {
+        let (_, text) = schema(topic);
+        let v: Value = serde_json::from_str(&text).unwrap();
+        schemas.insert(topic.name().to_string(), jsonschema::validator_for(&v).unwrap());
+    }
+    let mut seen = std::collections::BTreeSet::new();
+    for m in &log.messages {
+        let topic = Topic::from_name(&m.topic).unwrap();
+        seen.insert(topic);
+        let errors: Vec<String> = schemas[&m.topic].iter_errors(&m.value).map(|e| e.to_string()).collect();
+        assert!(errors.is_empty(), "{} (event {}): {errors:?}", m.topic, m.sequence);
+        assert_eq!(read_back(topic, &m.value).unwrap(), m.value, "{} reads back", m.topic);
+    }
+    // The schemas do constrain: a response without its region, or a note without its level, fails.
+    for (topic, field) in [(Topic::TrialResponse, "region"), (Topic::Notes, "level")] {
+        let m = log.messages.iter().find(|m| m.topic == topic.name()).unwrap();
+        let mut broken = m.value.clone();
+        broken.as_object_mut().unwrap().remove(field);
+        assert!(!schemas[topic.name()].is_valid(&broken), "{topic} without {field} is refused");
+    }
+    // Every topic a session of these conditions can log was seen.
+    let missing: Vec<_> =
+        Topic::ALL.into_iter().filter(|t| t.used_by(&log.start.condition_order) && !seen.contains(t)).collect();
+    assert!(missing.is_empty(), "not logged: {missing:?}");
+    assert!(log.integrity.is_empty(), "{:?}", log.integrity);
+    layout_paths_resolve(&log);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// Every topic and message path `docs/foxglove-layout.json` shows is one this log has.
+fn layout_paths_resolve(log: &LogContents) {
+    let layout: Value = serde_json::from_str(include_str!("../../docs/foxglove-layout.json")).unwrap();
+    let mut paths = Vec::new();
+    for config in layout["configById"].as_object().unwrap().values() {
+        paths
+            .extend(config["paths"].as_array().into_iter().flatten().map(|p| p["value"].as_str().unwrap().to_string()));
+        paths.extend(config["topics"].as_object().into_iter().flatten().map(|(t, _)| t.clone()));
+        for key in ["topicToRender", "topicPath"] {
+            paths.extend(config[key].as_str().map(String::from));
+        }
+    }
+    assert!(paths.len() > 15, "{paths:?}");
+    for path in paths {
+        let end = path.find(['.', '{']).unwrap_or(path.len());
+        let (topic, rest) = path.split_at(end);
+        let filter = rest.strip_prefix('{').and_then(|r| r.split_once('}'));
+        let (filter, fields) = match filter {
+            Some((f, r)) => (Some(f), r),
+            None => (None, rest),
+        };
+        let message = log
+            .messages
+            .iter()
+            .filter(|m| m.topic == topic)
+            .find(|m| {
+                filter.is_none_or(|f| {
+                    let (k, v) = f.split_once("==").unwrap();
+                    m.value[k] == serde_json::from_str::<Value>(v).unwrap()
+                })
+            })
+            .unwrap_or_else(|| panic!("{path}: no {topic} message in the log"));
+        let mut at = &message.value;
+        for field in fields.split('.').filter(|f| !f.is_empty()) {
+            let (name, index) =
+                field.split_once('[').map_or((field, None), |(n, i)| (n, Some(i.trim_end_matches(']'))));
+            at = &at[name];
+            assert!(!at.is_null(), "{path}: no field {name}");
+            match index {
+                Some(":") => assert!(at.as_array().is_some_and(|a| !a.is_empty()), "{path}: {name} is no array"),
+                Some(i) => {
+                    at = &at[i.parse::<usize>().unwrap()];
+                    assert!(at.is_number(), "{path}");
+                }
+                None => {}
+            }
+        }
+    }
+}
+
+#[test]
+fn a_log_name_says_when_it_was_created() {
+    let key = |n: &str| created_key(Path::new(n));
+    assert_eq!(key("logs/p-1/p-1_20261202T014904Z.mcap"), Some(("20261202T014904Z".into(), 1)));
+    assert_eq!(key("p-1_20261202T014904Z-3.mcap"), Some(("20261202T014904Z".into(), 3)));
+    assert!(key("p-1_20261202T014904Z-3.mcap") > key("p-1_20261202T014904Z.mcap"));
+    assert!(key("p-1_20261202T014905Z.mcap") > key("p-1_20261202T014904Z-9.mcap"));
+    assert_eq!(key("crashed.mcap"), None);
+    assert_eq!(key("p-1_2026.mcap"), None);
 }

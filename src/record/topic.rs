@@ -1,4 +1,6 @@
-//! The one list of the log's topics: their names, schema names, and which record events.
+//! The one list of the log's topics: their names, and which record events.
+
+use crate::select::SelectorKind;
 
 /// A topic of the session log.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -8,7 +10,8 @@ pub enum Topic {
     TrialResponse,
     TrialVoid,
     TrialUndo,
-    Belief,
+    /// The belief of one training condition.
+    Belief(SelectorKind),
     QuestionnaireLikert,
     QuestionnaireChoice,
     SessionPause,
@@ -16,18 +19,27 @@ pub enum Topic {
     SessionEnd,
     RobotHandoverPose,
     HumanArm,
+    HumanJoints,
+    Transforms,
+    ObjectScene,
+    TestLogLikelihood,
     Notes,
 }
 
 impl Topic {
     /// Every topic, in a fixed order (channels are registered in it).
-    pub const ALL: [Topic; 14] = [
+    pub const ALL: [Topic; 23] = [
         Topic::SessionStart,
         Topic::TrialQuery,
         Topic::TrialResponse,
         Topic::TrialVoid,
         Topic::TrialUndo,
-        Topic::Belief,
+        Topic::Belief(SelectorKind::Active),
+        Topic::Belief(SelectorKind::ActivePaper),
+        Topic::Belief(SelectorKind::Passive),
+        Topic::Belief(SelectorKind::Random),
+        Topic::Belief(SelectorKind::Hybrid),
+        Topic::Belief(SelectorKind::Budgeted),
         Topic::QuestionnaireLikert,
         Topic::QuestionnaireChoice,
         Topic::SessionPause,
@@ -35,6 +47,10 @@ impl Topic {
         Topic::SessionEnd,
         Topic::RobotHandoverPose,
         Topic::HumanArm,
+        Topic::HumanJoints,
+        Topic::Transforms,
+        Topic::ObjectScene,
+        Topic::TestLogLikelihood,
         Topic::Notes,
     ];
 
@@ -46,7 +62,14 @@ impl Topic {
             Topic::TrialResponse => "/trial/response",
             Topic::TrialVoid => "/trial/void",
             Topic::TrialUndo => "/trial/undo",
-            Topic::Belief => "/belief",
+            Topic::Belief(k) => match k {
+                SelectorKind::Active => "/belief/active",
+                SelectorKind::ActivePaper => "/belief/active-paper",
+                SelectorKind::Passive => "/belief/passive",
+                SelectorKind::Random => "/belief/random",
+                SelectorKind::Hybrid => "/belief/hybrid",
+                SelectorKind::Budgeted => "/belief/budgeted",
+            },
             Topic::QuestionnaireLikert => "/questionnaire/likert",
             Topic::QuestionnaireChoice => "/questionnaire/choice",
             Topic::SessionPause => "/session/pause",
@@ -54,6 +77,10 @@ impl Topic {
             Topic::SessionEnd => "/session/end",
             Topic::RobotHandoverPose => "/robot/handover_pose",
             Topic::HumanArm => "/human/arm",
+            Topic::HumanJoints => "/human/joints",
+            Topic::Transforms => "/tf",
+            Topic::ObjectScene => "/scene/object",
+            Topic::TestLogLikelihood => "/test/log_likelihood",
             Topic::Notes => "/notes",
         }
     }
@@ -65,7 +92,28 @@ impl Topic {
 
     /// Whether its messages are events (the others are derived from them and the protocol).
     pub fn is_event(self) -> bool {
-        !matches!(self, Topic::SessionStart | Topic::Belief | Topic::RobotHandoverPose | Topic::HumanArm)
+        matches!(
+            self,
+            Topic::TrialQuery
+                | Topic::TrialResponse
+                | Topic::TrialVoid
+                | Topic::TrialUndo
+                | Topic::QuestionnaireLikert
+                | Topic::QuestionnaireChoice
+                | Topic::SessionPause
+                | Topic::SessionResume
+                | Topic::SessionEnd
+                | Topic::Notes
+        )
+    }
+
+    /// Whether a session with training conditions `conditions` logs on it (a belief topic
+    /// per condition run; every other topic always).
+    pub fn used_by(self, conditions: &[SelectorKind]) -> bool {
+        match self {
+            Topic::Belief(k) => conditions.contains(&k),
+            _ => true,
+        }
     }
 }
 
@@ -77,7 +125,7 @@ impl std::fmt::Display for Topic {
 
 #[cfg(test)]
 mod tests {
-    use super::Topic;
+    use super::{SelectorKind, Topic};
 
     #[test]
     fn names_are_unique_and_read_back() {
@@ -85,6 +133,11 @@ mod tests {
             assert_eq!(Topic::from_name(t.name()), Some(t));
         }
         assert_eq!(Topic::from_name("/nope"), None);
+        let names: std::collections::HashSet<_> = Topic::ALL.iter().map(|t| t.name()).collect();
+        assert_eq!(names.len(), Topic::ALL.len());
+        for k in SelectorKind::ALL {
+            assert!(Topic::ALL.contains(&Topic::Belief(k)), "{k:?} has a belief topic");
+        }
         assert_eq!(Topic::ALL.iter().filter(|t| t.is_event()).count(), 10);
     }
 }

@@ -5,13 +5,17 @@ use serde::{Deserialize, Serialize};
 use crate::select::SelectorKind;
 
 /// Everything fixed when a session starts (the log's `/session/start`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SessionStart {
     /// Random id of this session (one per session, kept across resumes).
     pub session_id: String,
+    /// Pseudonymous id.
+    #[schemars(regex(pattern = r"^[A-Za-z0-9-]{1,32}$"))]
     pub participant: String,
     pub protocol_name: String,
+    /// SHA-256 of the protocol text as run.
+    #[schemars(regex(pattern = r"^[0-9a-f]{64}$"))]
     pub protocol_sha256: String,
     pub seed: u64,
     /// The training conditions in the order run: Program A first.
@@ -34,7 +38,7 @@ pub struct SessionStart {
 }
 
 /// Why a trial was voided.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "kebab-case")]
 pub enum VoidReason {
     /// The object was dropped.

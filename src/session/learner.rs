@@ -74,6 +74,8 @@ pub struct Learner {
     pub scores: Vec<QueryValue>,
     /// Gridded entropy after each iteration (index 0: the prior).
     pub entropies: Vec<f64>,
+    /// The posterior mean after each iteration (index 0: the prior's).
+    pub estimates: Vec<Lambda>,
     /// The current belief's summary (kept, as the console shows it on every frame).
     pub summary: BeliefSummary,
     /// Every observation learned from: (menu index, observation).
@@ -90,6 +92,7 @@ impl Learner {
     ) -> Self {
         let summary = BeliefSummary::of(&belief, 0, ctx, &[]);
         let entropies = vec![summary.entropy];
+        let estimates = vec![summary.mean.clone()];
         let mut l = Self {
             condition,
             belief,
@@ -98,6 +101,7 @@ impl Learner {
             suggestion: 0,
             scores: Vec::new(),
             entropies,
+            estimates,
             summary,
             history: Vec::new(),
         };
@@ -134,6 +138,7 @@ impl Learner {
         let history: Vec<Observed> = self.history.iter().map(|(q, o)| (&menu[*q], o)).collect();
         self.summary = BeliefSummary::of(&self.belief, self.iteration, ctx, &history);
         self.entropies.push(self.summary.entropy);
+        self.estimates.push(self.summary.mean.clone());
         self.suggest(menu, ctx);
         Ok(())
     }

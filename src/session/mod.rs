@@ -11,7 +11,7 @@ use std::sync::Arc;
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 
-use crate::belief::{Belief, Grid};
+use crate::belief::{Belief, Grid, TestExample, test_log_likelihood};
 use crate::ergo::{ConfigSet, FeasibleSet, Observation, most_likely_in_region};
 use crate::kinematics::ArmFeasibleSet;
 use crate::protocol::{ResolvedQuery, Study};
@@ -289,6 +289,33 @@ impl Session {
     /// Whether `GraspUndone` is possible now.
     pub fn can_undo(&self) -> bool {
         self.undo.is_some() && !self.paused
+    }
+
+    /// The test responses so far, as what the belief would observe of them.
+    pub fn test_examples(&self) -> Vec<TestExample> {
+        self.trials
+            .iter()
+            .filter(|t| t.phase == Phase::Test)
+            .map(|t| {
+                let set = self.set(t.query).clone();
+                let observation = match self.ctx.observation {
+                    OutcomeModel::Configuration => Observation::Config(t.config),
+                    OutcomeModel::Region => Observation::Region(set.regions()[t.region].clone().collect()),
+                };
+                TestExample { set, observation }
+            })
+            .collect()
+    }
+
+    /// The test-set log-likelihood (eq. 1 summed over `tests`, nats) of run `run`'s
+    /// posterior-mean estimate after each of its iterations (index 0: the prior); empty
+    /// without test responses.
+    pub fn test_log_likelihoods(&self, run: usize, tests: &[TestExample]) -> Vec<f64> {
+        if tests.is_empty() {
+            return Vec::new();
+        }
+        // The examples are the session's own records, whose indices were checked when made.
+        self.learners[run].estimates.iter().filter_map(|m| test_log_likelihood(m, tests, self.ctx.alpha).ok()).collect()
     }
 
     /// The feasible set of a query.

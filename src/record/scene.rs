@@ -1,0 +1,213 @@
+//! What Foxglove's 3D panel shows: the frames (world → shoulder → object), the participant's
+//! body and arm, and the object offered with its grips.
+//!
+//! Frames: `world` is on the floor below the modelled shoulder (x forward, y to the person's
+//! left, z up); `shoulder` is the arm's frame (`docs/kinematics.md`), at the body's shoulder
+//! height above `world`; `object` is the object's frame as commanded for the current query.
+
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3 as NVector3};
+
+use super::foxglove::{
+    ArrowPrimitive, Color, CubePrimitive, FrameTransform, FrameTransforms, LinePrimitive, Pose, Quaternion,
+    SceneEntity, SceneUpdate, TextPrimitive, Time, Vector3,
+};
+use crate::kinematics::{ArmConfig, Hand, HumanArm, Object};
+use crate::protocol::ResolvedQuery;
+
+pub const WORLD: &str = "world";
+pub const SHOULDER: &str = "shoulder";
+pub const OBJECT: &str = "object";
+
+/// Fractions of body height (Winter; `HUMAN-ARM.md`).
+const SHOULDER_HEIGHT: f64 = 0.818;
+const HALF_SHOULDER_WIDTH: f64 = 0.129;
+const HIP_HEIGHT: f64 = 0.530;
+const CHIN_HEIGHT: f64 = 0.870;
+const HEAD_TOP: f64 = 1.0;
+
+const ARM: Color = Color { r: 0.9, g: 0.6, b: 0.2, a: 1.0 };
+const BODY: Color = Color { r: 0.55, g: 0.55, b: 0.6, a: 1.0 };
+const NOT_OFFERED: Color = Color { r: 0.6, g: 0.6, b: 0.6, a: 0.35 };
+const OBJECT_BODY: Color = Color { r: 0.2, g: 0.2, b: 0.2, a: 1.0 };
+const WHITE: Color = Color { r: 1.0, g: 1.0, b: 1.0, a: 1.0 };
+
+/// The colour a grip's label names (`"Left grip (blue)"`), else one of a fixed palette.
+pub fn grip_colour(label: &str, index: usize) -> Color {
+    let lower = label.to_ascii_lowercase();
+    let named = [
+        ("blue", (0.15, 0.35, 0.9)),
+        ("red", (0.85, 0.15, 0.15)),
+        ("green", (0.1, 0.65, 0.25)),
+        ("yellow", (0.95, 0.8, 0.1)),
+        ("orange", (0.95, 0.5, 0.1)),
+        ("purple", (0.55, 0.25, 0.75)),
+        ("black", (0.05, 0.05, 0.05)),
+        ("white", (0.95, 0.95, 0.95)),
+    ];
+    let palette = [(0.0, 0.45, 0.7), (0.8, 0.4, 0.0), (0.0, 0.6, 0.5), (0.8, 0.6, 0.7), (0.35, 0.7, 0.9)];
+    let words: Vec<&str> = lower.split(|c: char| !c.is_ascii_alphabetic()).collect();
+    let (r, g, b) =
+        named.iter().find(|(name, _)| words.contains(name)).map(|(_, c)| *c).unwrap_or(palette[index % palette.len()]);
+    Color { r, g, b, a: 1.0 }
+}
+
+/// The body height the arm implies (its upper arm by Winter's fraction).
+fn body_height(arm: &HumanArm) -> f64 {
+    arm.upper_arm / crate::kinematics::UPPER_ARM_FRACTION
+}
+
+fn transform(time_ns: u64, parent: &str, child: &str, t: &Isometry3<f64>) -> FrameTransform {
+    let p = Pose::from_isometry(t);
+    FrameTransform {
+        timestamp: Time::from_ns(time_ns),
+        parent_frame_id: parent.into(),
+        child_frame_id: child.into(),
+        translation: p.position,
+        rotation: p.orientation,
+    }
+}
+
+fn world_to_shoulder(arm: &HumanArm) -> Isometry3<f64> {
+    Isometry3::translation(0.0, 0.0, SHOULDER_HEIGHT * body_height(arm))
+}
+
+/// `/tf` at the start: world → shoulder.
+pub fn start_transforms(time_ns: u64, arm: &HumanArm) -> FrameTransforms {
+    FrameTransforms { transforms: vec![transform(time_ns, WORLD, SHOULDER, &world_to_shoulder(arm))] }
+}
+
+/// `/tf` of a presented query: world → shoulder and shoulder → object (the commanded pose).
+pub fn query_transforms(time_ns: u64, arm: &HumanArm, q: &ResolvedQuery) -> FrameTransforms {
+    FrameTransforms {
+        transforms: vec![
+            transform(time_ns, WORLD, SHOULDER, &world_to_shoulder(arm)),
+            transform(time_ns, SHOULDER, OBJECT, &q.pose.to_isometry()),
+        ],
+    }
+}
+
+fn point(p: Point3<f64>) -> Vector3 {
+    Vector3 { x: p.x, y: p.y, z: p.z }
+}
+
+fn strip(points: Vec<Vector3>, thickness: f64, color: Color) -> LinePrimitive {
+    LinePrimitive {
+        kind: 0,
+        pose: Pose::IDENTITY,
+        thickness,
+        scale_invariant: false,
+        points,
+        color,
+        colors: Vec::new(),
+        indices: Vec::new(),
+    }
+}
+
+/// The participant's trunk and head in `world`: shoulders, spine and a head box, so that the
+/// arm and the object are seen against the person.
+pub fn body(time_ns: u64, arm: &HumanArm) -> SceneEntity {
+    let h = body_height(arm);
+    // The modelled shoulder is at y = 0; the other is across the chest.
+    let other = match arm.side {
+        Hand::Right => 2.0 * HALF_SHOULDER_WIDTH * h,
+        Hand::Left => -2.0 * HALF_SHOULDER_WIDTH * h,
+    };
+    let mid = other / 2.0;
+    let mut e = SceneEntity::new(time_ns, WORLD, "body");
+    let v = |x: f64, y: f64, z: f64| Vector3 { x, y, z };
+    e.lines.push(strip(vec![v(0.0, 0.0, SHOULDER_HEIGHT * h), v(0.0, other, SHOULDER_HEIGHT * h)], 0.04, BODY));
+    e.lines.push(strip(vec![v(0.0, mid, SHOULDER_HEIGHT * h), v(0.0, mid, HIP_HEIGHT * h)], 0.05, BODY));
+    let head = (HEAD_TOP - CHIN_HEIGHT) * h;
+    e.cubes.push(CubePrimitive {
+        pose: Pose { position: v(0.0, mid, (CHIN_HEIGHT * h) + head / 2.0), orientation: Quaternion::IDENTITY },
+        size: v(0.2, 0.16, head),
+        color: BODY,
+    });
+    e
+}
+
+/// `/human/arm`: the arm of a configuration in `shoulder` (shoulder, elbow, wrist, grasp).
+pub fn arm(time_ns: u64, arm: &HumanArm, q: &ArmConfig) -> SceneUpdate {
+    let mut e = SceneEntity::new(time_ns, SHOULDER, "human_arm");
+    e.lines.push(strip(arm.points(q).into_iter().map(point).collect(), 0.03, ARM));
+    SceneUpdate { deletions: Vec::new(), entities: vec![e] }
+}
+
+fn axes(length: f64) -> Vec<ArrowPrimitive> {
+    let arrow = |rotation: UnitQuaternion<f64>, color: Color| ArrowPrimitive {
+        pose: Pose { position: Vector3 { x: 0.0, y: 0.0, z: 0.0 }, orientation: rotation.into() },
+        shaft_length: length * 0.8,
+        shaft_diameter: 0.008,
+        head_length: length * 0.2,
+        head_diameter: 0.02,
+        color,
+    };
+    // An arrow points along its pose's x axis.
+    vec![
+        arrow(UnitQuaternion::identity(), Color { r: 0.9, g: 0.1, b: 0.1, a: 1.0 }),
+        arrow(
+            UnitQuaternion::from_euler_angles(0.0, 0.0, std::f64::consts::FRAC_PI_2),
+            Color { r: 0.1, g: 0.8, b: 0.1, a: 1.0 },
+        ),
+        arrow(
+            UnitQuaternion::from_euler_angles(0.0, -std::f64::consts::FRAC_PI_2, 0.0),
+            Color { r: 0.1, g: 0.3, b: 0.9, a: 1.0 },
+        ),
+    ]
+}
+
+/// `/scene/object`: the object of a presented query in `object`: each grip a box spanning its
+/// TSR's translation bounds (at least 3 cm) in the colour its label names, labelled, the
+/// offered ones opaque and the others faint; a bar through the grips; the object's axes
+/// (x red, y green, z blue: the offered pose).
+pub fn object(time_ns: u64, object: &Object, q: &ResolvedQuery) -> SceneUpdate {
+    let mut e = SceneEntity::new(time_ns, OBJECT, "object");
+    let mut centres = Vec::new();
+    for (i, region) in object.regions.iter().enumerate() {
+        let b = region.tsr.bw;
+        let centre = NVector3::new((b[0][0] + b[0][1]) / 2.0, (b[1][0] + b[1][1]) / 2.0, (b[2][0] + b[2][1]) / 2.0);
+        let pose = region.tsr.t0_w.to_isometry() * Translation3::from(centre);
+        let extent = |k: usize| (b[k][1] - b[k][0]).max(0.03);
+        let offered = q.regions.contains(&i);
+        let color = if offered { grip_colour(&region.label, i) } else { NOT_OFFERED };
+        e.cubes.push(CubePrimitive {
+            pose: Pose::from_isometry(&pose),
+            size: Vector3 { x: extent(0), y: extent(1), z: extent(2) },
+            color,
+        });
+        let above = Isometry3::translation(pose.translation.x, pose.translation.y, pose.translation.z + 0.06);
+        e.texts.push(TextPrimitive {
+            pose: Pose::from_isometry(&above),
+            billboard: true,
+            font_size: 14.0,
+            scale_invariant: true,
+            color: WHITE,
+            text: if offered { region.label.clone() } else { format!("{} (not offered)", region.label) },
+        });
+        centres.push(point(Point3::from(pose.translation.vector)));
+    }
+    if centres.len() > 1 {
+        e.lines.push(strip(centres, 0.02, OBJECT_BODY));
+    }
+    e.arrows = axes(0.12);
+    e.metadata = vec![
+        super::foxglove::KeyValuePair { key: "query".into(), value: q.query.id.clone() },
+        super::foxglove::KeyValuePair { key: "pose".into(), value: q.query.label.clone() },
+        super::foxglove::KeyValuePair { key: "object".into(), value: object.label.clone() },
+    ];
+    SceneUpdate { deletions: Vec::new(), entities: vec![e] }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::grip_colour;
+
+    #[test]
+    fn grips_take_the_colour_their_label_names() {
+        assert_eq!(grip_colour("Left grip (blue)", 1).b, 0.9);
+        assert_eq!(grip_colour("Right shackle grip (red)", 0).r, 0.85);
+        // "Bluetooth" names no colour: the palette.
+        assert_eq!(grip_colour("Bluetooth handle", 0), grip_colour("plain", 0));
+        assert_ne!(grip_colour("plain", 0), grip_colour("plain", 1));
+    }
+}

@@ -1,0 +1,279 @@
+//! The `handover.*` messages: one struct per topic. The JSON a log holds is these structs
+//! serialised; their JSON Schemas are derived from them ([`super::schema`]); the reader reads
+//! events back through them. Field meanings: `docs/log-format.md`.
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use crate::ergo::Lambda;
+use crate::session::{SessionStart, VoidReason};
+
+/// `/session/start`: the session's fixed settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "handover.SessionStart")]
+pub struct SessionStartMessage {
+    /// Always 0.
+    pub event_index: u32,
+    #[serde(flatten)]
+    pub start: SessionStart,
+    /// The seed as a decimal string: JavaScript readers (Foxglove) round integers above 2^53.
+    /// Logs written before it lack it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(regex(pattern = r"^[0-9]{1,20}$"))]
+    pub seed_decimal: Option<String>,
+}
+
+/// The phase of a trial.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum PhaseName {
+    Training,
+    Test,
+}
+
+impl From<crate::session::Phase> for PhaseName {
+    fn from(p: crate::session::Phase) -> Self {
+        match p {
+            crate::session::Phase::Training => PhaseName::Training,
+            crate::session::Phase::Test => PhaseName::Test,
+        }
+    }
+}
+
+/// The fields every trial message has.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct TrialFields {
+    pub event_index: u32,
+    pub phase: PhaseName,
+    /// The training condition (absent in the test phase).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub condition: Option<String>,
+    /// The program letter, `A` or `B` (absent in the test phase).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(regex(pattern = r"^[A-Z]$"))]
+    pub program: Option<String>,
+    /// 1-based within the run or the test phase.
+    #[schemars(range(min = 1))]
+    pub trial: u32,
+    pub query: String,
+    pub object: String,
+}
+
+/// A pose as the protocol writes it: position (m) and roll–pitch–yaw (degrees).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct RobotPose {
+    pub frame: String,
+    pub position: [f64; 3],
+    pub rpy_deg: [f64; 3],
+}
+
+/// One menu item's selection scores.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct QueryScore {
+    pub query: String,
+    /// Nats, over the outcomes the belief is updated with.
+    pub information_gain: f64,
+    /// Eq. 10.
+    pub expected_cost: f64,
+}
+
+/// `/trial/query`: the robot presented a query. An event.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "handover.TrialQuery")]
+pub struct TrialQuery {
+    #[serde(flatten)]
+    pub trial: TrialFields,
+    /// The pose's name.
+    pub label: String,
+    pub robot_pose: RobotPose,
+    /// Ids of the grip regions offered.
+    pub regions: Vec<String>,
+    /// Their labels as the protocol writes them (logs before them lack them).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub region_labels: Vec<String>,
+    pub scores: Vec<QueryScore>,
+}
+
+/// `/trial/response`: the participant took the object. An event.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "handover.TrialResponse")]
+pub struct TrialResponse {
+    #[serde(flatten)]
+    pub trial: TrialFields,
+    /// The grip region taken (its id).
+    pub region: String,
+    /// Its label (logs before it lack it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub region_label: Option<String>,
+    /// Index of the label model's configuration in the query's feasible set.
+    pub config_index: u32,
+    /// Its 7 joint angles (rad).
+    pub configuration: Vec<f64>,
+}
+
+/// `/trial/void`: the trial did not count. An event.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "handover.TrialVoid")]
+pub struct TrialVoid {
+    #[serde(flatten)]
+    pub trial: TrialFields,
+    pub reason: VoidReason,
+    pub detail: String,
+    /// Whether a grasp just recorded was taken back with it.
+    pub retracted: bool,
+}
+
+/// `/trial/undo`: the last grasp was taken back. An event.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "handover.TrialUndo")]
+pub struct TrialUndo {
+    #[serde(flatten)]
+    pub trial: TrialFields,
+}
+
+/// A credible interval of λ.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Interval {
+    pub low: Lambda,
+    pub high: Lambda,
+}
+
+/// `/belief/<condition>`: the belief of one training condition. Derived.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "handover.Belief")]
+pub struct BeliefMessage {
+    pub event_index: u32,
+    pub condition: String,
+    #[schemars(regex(pattern = r"^[A-Z]$"))]
+    pub program: String,
+    /// Updates so far (0: the prior).
+    pub iteration: u32,
+    /// `region` or `configuration`.
+    pub observation: String,
+    pub mean: Lambda,
+    pub map: Lambda,
+    pub ci90: Interval,
+    pub grid_mode: Lambda,
+    /// Gridded entropy, nats (eq. 6 with its minus sign).
+    pub entropy: f64,
+    /// Effective sample size.
+    pub ess: f64,
+}
+
+/// `/human/joints`: the 7 joint angles of the configuration a response maps to, by name,
+/// for plotting. Derived.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "handover.JointAngles")]
+pub struct JointAngles {
+    #[serde(flatten)]
+    pub trial: TrialFields,
+    pub config_index: u32,
+    /// Degrees, by joint name (`docs/kinematics.md`).
+    pub deg: JointValues,
+    /// Radians, by joint name.
+    pub rad: JointValues,
+}
+
+/// One value per joint of the arm model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct JointValues {
+    pub shoulder_flexion: f64,
+    pub shoulder_abduction: f64,
+    pub shoulder_internal_rotation: f64,
+    pub elbow_flexion: f64,
+    pub forearm_pronation: f64,
+    pub wrist_flexion: f64,
+    pub wrist_radial_deviation: f64,
+}
+
+impl From<[f64; 7]> for JointValues {
+    fn from(q: [f64; 7]) -> Self {
+        let [a, b, c, d, e, f, g] = q;
+        Self {
+            shoulder_flexion: a,
+            shoulder_abduction: b,
+            shoulder_internal_rotation: c,
+            elbow_flexion: d,
+            forearm_pronation: e,
+            wrist_flexion: f,
+            wrist_radial_deviation: g,
+        }
+    }
+}
+
+/// `/test/log_likelihood`: after the session ends, one per training condition: the test-set
+/// log-likelihood of its posterior-mean estimate after each iteration, as `analyze` computes
+/// it. An array indexed by iteration, so that Foxglove's Plot panel draws it against the
+/// index. Derived.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "handover.TestLogLikelihood")]
+pub struct TestLogLikelihood {
+    pub event_index: u32,
+    pub condition: String,
+    #[schemars(regex(pattern = r"^[A-Z]$"))]
+    pub program: String,
+    /// Σ over test trials of log P(taken | query, posterior mean) after iteration i
+    /// (0: the prior), nats.
+    pub log_likelihood: Vec<f64>,
+    /// Test trials answered.
+    pub test_trials: u32,
+}
+
+/// `/questionnaire/likert`: an answer to a statement. An event.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "handover.LikertAnswer")]
+pub struct LikertAnswer {
+    pub event_index: u32,
+    #[schemars(regex(pattern = r"^[A-Z]$"))]
+    pub program: String,
+    pub program_label: String,
+    pub condition: String,
+    pub item: String,
+    pub statement: String,
+    pub value: i64,
+    pub label: String,
+}
+
+/// `/questionnaire/choice`: the program preferred. An event.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "handover.ForcedChoice")]
+pub struct ForcedChoice {
+    pub event_index: u32,
+    #[schemars(regex(pattern = r"^[A-Z]$"))]
+    pub program: String,
+    pub program_label: String,
+    pub condition: String,
+    pub question: String,
+}
+
+/// `/session/pause` and `/session/resume`. Events.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "handover.SessionMark")]
+pub struct SessionMark {
+    pub event_index: u32,
+}
+
+/// How a session ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum EndStatus {
+    Completed,
+    Aborted,
+}
+
+/// `/session/end`. An event.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "handover.SessionEnd")]
+pub struct SessionEnd {
+    pub event_index: u32,
+    pub status: EndStatus,
+    /// Aborted only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+}
+
+/// The run index of a program letter (`A` is 0).
+pub fn program_index(letter: &str) -> Option<usize> {
+    let c = letter.bytes().next()?;
+    (letter.len() == 1 && c.is_ascii_uppercase()).then(|| (c - b'A') as usize)
+}
