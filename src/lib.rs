@@ -6,6 +6,7 @@
 
 pub mod analysis;
 pub mod belief;
+pub mod counterbalance;
 pub mod dryrun;
 pub mod ergo;
 pub mod experiment;

@@ -6,10 +6,11 @@ use std::process::{Command, Stdio};
 use std::sync::Arc;
 use std::time::Duration;
 
+use handover::counterbalance::completed_per_slot;
 use handover::dryrun::{drive, now_ns, plan};
 use handover::participant::ParticipantRecord;
 use handover::protocol::Study;
-use handover::record::{RecordedSession, completed_per_slot, mcap_files, new_log_path};
+use handover::record::{RecordedSession, mcap_files, new_log_path};
 use handover::session::Session;
 
 fn handover(args: &[&str]) -> (i32, String, String) {
@@ -68,7 +69,7 @@ fn a_withdrawn_participant_is_left_out_and_frees_their_slot() {
     let (logs, participants) = (dir.join("logs"), dir.join("participants"));
     let mut before = vec![0, 0];
     before[slot] = 1;
-    assert_eq!(completed_per_slot(&logs, &participants, 2), before);
+    assert_eq!(completed_per_slot(&logs, &participants, 2).completed, before);
     let analyse = || {
         handover(&[
             "analyze",
@@ -93,7 +94,7 @@ fn a_withdrawn_participant_is_left_out_and_frees_their_slot() {
     assert!(rec.is_withdrawn());
     assert_eq!(rec.slot, slot, "the rest of the record is kept");
     assert_eq!(mcap_files(&logs).len(), 1, "without --delete-data the log is kept");
-    assert_eq!(completed_per_slot(&logs, &participants, 2), vec![0, 0], "the slot is free again");
+    assert_eq!(completed_per_slot(&logs, &participants, 2).completed, vec![0, 0], "the slot is free again");
     let (code, json, err) = analyse();
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("left out 1 session(s) of 1 participant(s) who withdrew"), "{err}");

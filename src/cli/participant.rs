@@ -4,8 +4,8 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
+use handover::counterbalance::completed_per_slot;
 use handover::participant::{ParticipantRecord, new_id, validate_id};
-use handover::record::least_filled_slot;
 use handover::session::condition_order;
 use handover::study_dir::{ParticipantLock, StudyDirs};
 
@@ -99,7 +99,11 @@ pub fn run(args: ParticipantArgs) -> Result<()> {
             for missing in dirs.missing() {
                 eprintln!("note: {} does not exist yet; it will be created", missing.display());
             }
-            let slot = least_filled_slot(&dirs.logs, &dirs.participants, 2);
+            let counts = completed_per_slot(&dirs.logs, &dirs.participants, 2);
+            for w in counts.warnings() {
+                eprintln!("warning: {w}");
+            }
+            let slot = counts.least_filled();
             let record = ParticipantRecord {
                 id: new_id(&mut rand::rng()),
                 slot,

@@ -1,11 +1,19 @@
 use std::io::{Cursor, Seek, SeekFrom, Write};
 use std::sync::{Arc, Mutex};
 
+use std::collections::HashMap;
+use std::path::Path;
+
+use serde_json::Value;
+
+use super::paths::created_key;
 use super::*;
 use crate::dryrun::plan;
 use crate::participant::ScriptedParticipant;
 use crate::protocol::DEFAULT_PROTOCOL;
+use crate::protocol::Study;
 use crate::session::VoidReason;
+use crate::session::{Event, Session, Stamped};
 
 /// A disk in memory that can fill up: a write past `capacity` writes what fits and fails
 /// with ENOSPC, as a full file system does.

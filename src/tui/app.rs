@@ -17,8 +17,7 @@ use crate::dryrun::{now_ns, plan};
 use crate::participant::{ParticipantRecord, ScriptedParticipant, SimulatedPerson, new_id, validate_id};
 use crate::protocol::{Study, for_body};
 use crate::record::{
-    LogContents, RecordError, RecordedSession, SubmitError, continuation_path, least_filled_slot, log_folder,
-    new_log_path, read_log,
+    LogContents, RecordError, RecordedSession, SubmitError, continuation_path, log_folder, new_log_path, read_log,
 };
 use crate::session::{Event, Prompt, Session, SessionStart, Stamped, VoidReason, condition_order};
 use crate::study_dir::{ParticipantLock, StudyDirs};
@@ -246,7 +245,8 @@ impl App {
         let (mut study, mut protocol_text) = (Arc::clone(study), c.protocol_text.clone());
         let (id, slot, new_record, error) = if c.participant == "new" {
             let id = new_id(&mut rand::rng());
-            let slot = least_filled_slot(&c.dirs.logs, &c.dirs.participants, 2);
+            let counts = crate::counterbalance::completed_per_slot(&c.dirs.logs, &c.dirs.participants, 2);
+            let slot = counts.least_filled();
             let rec = ParticipantRecord {
                 id: id.clone(),
                 slot,

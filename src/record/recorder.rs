@@ -1,0 +1,137 @@
+//! The recorder: writes one session's log, each event durable before the call returns.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use serde_json::Value;
+
+use super::paths::create_unique;
+use super::writer::{self, McapWriter, Sink};
+use super::{PROTOCOL_ATTACHMENT, RecordError, Topic, io, messages, messages_for, schema};
+use crate::session::{Applied, Session, Stamped};
+
+/// Writes one session's log. Every `record` call returns only after the event's messages
+/// are on disk (written as one buffer and synced); a failed write leaves the file as it was
+/// after the last good event, so a retry logs the event once.
+pub struct Recorder {
+    path: PathBuf,
+    writer: McapWriter<Box<dyn Sink>>,
+    channels: HashMap<Topic, u16>,
+    /// Index of the last event on disk.
+    last_index: usize,
+    /// Log time of the last message on disk.
+    last_time_ns: u64,
+}
+
+impl Recorder {
+    /// Creates the log file (owner-only, never overwriting: a taken name gets a suffix),
+    /// writes the protocol, the start record and the initial beliefs, and syncs. If any of
+    /// that fails, no file is left behind.
+    pub fn create(path: &Path, protocol_text: &str, session: &Session, time_ns: u64) -> Result<Self, RecordError> {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            crate::private_files::create_dir(dir).map_err(io(dir))?;
+        }
+        let (path, file) = create_unique(path).map_err(io(path))?;
+        match Self::start(Box::new(file), &path, protocol_text, session, time_ns) {
+            Ok(rec) => {
+                crate::private_files::sync_parent(&path);
+                Ok(rec)
+            }
+            Err(e) => {
+                let _ = std::fs::remove_file(&path);
+                Err(e)
+            }
+        }
+    }
+
+    /// The header, schemas, channels, protocol, start record and initial beliefs, in one
+    /// durable commit.
+    fn start(
+        sink: Box<dyn Sink>,
+        path: &Path,
+        protocol_text: &str,
+        session: &Session,
+        time_ns: u64,
+    ) -> Result<Self, RecordError> {
+        let library = format!("handover {}", env!("CARGO_PKG_VERSION"));
+        let mut writer = McapWriter::new(sink, &library).map_err(commit_err(path, 0))?;
+        let mut channels = HashMap::new();
+        let conditions = &session.start().condition_order;
+        let mut schema_ids: HashMap<&str, u16> = HashMap::new();
+        for topic in Topic::ALL.into_iter().filter(|t| t.used_by(conditions)) {
+            let (name, schema) = schema(topic);
+            let sid =
+                *schema_ids.entry(name).or_insert_with(|| writer.add_schema(name, "jsonschema", schema.as_bytes()));
+            channels.insert(topic, writer.add_channel(sid, topic.name(), "json"));
+        }
+        writer.attach(time_ns, time_ns, PROTOCOL_ATTACHMENT, "application/json", protocol_text.as_bytes());
+        let mut rec = Self { path: path.to_path_buf(), writer, channels, last_index: 0, last_time_ns: time_ns };
+        rec.write(&messages::start_messages(session, time_ns), 0, time_ns)?;
+        Ok(rec)
+    }
+
+    #[cfg(test)]
+    pub(super) fn with_sink(sink: Box<dyn Sink>, protocol_text: &str, session: &Session) -> Result<Self, RecordError> {
+        Self::start(sink, Path::new("test.mcap"), protocol_text, session, 1)
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Log time of the last event on disk (of the start before any).
+    pub fn last_time_ns(&self) -> u64 {
+        self.last_time_ns
+    }
+
+    /// Index of the last event on disk (0: only the start).
+    pub fn last_index(&self) -> usize {
+        self.last_index
+    }
+
+    /// Logs one applied event (and what it derived), durably; on failure nothing of it is
+    /// in the file and the index does not move.
+    pub fn record(&mut self, stamped: &Stamped, applied: &Applied, session: &Session) -> Result<(), RecordError> {
+        let index = self.last_index + 1;
+        let msgs = messages_for(stamped, index, applied, session);
+        let topic = messages::topic_of(&stamped.event);
+        if !msgs.iter().any(|(t, _)| *t == topic) {
+            // An event is never dropped: one the log cannot hold stops the session.
+            return Err(RecordError::Io {
+                path: self.path.clone(),
+                source: std::io::Error::other(format!("the event {:?} was applied as {applied:?}", stamped.event)),
+            });
+        }
+        self.write(&msgs, index as u32, stamped.time_ns)?;
+        self.last_index = index;
+        self.last_time_ns = stamped.time_ns;
+        Ok(())
+    }
+
+    fn not_serialisable(&self, e: serde_json::Error) -> RecordError {
+        RecordError::Io { path: self.path.clone(), source: std::io::Error::other(e) }
+    }
+
+    fn write(&mut self, msgs: &[(Topic, Value)], sequence: u32, time_ns: u64) -> Result<(), RecordError> {
+        for (topic, value) in msgs {
+            let data = serde_json::to_vec(value).map_err(|e| self.not_serialisable(e))?;
+            let Some(&channel) = self.channels.get(topic) else {
+                let why = format!("{topic} has no channel in this log");
+                return Err(RecordError::Io { path: self.path.clone(), source: std::io::Error::other(why) });
+            };
+            self.writer.message(&writer::Message { channel, sequence, log_time: time_ns, data: &data });
+        }
+        self.writer.commit().map_err(commit_err(&self.path, self.last_index))
+    }
+
+    /// Writes the summary and footer (a finished file) and syncs.
+    pub fn finish(self) -> Result<PathBuf, RecordError> {
+        let path = self.path;
+        self.writer.finish().map_err(commit_err(&path, self.last_index))?;
+        Ok(path)
+    }
+}
+
+fn commit_err(path: &Path, last: usize) -> impl Fn(writer::CommitError) -> RecordError + '_ {
+    move |e| RecordError::Write { path: path.to_path_buf(), last_event: last, restored: e.restored, cause: e.source }
+}
