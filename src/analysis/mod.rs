@@ -2,9 +2,11 @@
 //! after every training iteration scored on the session's own test responses.
 
 mod alpha;
+mod collect;
 mod rows;
 mod seeds;
 mod summary;
+mod tables;
 mod verify;
 
 use std::sync::Arc;
@@ -18,12 +20,14 @@ pub use alpha::{
     ALPHA_RANGE, AlphaEvidence, AlphaFit, AlphaSummary, EVIDENCE_PARTICLES, MAX_EVIDENCE_PARTICLES, SUPPORT_DROP,
     SessionAlpha, alpha_grid, alpha_summary, fit_alpha,
 };
+pub use collect::{Analysed, most_complete};
 pub use rows::{NoteRow, TrialRow, TrialStatus, rfc3339_ms, trial_columns};
 pub use seeds::{
     HEIGHT_BANDS_M, ObjectsByBody, OverSeeds, Paired, SEED_MEASURES, SeedRun, object_shares, objects_by_body,
     over_seeds, paired_across, paired_over_seeds,
 };
 pub use summary::{CurvePoint, ItemTest, IterationTest, LikertSummary, StudySummary, distinct_q_star, summarise};
+pub use tables::write_tables;
 pub use verify::Difference;
 use verify::Verifier;
 

@@ -1,17 +1,16 @@
 //! `handover analyze`: the paper's user-study results (Fig. 10, Table I) from session logs.
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use handover::analysis::{
-    ALPHA_RANGE, AlphaFit, AlphaSummary, EVIDENCE_PARTICLES, MAX_EVIDENCE_PARTICLES, SUPPORT_DROP, SessionAnalysis,
-    StudySummary, alpha_summary, analyse_and_verify, objects_by_body, rfc3339_ms, summarise, trial_columns,
+    ALPHA_RANGE, AlphaFit, AlphaSummary, Analysed, EVIDENCE_PARTICLES, MAX_EVIDENCE_PARTICLES, SUPPORT_DROP,
+    SessionAnalysis, StudySummary, alpha_summary, analyse_and_verify, most_complete, summarise, write_tables,
 };
 use handover::participant::has_withdrawn;
 use handover::plot::{LinePlot, PooledEvidence, Series, alpha_plot, bar_chart, mean_se_plot};
-use handover::record::{LogContents, mcap_files, read_log, study_of};
+use handover::record::{mcap_files, read_log, study_of};
 use handover::session::program_letter;
 use handover::study_dir::StudyDirs;
 use serde::Serialize;
@@ -60,11 +59,6 @@ pub struct AnalyzeArgs {
 enum Format {
     Table,
     Json,
-}
-
-struct Analysed {
-    log: LogContents,
-    analysis: SessionAnalysis,
 }
 
 #[derive(Serialize)]
@@ -131,12 +125,11 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
     if files.is_empty() {
         return Err(bad("no .mcap files found in the given paths"));
     }
-    let (mut skipped, mut warnings, mut differences) = (Vec::new(), Vec::new(), Vec::new());
-    // Read every log; keep the most complete log of each session (a session is its id under
-    // its protocol: `dry-run --versus` runs the same ids under two protocols).
-    let mut by_session: BTreeMap<(String, String), LogContents> = BTreeMap::new();
+    let (mut skipped, mut differences) = (Vec::new(), Vec::new());
+    let mut logs = Vec::new();
     for f in &files {
         match read_log(f) {
+            Ok(log) => logs.push(log),
             Err(e) => {
                 // A log that cannot be read (or whose ids break the rules) fails --verify.
                 if args.verify {
@@ -144,38 +137,21 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
                 }
                 skipped.push(format!("skipped {e}"));
             }
-            Ok(log) => {
-                let id = (log.start.session_id.clone(), log.start.protocol_sha256.clone());
-                match by_session.get(&id) {
-                    Some(old) if (old.events.len(), old.finished) >= (log.events.len(), log.finished) => warnings
-                        .push(format!("{}: superseded by {} (same session, resumed)", f.display(), old.path.display())),
-                    Some(old) => {
-                        warnings.push(format!(
-                            "{}: superseded by {} (same session, resumed)",
-                            old.path.display(),
-                            f.display()
-                        ));
-                        by_session.insert(id, log);
-                    }
-                    None => {
-                        by_session.insert(id, log);
-                    }
-                }
-            }
         }
     }
+    let (mut logs, mut warnings) = most_complete(logs);
     // Participants who withdrew are never counted.
     let dirs = StudyDirs::resolve(args.study_dir.as_deref(), args.participants.as_deref(), None);
-    let before = by_session.len();
-    let mut withdrawn: Vec<String> = by_session
-        .values()
+    let before = logs.len();
+    let mut withdrawn: Vec<String> = logs
+        .iter()
         .filter(|l| !l.start.pilot && has_withdrawn(&dirs.participants, &l.start.participant))
         .map(|l| l.start.participant.clone())
         .collect();
-    by_session.retain(|_, l| l.start.pilot || !withdrawn.contains(&l.start.participant));
+    logs.retain(|l| l.start.pilot || !withdrawn.contains(&l.start.participant));
     withdrawn.sort();
     withdrawn.dedup();
-    let left_out = WithdrawnLeftOut { sessions: before - by_session.len(), participants: withdrawn.len() };
+    let left_out = WithdrawnLeftOut { sessions: before - logs.len(), participants: withdrawn.len() };
     if left_out.sessions > 0 {
         eprintln!(
             "left out {} session(s) of {} participant(s) who withdrew (records in {})",
@@ -185,7 +161,7 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
         );
     }
     let mut analysed = Vec::new();
-    for log in by_session.into_values() {
+    for log in logs {
         if !log.finished {
             warnings.push(format!(
                 "{}: the log ends early (a crash not yet resumed, or a quit): analysed up to its last whole message ({} events){}",
@@ -387,8 +363,32 @@ fn alpha_table(a: &AlphaSummary) -> String {
     o
 }
 
+/// One letter per object of the protocol, for the session lines: the first letter of its id
+/// not yet taken (then of its label, then a digit), with the legend "H Bicycle handlebars".
+fn object_letters(objects: &[handover::kinematics::Object]) -> Vec<(String, char, String)> {
+    let mut out: Vec<(String, char, String)> = Vec::new();
+    for o in objects {
+        let taken = |c: &char| out.iter().any(|(_, t, _)| t == c);
+        let letter =
+            o.id.chars()
+                .chain(o.label.chars())
+                .filter(char::is_ascii_alphabetic)
+                .map(|c| c.to_ascii_uppercase())
+                .chain('1'..='9')
+                .find(|c| !taken(c))
+                .unwrap_or('?');
+        out.push((o.id.clone(), letter, o.label.clone()));
+    }
+    out
+}
+
 fn table(label: &str, group: &[&Analysed], s: &StudySummary, alpha: &AlphaSummary) -> String {
     let mut o = format!("\n== {label}: {} sessions ({} completed) ==\n", s.sessions, s.completed);
+    let letters = group
+        .first()
+        .and_then(|a| study_of(&a.log).ok())
+        .map_or_else(Vec::new, |st| object_letters(&st.protocol.objects));
+    let letter_of = |object: &str| letters.iter().find(|(id, _, _)| id == object).map_or('?', |(_, c, _)| *c);
     o += "\nSessions:\n";
     for a in group {
         let x = &a.analysis;
@@ -396,13 +396,12 @@ fn table(label: &str, group: &[&Analysed], s: &StudySummary, alpha: &AlphaSummar
             .runs
             .iter()
             .map(|r| {
-                let objs: Vec<&str> =
-                    r.trials.iter().map(|t| if t.object == "handlebars" { "H" } else { "L" }).collect();
+                let objs: String = r.trials.iter().map(|t| letter_of(&t.object)).collect();
                 format!(
                     "{}={} [{}] LL {}",
                     program_letter(r.program),
                     r.condition,
-                    objs.join(""),
+                    objs,
                     r.test_ll_estimate.last().map_or("—".into(), |v| format!("{v:.1}"))
                 )
             })
@@ -421,7 +420,11 @@ fn table(label: &str, group: &[&Analysed], s: &StudySummary, alpha: &AlphaSummar
             x.choice.map_or(String::new(), |p| format!("; prefers {}", program_letter(p)))
         );
     }
-    o += "  (objects: H handlebars, L lock; LL: test log-likelihood of the posterior mean after the last iteration)\n";
+    let legend: Vec<String> = letters.iter().map(|(_, c, l)| format!("{c} {l}")).collect();
+    o += &format!(
+        "  (objects: {}; LL: test log-likelihood of the posterior mean after the last iteration)\n",
+        legend.join(", ")
+    );
     o += "\nFig. 10 — test-set log-likelihood of the posterior-mean estimate (mean ± s.e.) by iteration, and the paired difference per participant (mean [95 % CI], two-sided Wilcoxon):\n";
     let conditions: Vec<String> = s.distinct_q_star.keys().cloned().collect();
     let iterations = s.fig10.iter().map(|p| p.iteration).max().map_or(0, |m| m + 1);
@@ -522,209 +525,7 @@ zero differences are dropped, tied |differences| get mid-ranks; p is exact (all 
 
 fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &AlphaSummary) -> Result<()> {
     std::fs::create_dir_all(dir)?;
-    let mut w = csv::Writer::from_path(dir.join("sessions.csv"))?;
-    w.write_record([
-        "session_id",
-        "participant",
-        "pilot",
-        "slot",
-        "condition_order",
-        "program_a",
-        "program_b",
-        "completed",
-        "truncated",
-        "events",
-        "forced_choice_program",
-        "forced_choice_condition",
-        "started_at",
-        "seed",
-        "body_height_m",
-        "hand",
-        "log",
-    ])?;
-    for a in group {
-        let x = &a.analysis;
-        let cond = |p: usize| x.runs.get(p).map_or(String::new(), |r| r.condition.clone());
-        w.write_record([
-            x.start.session_id.clone(),
-            x.start.participant.clone(),
-            x.start.pilot.to_string(),
-            x.start.slot.to_string(),
-            x.runs.iter().map(|r| r.condition.as_str()).collect::<Vec<_>>().join("-"),
-            cond(0),
-            cond(1),
-            x.completed.to_string(),
-            (!a.log.finished).to_string(),
-            a.log.events.len().to_string(),
-            x.choice.map(program_letter).unwrap_or_default(),
-            x.choice.map(cond).unwrap_or_default(),
-            x.start.started_at.clone(),
-            x.start.seed.to_string(),
-            x.body.height_m.map_or(String::new(), |h| h.to_string()),
-            x.body.hand.name().to_string(),
-            a.log.path.display().to_string(),
-        ])?;
-    }
-    w.flush()?;
-    write_objects_by_body(dir, group)?;
-    let mut w = csv::Writer::from_path(dir.join("trials.csv"))?;
-    let mut head = vec!["session_id".to_string(), "participant".to_string()];
-    head.extend(trial_columns());
-    w.write_record(&head)?;
-    for a in group {
-        let x = &a.analysis;
-        for t in &x.trial_rows {
-            let mut row = vec![x.start.session_id.clone(), x.start.participant.clone()];
-            row.extend(t.values());
-            w.write_record(&row)?;
-        }
-    }
-    w.flush()?;
-    let mut w = csv::Writer::from_path(dir.join("notes.csv"))?;
-    w.write_record(["session_id", "participant", "event_index", "time", "text"])?;
-    for a in group {
-        let x = &a.analysis;
-        for n in &x.notes {
-            w.write_record([
-                x.start.session_id.clone(),
-                x.start.participant.clone(),
-                n.event_index.to_string(),
-                rfc3339_ms(n.time_ns),
-                n.text.clone(),
-            ])?;
-        }
-    }
-    w.flush()?;
-    let mut w = csv::Writer::from_path(dir.join("test_log_likelihood.csv"))?;
-    w.write_record([
-        "session_id",
-        "participant",
-        "condition",
-        "program",
-        "iteration",
-        "log_likelihood_mean",
-        "log_likelihood_predictive",
-    ])?;
-    for a in group {
-        let x = &a.analysis;
-        for r in &x.runs {
-            for (it, (m, p)) in r.test_ll_estimate.iter().zip(&r.test_ll_predictive).enumerate() {
-                w.write_record([
-                    x.start.session_id.clone(),
-                    x.start.participant.clone(),
-                    r.condition.clone(),
-                    program_letter(r.program),
-                    it.to_string(),
-                    m.to_string(),
-                    p.to_string(),
-                ])?;
-            }
-        }
-    }
-    w.flush()?;
-    let mut w = csv::Writer::from_path(dir.join("fig10_tests.csv"))?;
-    w.write_record(["iteration", "first", "second", "pairs", "mean_difference", "ci_low", "ci_high", "p_value"])?;
-    for t in &s.fig10_tests {
-        let finite = |x: f64| if x.is_finite() { x.to_string() } else { String::new() };
-        w.write_record([
-            t.iteration.to_string(),
-            t.first.clone(),
-            t.second.clone(),
-            t.pairs.to_string(),
-            t.mean_difference.to_string(),
-            finite(t.ci_low),
-            finite(t.ci_high),
-            t.test.as_ref().map_or(String::new(), |w| w.p_value.to_string()),
-        ])?;
-    }
-    w.flush()?;
-    // Long: one row per session × condition × iteration × parameter × joint × estimate.
-    let mut w = csv::Writer::from_path(dir.join("beliefs.csv"))?;
-    let joints = handover::kinematics::JOINT_NAMES;
-    w.write_record([
-        "session_id",
-        "participant",
-        "condition",
-        "program",
-        "iteration",
-        "parameter",
-        "joint",
-        "estimate",
-        "value",
-        "unit",
-    ])?;
-    for a in group {
-        let x = &a.analysis;
-        for r in &x.runs {
-            for b in &r.beliefs {
-                let estimates = [
-                    ("mean", &b.mean),
-                    ("map", &b.map),
-                    ("ci90_low", &b.ci_low),
-                    ("ci90_high", &b.ci_high),
-                    ("grid_mode", &b.grid_mode),
-                ];
-                for (estimate, l) in estimates {
-                    for (parameter, values, unit) in [("q_star", &l.q_star, "deg"), ("w", &l.w, "")] {
-                        for (j, v) in values.iter().enumerate() {
-                            let value = if unit == "deg" { v.to_degrees() } else { *v };
-                            w.write_record([
-                                x.start.session_id.as_str(),
-                                x.start.participant.as_str(),
-                                r.condition.as_str(),
-                                &program_letter(r.program),
-                                &b.iteration.to_string(),
-                                parameter,
-                                joints.get(j).copied().unwrap_or_default(),
-                                estimate,
-                                &value.to_string(),
-                                unit,
-                            ])?;
-                        }
-                    }
-                }
-            }
-        }
-    }
-    w.flush()?;
-    let mut w = csv::Writer::from_path(dir.join("belief_summary.csv"))?;
-    w.write_record(["session_id", "participant", "condition", "program", "iteration", "entropy_nats", "ess"])?;
-    for a in group {
-        let x = &a.analysis;
-        for r in &x.runs {
-            for b in &r.beliefs {
-                w.write_record([
-                    x.start.session_id.clone(),
-                    x.start.participant.clone(),
-                    r.condition.clone(),
-                    program_letter(r.program),
-                    b.iteration.to_string(),
-                    b.entropy.to_string(),
-                    b.ess.to_string(),
-                ])?;
-            }
-        }
-    }
-    w.flush()?;
-    let mut w = csv::Writer::from_path(dir.join("questionnaire.csv"))?;
-    w.write_record(["session_id", "participant", "condition_order", "condition", "program", "item", "value"])?;
-    for a in group {
-        let x = &a.analysis;
-        let order = x.runs.iter().map(|r| r.condition.as_str()).collect::<Vec<_>>().join("-");
-        for (p, item, v) in &x.likert {
-            let cond = x.runs.get(*p).map_or("", |r| r.condition.as_str());
-            w.write_record([
-                x.start.session_id.as_str(),
-                x.start.participant.as_str(),
-                order.as_str(),
-                cond,
-                program_letter(*p).as_str(),
-                item.as_str(),
-                v.to_string().as_str(),
-            ])?;
-        }
-    }
-    w.flush()?;
+    write_tables(dir, group, s, alpha)?;
     let conditions: Vec<String> = s.distinct_q_star.keys().cloned().collect();
     for (file, predictive) in [("fig10.svg", false), ("fig10_predictive.svg", true)] {
         let series: Vec<Series> = conditions
@@ -778,99 +579,11 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &Alph
     bar_chart(&dir.join("objects.svg"), &title, "times offered (training trials)", &objects, &groups)
         .map_err(anyhow::Error::msg)?;
     std::fs::write(dir.join("table1.md"), format!("# Table I — {} sessions\n\n{}", s.sessions, table1_markdown(s)))?;
-    write_alpha(dir, alpha)
+    write_alpha_plot(dir, alpha)
 }
 
-/// alpha.csv (one row per session and one pooled), alpha_curve.csv and alpha.svg.
-/// `objects_by_body.csv`: the object finding per height band and hand, one row per band ×
-/// hand × object × measure (each condition's share of training offers, and their paired
-/// difference with its Wilcoxon p).
-fn write_objects_by_body(dir: &Path, group: &[&Analysed]) -> Result<()> {
-    let sessions: Vec<&SessionAnalysis> = group.iter().map(|a| &a.analysis).collect();
-    let mut w = csv::Writer::from_path(dir.join("objects_by_body.csv"))?;
-    w.write_record(["height_band_m", "hand", "sessions", "object", "measure", "mean", "ci_low", "ci_high", "p_value"])?;
-    let finite = |x: f64| if x.is_finite() { x.to_string() } else { String::new() };
-    for r in objects_by_body(&sessions) {
-        let rows = [
-            (format!("share_{}", r.first), r.first_share, None),
-            (format!("share_{}", r.second), r.second_share, None),
-            (format!("difference_{}_minus_{}", r.first, r.second), r.difference, r.p_value),
-        ];
-        for (measure, (m, lo, hi), p) in rows {
-            w.write_record([
-                r.band.clone(),
-                r.hand.to_string(),
-                r.sessions.to_string(),
-                r.object.clone(),
-                measure,
-                m.to_string(),
-                finite(lo),
-                finite(hi),
-                p.map_or(String::new(), |p| p.to_string()),
-            ])?;
-        }
-    }
-    w.flush()?;
-    Ok(())
-}
-
-fn write_alpha(dir: &Path, a: &AlphaSummary) -> Result<()> {
-    let mut w = csv::Writer::from_path(dir.join("alpha.csv"))?;
-    w.write_record([
-        "participant",
-        "session_id",
-        "handovers",
-        "alpha",
-        "ci_low",
-        "ci_high",
-        "ci_low_open",
-        "ci_high_open",
-        "at_range_end",
-        "protocol_alpha",
-        "protocol_alpha_supported",
-    ])?;
-    let row = |who: &str, id: &str, fit: Option<&AlphaFit>, protocol: String, supported: Option<bool>| {
-        let f = |g: fn(&AlphaFit) -> String| fit.map_or(String::new(), g);
-        vec![
-            who.to_string(),
-            id.to_string(),
-            f(|x| x.choices.to_string()),
-            f(|x| x.alpha.to_string()),
-            f(|x| x.low.to_string()),
-            f(|x| x.high.to_string()),
-            f(|x| x.low_open.to_string()),
-            f(|x| x.high_open.to_string()),
-            f(|x| x.at_range_end.to_string()),
-            protocol,
-            supported.map_or(String::new(), |b| b.to_string()),
-        ]
-    };
-    for s in &a.sessions {
-        w.write_record(row(
-            &s.participant,
-            &s.session_id,
-            s.fit.as_ref(),
-            s.protocol_alpha.to_string(),
-            s.protocol_alpha_supported,
-        ))?;
-    }
-    let protocol: Vec<String> = a.protocol_alphas.iter().map(|(x, _)| x.to_string()).collect();
-    let supported = a.protocol_alphas.iter().try_fold(true, |acc, (_, ok)| ok.map(|b| acc && b));
-    w.write_record(row("pooled", "", a.pooled.as_ref(), protocol.join(";"), supported))?;
-    w.flush()?;
-    let mut w = csv::Writer::from_path(dir.join("alpha_curve.csv"))?;
-    w.write_record(["participant", "alpha", "log_evidence"])?;
-    let curves = a
-        .sessions
-        .iter()
-        .filter_map(|s| Some((s.participant.as_str(), s.fit.as_ref()?)))
-        .chain(a.pooled.as_ref().map(|f| ("pooled", f)));
-    for (who, f) in curves {
-        for (x, y) in &f.curve {
-            w.write_record([who.to_string(), x.to_string(), y.to_string()])?;
-        }
-    }
-    w.flush()?;
+/// alpha.svg.
+fn write_alpha_plot(dir: &Path, a: &AlphaSummary) -> Result<()> {
     let sessions: Vec<Vec<(f64, f64)>> = a.sessions.iter().filter_map(|s| s.fit.as_ref()).map(relative_curve).collect();
     let pooled = a.pooled.as_ref().map(|f| PooledEvidence {
         curve: relative_curve(f),

@@ -1,0 +1,410 @@
+//! The tidy tables `analyze --out` writes, one `Serialize` row struct per file; their
+//! columns are documented in `docs/outputs.md` (and checked against it by `tests/outputs.rs`).
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use super::{AlphaFit, AlphaSummary, Analysed, StudySummary, objects_by_body, rfc3339_ms, trial_columns};
+use crate::kinematics::JOINT_NAMES;
+use crate::session::program_letter;
+
+/// A number that is written only when it is one (an empty field otherwise).
+fn finite(x: f64) -> Option<f64> {
+    x.is_finite().then_some(x)
+}
+
+/// Writes the rows, and the header even when there are none (serde's CSV writer writes it
+/// with the first row: the header of an empty table is taken from a default row).
+fn write_rows<T: Serialize + Default>(path: &Path, rows: impl IntoIterator<Item = T>) -> Result<(), csv::Error> {
+    let mut w = csv::Writer::from_path(path)?;
+    let mut any = false;
+    for r in rows {
+        w.serialize(r)?;
+        any = true;
+    }
+    if !any {
+        let mut header = csv::Writer::from_writer(Vec::new());
+        header.serialize(T::default())?;
+        let bytes = header.into_inner().map_err(|e| csv::Error::from(e.into_error()))?;
+        let text = String::from_utf8_lossy(&bytes);
+        let first = text.lines().next().unwrap_or_default();
+        w.write_record(first.split(','))?;
+    }
+    w.flush()?;
+    Ok(())
+}
+
+/// `sessions.csv`.
+#[derive(Serialize, Default)]
+struct SessionRow<'a> {
+    session_id: &'a str,
+    participant: &'a str,
+    pilot: bool,
+    slot: usize,
+    condition_order: String,
+    program_a: Option<&'a str>,
+    program_b: Option<&'a str>,
+    completed: bool,
+    truncated: bool,
+    events: usize,
+    forced_choice_program: Option<String>,
+    forced_choice_condition: Option<&'a str>,
+    started_at: &'a str,
+    /// A u64: text, so that no reader rounds it.
+    seed: String,
+    body_height_m: Option<f64>,
+    hand: &'static str,
+    log: String,
+}
+
+/// `notes.csv`.
+#[derive(Serialize, Default)]
+struct NoteCsvRow<'a> {
+    session_id: &'a str,
+    participant: &'a str,
+    event_index: usize,
+    time: String,
+    text: &'a str,
+}
+
+/// `test_log_likelihood.csv`.
+#[derive(Serialize, Default)]
+struct TestLogLikelihoodRow<'a> {
+    session_id: &'a str,
+    participant: &'a str,
+    condition: &'a str,
+    program: String,
+    iteration: usize,
+    log_likelihood_mean: f64,
+    log_likelihood_predictive: f64,
+}
+
+/// `fig10_tests.csv`.
+#[derive(Serialize, Default)]
+struct Fig10TestRow<'a> {
+    iteration: usize,
+    first: &'a str,
+    second: &'a str,
+    pairs: usize,
+    mean_difference: f64,
+    ci_low: Option<f64>,
+    ci_high: Option<f64>,
+    p_value: Option<f64>,
+}
+
+/// `beliefs.csv` (long).
+#[derive(Serialize, Default)]
+struct BeliefRow<'a> {
+    session_id: &'a str,
+    participant: &'a str,
+    condition: &'a str,
+    program: String,
+    iteration: usize,
+    parameter: &'static str,
+    joint: &'static str,
+    estimate: &'static str,
+    value: f64,
+    unit: &'static str,
+}
+
+/// `belief_summary.csv`.
+#[derive(Serialize, Default)]
+struct BeliefSummaryRow<'a> {
+    session_id: &'a str,
+    participant: &'a str,
+    condition: &'a str,
+    program: String,
+    iteration: usize,
+    entropy_nats: f64,
+    ess: f64,
+}
+
+/// `questionnaire.csv`.
+#[derive(Serialize, Default)]
+struct QuestionnaireRow<'a> {
+    session_id: &'a str,
+    participant: &'a str,
+    condition_order: String,
+    condition: &'a str,
+    program: String,
+    item: &'a str,
+    value: i64,
+}
+
+/// `objects_by_body.csv`.
+#[derive(Serialize, Default)]
+struct ObjectsByBodyRow {
+    height_band_m: String,
+    hand: &'static str,
+    sessions: usize,
+    object: String,
+    measure: String,
+    mean: f64,
+    ci_low: Option<f64>,
+    ci_high: Option<f64>,
+    p_value: Option<f64>,
+}
+
+/// `alpha.csv`.
+#[derive(Serialize, Default)]
+struct AlphaRow<'a> {
+    participant: &'a str,
+    session_id: Option<&'a str>,
+    handovers: Option<usize>,
+    alpha: Option<f64>,
+    ci_low: Option<f64>,
+    ci_high: Option<f64>,
+    ci_low_open: Option<bool>,
+    ci_high_open: Option<bool>,
+    at_range_end: Option<bool>,
+    /// The pooled row's when its sessions share one α (empty when their protocols differ).
+    protocol_alpha: Option<f64>,
+    protocol_alpha_supported: Option<bool>,
+}
+
+/// `alpha_curve.csv`.
+#[derive(Serialize, Default)]
+struct AlphaCurveRow<'a> {
+    participant: &'a str,
+    alpha: f64,
+    log_evidence: f64,
+}
+
+fn condition_order(a: &Analysed) -> String {
+    a.analysis.runs.iter().map(|r| r.condition.as_str()).collect::<Vec<_>>().join("-")
+}
+
+/// Writes every table of a group of sessions (all real or all pilot) into `dir`.
+pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &AlphaSummary) -> Result<(), csv::Error> {
+    fn ids<'a>(a: &&'a Analysed) -> (&'a str, &'a str) {
+        (a.analysis.start.session_id.as_str(), a.analysis.start.participant.as_str())
+    }
+    write_rows(
+        &dir.join("sessions.csv"),
+        group.iter().map(|a| {
+            let x = &a.analysis;
+            let cond = |p: usize| x.runs.get(p).map(|r| r.condition.as_str());
+            SessionRow {
+                session_id: &x.start.session_id,
+                participant: &x.start.participant,
+                pilot: x.start.pilot,
+                slot: x.start.slot,
+                condition_order: condition_order(a),
+                program_a: cond(0),
+                program_b: cond(1),
+                completed: x.completed,
+                truncated: !a.log.finished,
+                events: a.log.events.len(),
+                forced_choice_program: x.choice.map(program_letter),
+                forced_choice_condition: x.choice.and_then(cond),
+                started_at: &x.start.started_at,
+                seed: x.start.seed.to_string(),
+                body_height_m: x.body.height_m,
+                hand: x.body.hand.name(),
+                log: a.log.path.display().to_string(),
+            }
+        }),
+    )?;
+    // trials.csv: its rows carry their own columns (the joints' names among them).
+    let mut w = csv::Writer::from_path(dir.join("trials.csv"))?;
+    let mut head = vec!["session_id".to_string(), "participant".to_string()];
+    head.extend(trial_columns());
+    w.write_record(&head)?;
+    for a in group {
+        let (id, who) = ids(a);
+        for t in &a.analysis.trial_rows {
+            let mut row = vec![id.to_string(), who.to_string()];
+            row.extend(t.values());
+            w.write_record(&row)?;
+        }
+    }
+    w.flush()?;
+    write_rows(
+        &dir.join("notes.csv"),
+        group.iter().flat_map(|a| {
+            let (session_id, participant) = ids(a);
+            a.analysis.notes.iter().map(move |n| NoteCsvRow {
+                session_id,
+                participant,
+                event_index: n.event_index,
+                time: rfc3339_ms(n.time_ns),
+                text: &n.text,
+            })
+        }),
+    )?;
+    write_rows(
+        &dir.join("test_log_likelihood.csv"),
+        group.iter().flat_map(|a| {
+            let (session_id, participant) = ids(a);
+            a.analysis.runs.iter().flat_map(move |r| {
+                r.test_ll_estimate.iter().zip(&r.test_ll_predictive).enumerate().map(move |(iteration, (m, p))| {
+                    TestLogLikelihoodRow {
+                        session_id,
+                        participant,
+                        condition: &r.condition,
+                        program: program_letter(r.program),
+                        iteration,
+                        log_likelihood_mean: *m,
+                        log_likelihood_predictive: *p,
+                    }
+                })
+            })
+        }),
+    )?;
+    write_rows(
+        &dir.join("fig10_tests.csv"),
+        s.fig10_tests.iter().map(|t| Fig10TestRow {
+            iteration: t.iteration,
+            first: &t.first,
+            second: &t.second,
+            pairs: t.pairs,
+            mean_difference: t.mean_difference,
+            ci_low: finite(t.ci_low),
+            ci_high: finite(t.ci_high),
+            p_value: t.test.as_ref().map(|w| w.p_value),
+        }),
+    )?;
+    let runs = || {
+        group.iter().flat_map(|a| {
+            let (session_id, participant) = ids(a);
+            a.analysis.runs.iter().flat_map(move |r| r.beliefs.iter().map(move |b| (session_id, participant, r, b)))
+        })
+    };
+    write_rows(
+        &dir.join("beliefs.csv"),
+        runs().flat_map(|(session_id, participant, r, b)| {
+            let estimates = [
+                ("mean", &b.mean),
+                ("map", &b.map),
+                ("ci90_low", &b.ci_low),
+                ("ci90_high", &b.ci_high),
+                ("grid_mode", &b.grid_mode),
+            ];
+            estimates.into_iter().flat_map(move |(estimate, l)| {
+                let q_star = l.q_star.iter().zip(JOINT_NAMES).map(|(v, j)| ("q_star", j, v.to_degrees(), "deg"));
+                let w = l.w.iter().zip(JOINT_NAMES).map(|(v, j)| ("w", j, *v, ""));
+                q_star.chain(w).map(move |(parameter, joint, value, unit)| BeliefRow {
+                    session_id,
+                    participant,
+                    condition: &r.condition,
+                    program: program_letter(r.program),
+                    iteration: b.iteration,
+                    parameter,
+                    joint,
+                    estimate,
+                    value,
+                    unit,
+                })
+            })
+        }),
+    )?;
+    write_rows(
+        &dir.join("belief_summary.csv"),
+        runs().map(|(session_id, participant, r, b)| BeliefSummaryRow {
+            session_id,
+            participant,
+            condition: &r.condition,
+            program: program_letter(r.program),
+            iteration: b.iteration,
+            entropy_nats: b.entropy,
+            ess: b.ess,
+        }),
+    )?;
+    write_rows(
+        &dir.join("questionnaire.csv"),
+        group.iter().flat_map(|a| {
+            let (session_id, participant) = ids(a);
+            let order = condition_order(a);
+            a.analysis.likert.iter().map(move |(p, item, value)| QuestionnaireRow {
+                session_id,
+                participant,
+                condition_order: order.clone(),
+                condition: a.analysis.runs.get(*p).map_or("", |r| r.condition.as_str()),
+                program: program_letter(*p),
+                item,
+                value: *value,
+            })
+        }),
+    )?;
+    let sessions: Vec<_> = group.iter().map(|a| &a.analysis).collect();
+    write_rows(
+        &dir.join("objects_by_body.csv"),
+        objects_by_body(&sessions).into_iter().flat_map(|r| {
+            let rows = [
+                (format!("share_{}", r.first), r.first_share, None),
+                (format!("share_{}", r.second), r.second_share, None),
+                (format!("difference_{}_minus_{}", r.first, r.second), r.difference, r.p_value),
+            ];
+            rows.map(|(measure, (mean, lo, hi), p_value)| ObjectsByBodyRow {
+                height_band_m: r.band.clone(),
+                hand: r.hand,
+                sessions: r.sessions,
+                object: r.object.clone(),
+                measure,
+                mean,
+                ci_low: finite(lo),
+                ci_high: finite(hi),
+                p_value,
+            })
+        }),
+    )?;
+    write_alpha_tables(dir, alpha)
+}
+
+fn alpha_row<'a>(
+    participant: &'a str,
+    session_id: Option<&'a str>,
+    fit: Option<&AlphaFit>,
+    protocol_alpha: Option<f64>,
+    protocol_alpha_supported: Option<bool>,
+) -> AlphaRow<'a> {
+    AlphaRow {
+        participant,
+        session_id,
+        handovers: fit.map(|f| f.choices),
+        alpha: fit.map(|f| f.alpha),
+        ci_low: fit.map(|f| f.low),
+        ci_high: fit.map(|f| f.high),
+        ci_low_open: fit.map(|f| f.low_open),
+        ci_high_open: fit.map(|f| f.high_open),
+        at_range_end: fit.map(|f| f.at_range_end),
+        protocol_alpha,
+        protocol_alpha_supported,
+    }
+}
+
+/// `alpha.csv` (one row per session and one pooled) and `alpha_curve.csv`.
+fn write_alpha_tables(dir: &Path, a: &AlphaSummary) -> Result<(), csv::Error> {
+    let pooled_alpha = match a.protocol_alphas.as_slice() {
+        [(x, _)] => Some(*x),
+        _ => None,
+    };
+    let supported = a.protocol_alphas.iter().try_fold(true, |acc, (_, ok)| ok.map(|b| acc && b));
+    write_rows(
+        &dir.join("alpha.csv"),
+        a.sessions
+            .iter()
+            .map(|s| {
+                alpha_row(
+                    &s.participant,
+                    Some(&s.session_id),
+                    s.fit.as_ref(),
+                    Some(s.protocol_alpha),
+                    s.protocol_alpha_supported,
+                )
+            })
+            .chain(std::iter::once(alpha_row("pooled", None, a.pooled.as_ref(), pooled_alpha, supported))),
+    )?;
+    let curves = a
+        .sessions
+        .iter()
+        .filter_map(|s| Some((s.participant.as_str(), s.fit.as_ref()?)))
+        .chain(a.pooled.as_ref().map(|f| ("pooled", f)));
+    write_rows(
+        &dir.join("alpha_curve.csv"),
+        curves.flat_map(|(participant, f)| {
+            f.curve.iter().map(move |&(alpha, log_evidence)| AlphaCurveRow { participant, alpha, log_evidence })
+        }),
+    )
+}
