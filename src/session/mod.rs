@@ -2,6 +2,7 @@
 //! the state, `Session::prompt()` says what the operator must do next. No terminal, file or
 //! clock in here: the shells (console, dry run, replay) do the I/O.
 
+mod apply;
 mod events;
 mod learner;
 
@@ -12,7 +13,7 @@ use rand::SeedableRng;
 use rand::seq::SliceRandom;
 
 use crate::belief::{Belief, Grid, TestExample, test_log_likelihood};
-use crate::ergo::{ConfigSet, FeasibleSet, Observation, most_likely_in_region};
+use crate::ergo::{ConfigSet, FeasibleSet, Observation};
 use crate::kinematics::ArmFeasibleSet;
 use crate::protocol::{ResolvedQuery, Study};
 use crate::select::{OutcomeModel, QueryValue, SelectorKind};
@@ -141,10 +142,23 @@ pub enum Applied {
     Other,
 }
 
+/// Which trial of the session: a training trial of a run, or a test trial.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum TrialSlot {
+    Training { run: usize, trial: usize },
+    Test { trial: usize },
+}
+
+/// The trial under way, and whether its query is presented.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct TrialCursor {
+    slot: TrialSlot,
+    presented: bool,
+}
+
 #[derive(Clone, Debug, PartialEq)]
 enum Stage {
-    Training { run: usize, trial: usize, presented: bool },
-    Test { trial: usize, presented: bool },
+    Trial(TrialCursor),
     Questionnaire,
     Done { completed: bool },
 }
@@ -152,7 +166,7 @@ enum Stage {
 /// The state before the last grasp, kept so that it can be undone.
 #[derive(Clone, Debug)]
 struct UndoPoint {
-    stage: Stage,
+    cursor: TrialCursor,
     learner: Option<(usize, Learner)>,
 }
 
@@ -234,7 +248,7 @@ impl Session {
             ctx,
             learners,
             test_order,
-            stage: Stage::Training { run: 0, trial: 0, presented: false },
+            stage: Stage::Trial(TrialCursor { slot: TrialSlot::Training { run: 0, trial: 0 }, presented: false }),
             paused: false,
             undo: None,
             trials: Vec::new(),
@@ -338,25 +352,24 @@ impl Session {
         self.study.protocol.session.trials_per_condition
     }
 
-    fn view(&self, stage: &Stage) -> Option<TrialView> {
-        match *stage {
-            Stage::Training { run, trial, .. } => Some(TrialView {
+    fn view(&self, cursor: TrialCursor) -> TrialView {
+        match cursor.slot {
+            TrialSlot::Training { run, trial } => TrialView {
                 phase: Phase::Training,
                 condition: Some(self.learners[run].condition),
                 program: Some(run),
                 trial: trial + 1,
                 of: self.trials_per_run(),
                 query: QueryRef::Training(self.learners[run].suggestion),
-            }),
-            Stage::Test { trial, .. } => Some(TrialView {
+            },
+            TrialSlot::Test { trial } => TrialView {
                 phase: Phase::Test,
                 condition: None,
                 program: None,
                 trial: trial + 1,
                 of: self.test_order.len(),
                 query: QueryRef::Test(self.test_order[trial]),
-            }),
-            _ => None,
+            },
         }
     }
 
@@ -368,17 +381,11 @@ impl Session {
 
     /// What the operator must do next.
     pub fn prompt(&self) -> Prompt {
-        if let Stage::Done { completed } = self.stage {
-            return Prompt::Done { completed };
-        }
-        if self.paused {
-            return Prompt::Paused;
-        }
         match &self.stage {
-            Stage::Training { presented, .. } | Stage::Test { presented, .. } => {
-                let view = self.view(&self.stage).expect("a trial stage");
-                if *presented { Prompt::Grasp(view) } else { Prompt::Present(view) }
-            }
+            Stage::Done { completed } => Prompt::Done { completed: *completed },
+            _ if self.paused => Prompt::Paused,
+            Stage::Trial(c) if c.presented => Prompt::Grasp(self.view(*c)),
+            Stage::Trial(c) => Prompt::Present(self.view(*c)),
             Stage::Questionnaire => {
                 let order = self.likert_order();
                 match order.iter().position(|k| !self.likert.contains_key(k)) {
@@ -390,224 +397,23 @@ impl Session {
                     None => Prompt::Finish,
                 }
             }
-            Stage::Done { .. } => unreachable!("handled above"),
         }
     }
 
-    fn not_now(&self, event: &'static str, why: impl Into<String>) -> SessionError {
-        SessionError::NotNow { event, why: why.into() }
-    }
-
-    /// The stage after a trial of `stage` is complete.
-    fn next_stage(&self, stage: &Stage) -> Stage {
-        match *stage {
-            Stage::Training { run, trial, .. } if trial + 1 < self.trials_per_run() => {
-                Stage::Training { run, trial: trial + 1, presented: false }
+    /// The stage after the trial at `slot` is complete.
+    fn next_stage(&self, slot: TrialSlot) -> Stage {
+        let trial = |slot| Stage::Trial(TrialCursor { slot, presented: false });
+        match slot {
+            TrialSlot::Training { run, trial: t } if t + 1 < self.trials_per_run() => {
+                trial(TrialSlot::Training { run, trial: t + 1 })
             }
-            Stage::Training { run, .. } if run + 1 < self.learners.len() => {
-                Stage::Training { run: run + 1, trial: 0, presented: false }
+            TrialSlot::Training { run, .. } if run + 1 < self.learners.len() => {
+                trial(TrialSlot::Training { run: run + 1, trial: 0 })
             }
-            Stage::Training { .. } => Stage::Test { trial: 0, presented: false },
-            Stage::Test { trial, .. } if trial + 1 < self.test_order.len() => {
-                Stage::Test { trial: trial + 1, presented: false }
-            }
+            TrialSlot::Training { .. } if !self.test_order.is_empty() => trial(TrialSlot::Test { trial: 0 }),
+            TrialSlot::Test { trial: t } if t + 1 < self.test_order.len() => trial(TrialSlot::Test { trial: t + 1 }),
             _ => Stage::Questionnaire,
         }
-    }
-
-    /// Folds one event into the state; on error the state is unchanged.
-    pub fn apply(&mut self, event: &Event) -> Result<Applied, SessionError> {
-        let name = event_name(event);
-        if let Stage::Done { .. } = self.stage {
-            return Err(self.not_now(name, "the session is over"));
-        }
-        if self.paused && !matches!(event, Event::Resumed | Event::Note { .. } | Event::Aborted { .. }) {
-            return Err(self.not_now(name, "the session is paused"));
-        }
-        let applied = match event {
-            Event::QueryPresented { query } => {
-                let (view, presented) = match &self.stage {
-                    Stage::Training { presented, .. } | Stage::Test { presented, .. } => {
-                        (self.view(&self.stage).expect("a trial stage"), *presented)
-                    }
-                    _ => return Err(self.not_now(name, "no trial is waiting for a query")),
-                };
-                if presented {
-                    return Err(
-                        self.not_now(name, "the query is already presented; record the grasp or void the trial")
-                    );
-                }
-                let expected = &self.query(view.query).query.id;
-                if query != expected {
-                    return Err(SessionError::WrongQuery { found: query.clone(), expected: expected.clone() });
-                }
-                match &mut self.stage {
-                    Stage::Training { presented, .. } | Stage::Test { presented, .. } => *presented = true,
-                    _ => unreachable!(),
-                }
-                self.undo = None;
-                let scores = match view.program {
-                    Some(run) => self.learners[run].scores.clone(),
-                    None => Vec::new(),
-                };
-                Applied::Presented { view, scores }
-            }
-            Event::GraspRecorded { region } => {
-                let view = match &self.stage {
-                    Stage::Training { presented: true, .. } | Stage::Test { presented: true, .. } => {
-                        self.view(&self.stage).expect("a trial stage")
-                    }
-                    _ => return Err(self.not_now(name, "no query is presented")),
-                };
-                let q = self.query(view.query);
-                let object = self.study.object(q);
-                let Some(r) = q.regions.iter().position(|&ri| object.regions[ri].id == *region) else {
-                    let offered: Vec<_> = q.regions.iter().map(|&ri| object.regions[ri].id.clone()).collect();
-                    return Err(SessionError::UnknownRegion {
-                        region: region.clone(),
-                        query: q.query.id.clone(),
-                        offered: offered.join(", "),
-                    });
-                };
-                // Field by field, so that the set and the settings are borrowed while a
-                // learner is updated.
-                let set: &FeasibleSet = match view.query {
-                    QueryRef::Training(i) => &self.menu[i],
-                    QueryRef::Test(i) => &self.tests[i],
-                };
-                let degenerate = |why: String| SessionError::Degenerate { query: q.query.id.clone(), why };
-                let config = most_likely_in_region(set, r, &self.ctx.label_model)
-                    .ok_or_else(|| degenerate(format!("region '{region}' has no feasible configuration")))?;
-                let record = TrialRecord {
-                    phase: view.phase,
-                    run: view.program,
-                    trial: view.trial,
-                    query: view.query,
-                    region: r,
-                    config,
-                };
-                let mut undo = UndoPoint { stage: self.stage.clone(), learner: None };
-                let belief = match view.program {
-                    Some(run) => {
-                        let obs = match self.ctx.observation {
-                            OutcomeModel::Configuration => Observation::Config(config),
-                            OutcomeModel::Region => Observation::Region(set.regions()[r].clone().collect()),
-                        };
-                        // Learn on a copy: a degenerate update leaves the session unchanged.
-                        let mut learner = self.learners[run].clone();
-                        let QueryRef::Training(i) = view.query else {
-                            return Err(degenerate("a training trial on a test query".into()));
-                        };
-                        learner.learn(i, &obs, &self.menu, &self.ctx).map_err(|e| degenerate(e.to_string()))?;
-                        undo.learner = Some((run, std::mem::replace(&mut self.learners[run], learner)));
-                        Some(self.learners[run].summary.clone())
-                    }
-                    None => None,
-                };
-                self.trials.push(record.clone());
-                self.stage = self.next_stage(&self.stage);
-                self.undo = Some(Box::new(undo));
-                Applied::Responded { view, record, belief }
-            }
-            Event::GraspUndone => {
-                let Some(undo) = self.undo.take() else {
-                    return Err(self.not_now(name, "there is no grasp to undo since the last query was presented"));
-                };
-                let belief = self.restore(*undo);
-                let view = self.view(&self.stage).expect("restored to a trial stage");
-                Applied::Undone { view, belief }
-            }
-            Event::TrialVoided { .. } => {
-                let retracted = match (&self.stage, self.undo.take()) {
-                    (_, Some(undo)) => {
-                        self.restore(*undo);
-                        true
-                    }
-                    (Stage::Training { presented: true, .. } | Stage::Test { presented: true, .. }, None) => false,
-                    _ => return Err(self.not_now(name, "no trial is in progress")),
-                };
-                let view = self.view(&self.stage).expect("a trial stage");
-                match &mut self.stage {
-                    Stage::Training { presented, .. } | Stage::Test { presented, .. } => *presented = false,
-                    _ => unreachable!(),
-                }
-                Applied::Voided { view, retracted }
-            }
-            Event::Note { text } => {
-                self.notes.push(text.clone());
-                Applied::Other
-            }
-            Event::Paused => {
-                self.paused = true;
-                Applied::Other
-            }
-            Event::Resumed => {
-                if !self.paused {
-                    return Err(self.not_now(name, "the session is not paused"));
-                }
-                self.paused = false;
-                Applied::Other
-            }
-            Event::LikertAnswered { program, item, value } => {
-                if self.stage != Stage::Questionnaire {
-                    return Err(self.not_now(name, "the questionnaire has not started"));
-                }
-                let items = &self.study.protocol.questionnaire.items;
-                let Some(i) = items.iter().position(|it| it.id == *item) else {
-                    return Err(SessionError::UnknownItem { item: item.clone(), program: *program });
-                };
-                if *program >= self.learners.len() {
-                    return Err(SessionError::UnknownProgram(*program));
-                }
-                let scale = &self.study.protocol.questionnaire.scale;
-                if !scale.iter().any(|p| p.value == *value) {
-                    return Err(SessionError::OffScale {
-                        value: *value,
-                        min: scale.first().map_or(0, |p| p.value),
-                        max: scale.last().map_or(0, |p| p.value),
-                    });
-                }
-                self.likert.insert((*program, i), *value);
-                Applied::Other
-            }
-            Event::ForcedChoice { program } => {
-                if self.stage != Stage::Questionnaire {
-                    return Err(self.not_now(name, "the questionnaire has not started"));
-                }
-                if *program >= self.learners.len() {
-                    return Err(SessionError::UnknownProgram(*program));
-                }
-                self.choice = Some(*program);
-                Applied::Other
-            }
-            Event::Ended => {
-                if self.prompt() != Prompt::Finish {
-                    return Err(self.not_now(name, "the questionnaire is not complete"));
-                }
-                self.stage = Stage::Done { completed: true };
-                Applied::Ended { completed: true }
-            }
-            Event::Aborted { .. } => {
-                self.stage = Stage::Done { completed: false };
-                self.paused = false;
-                Applied::Ended { completed: false }
-            }
-        };
-        self.events += 1;
-        Ok(applied)
-    }
-
-    fn restore(&mut self, undo: UndoPoint) -> Option<BeliefSummary> {
-        self.trials.pop();
-        self.stage = undo.stage;
-        match &mut self.stage {
-            Stage::Training { presented, .. } | Stage::Test { presented, .. } => *presented = true,
-            _ => {}
-        }
-        undo.learner.map(|(run, l)| {
-            self.learners[run] = l;
-            self.learners[run].summary.clone()
-        })
     }
 }
 
@@ -640,23 +446,6 @@ pub fn check_runs(study: Arc<Study>) -> Result<(), SessionError> {
     session.apply(&Event::QueryPresented { query })?;
     session.apply(&Event::GraspRecorded { region })?;
     Ok(())
-}
-
-/// The event's name, for messages.
-pub fn event_name(e: &Event) -> &'static str {
-    match e {
-        Event::QueryPresented { .. } => "query presented",
-        Event::GraspRecorded { .. } => "grasp recorded",
-        Event::TrialVoided { .. } => "trial voided",
-        Event::GraspUndone => "undo",
-        Event::Note { .. } => "note",
-        Event::Paused => "pause",
-        Event::Resumed => "resume",
-        Event::LikertAnswered { .. } => "Likert answer",
-        Event::ForcedChoice { .. } => "forced choice",
-        Event::Ended => "end",
-        Event::Aborted { .. } => "abort",
-    }
 }
 
 #[cfg(test)]

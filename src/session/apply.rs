@@ -1,0 +1,228 @@
+//! Folding one event into a session: one method per event; each checks that the event fits
+//! the state before it changes anything, so that on error the state is unchanged.
+
+use super::{
+    Applied, BeliefSummary, Event, Prompt, QueryRef, Session, SessionError, Stage, TrialCursor, TrialRecord, TrialSlot,
+    UndoPoint, VoidReason,
+};
+use crate::ergo::{FeasibleSet, Observation, most_likely_in_region};
+use crate::select::OutcomeModel;
+
+impl Event {
+    /// The event as the operator would name it (in errors).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Event::QueryPresented { .. } => "query presented",
+            Event::GraspRecorded { .. } => "grasp recorded",
+            Event::TrialVoided { .. } => "trial voided",
+            Event::GraspUndone => "undo",
+            Event::Note { .. } => "note",
+            Event::Paused => "pause",
+            Event::Resumed => "resume",
+            Event::LikertAnswered { .. } => "Likert answer",
+            Event::ForcedChoice { .. } => "forced choice",
+            Event::Ended => "end",
+            Event::Aborted { .. } => "abort",
+        }
+    }
+}
+
+impl Session {
+    /// Folds one event into the state; on error the state is unchanged.
+    pub fn apply(&mut self, event: &Event) -> Result<Applied, SessionError> {
+        let name = event.name();
+        if let Stage::Done { .. } = self.stage {
+            return Err(not_now(name, "the session is over"));
+        }
+        if self.paused && !matches!(event, Event::Resumed | Event::Note { .. } | Event::Aborted { .. }) {
+            return Err(not_now(name, "the session is paused"));
+        }
+        let applied = match event {
+            Event::QueryPresented { query } => self.present(name, query)?,
+            Event::GraspRecorded { region } => self.record_grasp(name, region)?,
+            Event::GraspUndone => self.undo_grasp(name)?,
+            Event::TrialVoided { reason, .. } => self.void(name, *reason)?,
+            Event::Note { text } => {
+                self.notes.push(text.clone());
+                Applied::Other
+            }
+            Event::Paused => {
+                self.paused = true;
+                Applied::Other
+            }
+            Event::Resumed => {
+                if !self.paused {
+                    return Err(not_now(name, "the session is not paused"));
+                }
+                self.paused = false;
+                Applied::Other
+            }
+            Event::LikertAnswered { program, item, value } => self.answer(name, *program, item, *value)?,
+            Event::ForcedChoice { program } => self.choose(name, *program)?,
+            Event::Ended => {
+                if self.prompt() != Prompt::Finish {
+                    return Err(not_now(name, "the questionnaire is not complete"));
+                }
+                self.stage = Stage::Done { completed: true };
+                Applied::Ended { completed: true }
+            }
+            Event::Aborted { .. } => {
+                self.stage = Stage::Done { completed: false };
+                self.paused = false;
+                Applied::Ended { completed: false }
+            }
+        };
+        self.events += 1;
+        Ok(applied)
+    }
+
+    /// The trial under way, if any.
+    fn cursor(&self) -> Option<TrialCursor> {
+        match self.stage {
+            Stage::Trial(c) => Some(c),
+            _ => None,
+        }
+    }
+
+    fn present(&mut self, name: &'static str, query: &str) -> Result<Applied, SessionError> {
+        let Some(cursor) = self.cursor() else {
+            return Err(not_now(name, "no trial is waiting for a query"));
+        };
+        if cursor.presented {
+            return Err(not_now(name, "the query is already presented; record the grasp or void the trial"));
+        }
+        let view = self.view(cursor);
+        let expected = &self.query(view.query).query.id;
+        if query != expected {
+            return Err(SessionError::WrongQuery { found: query.to_string(), expected: expected.clone() });
+        }
+        self.stage = Stage::Trial(TrialCursor { presented: true, ..cursor });
+        self.undo = None;
+        let scores = view.program.map_or_else(Vec::new, |run| self.learners[run].scores.clone());
+        Ok(Applied::Presented { view, scores })
+    }
+
+    fn record_grasp(&mut self, name: &'static str, region: &str) -> Result<Applied, SessionError> {
+        let Some(cursor) = self.cursor().filter(|c| c.presented) else {
+            return Err(not_now(name, "no query is presented"));
+        };
+        let view = self.view(cursor);
+        let q = self.query(view.query);
+        let object = self.study.object(q);
+        let Some(r) = q.regions.iter().position(|&ri| object.regions[ri].id == region) else {
+            let offered: Vec<_> = q.regions.iter().map(|&ri| object.regions[ri].id.clone()).collect();
+            return Err(SessionError::UnknownRegion {
+                region: region.to_string(),
+                query: q.query.id.clone(),
+                offered: offered.join(", "),
+            });
+        };
+        // Field by field, so that the set and the settings are borrowed while a learner is
+        // updated.
+        let set: &FeasibleSet = match view.query {
+            QueryRef::Training(i) => &self.menu[i],
+            QueryRef::Test(i) => &self.tests[i],
+        };
+        let degenerate = |why: String| SessionError::Degenerate { query: q.query.id.clone(), why };
+        let config = most_likely_in_region(set, r, &self.ctx.label_model)
+            .ok_or_else(|| degenerate(format!("region '{region}' has no feasible configuration")))?;
+        let record = TrialRecord {
+            phase: view.phase,
+            run: view.program,
+            trial: view.trial,
+            query: view.query,
+            region: r,
+            config,
+        };
+        let mut undo = UndoPoint { cursor, learner: None };
+        let belief = match cursor.slot {
+            TrialSlot::Training { run, .. } => {
+                let obs = match self.ctx.observation {
+                    OutcomeModel::Configuration => Observation::Config(config),
+                    OutcomeModel::Region => Observation::Region(set.regions()[r].clone().collect()),
+                };
+                // Learn on a copy: a degenerate update leaves the session unchanged.
+                let mut learner = self.learners[run].clone();
+                let menu_index = learner.suggestion;
+                learner.learn(menu_index, &obs, &self.menu, &self.ctx).map_err(|e| degenerate(e.to_string()))?;
+                undo.learner = Some((run, std::mem::replace(&mut self.learners[run], learner)));
+                Some(self.learners[run].summary.clone())
+            }
+            TrialSlot::Test { .. } => None,
+        };
+        self.trials.push(record.clone());
+        self.stage = self.next_stage(cursor.slot);
+        self.undo = Some(Box::new(undo));
+        Ok(Applied::Responded { view, record, belief })
+    }
+
+    fn undo_grasp(&mut self, name: &'static str) -> Result<Applied, SessionError> {
+        let Some(undo) = self.undo.take() else {
+            return Err(not_now(name, "there is no grasp to undo since the last query was presented"));
+        };
+        let (cursor, belief) = self.restore(*undo);
+        Ok(Applied::Undone { view: self.view(cursor), belief })
+    }
+
+    fn void(&mut self, name: &'static str, _reason: VoidReason) -> Result<Applied, SessionError> {
+        let (cursor, retracted) = match (self.undo.take(), self.cursor()) {
+            (Some(undo), _) => (self.restore(*undo).0, true),
+            (None, Some(c)) if c.presented => (c, false),
+            _ => return Err(not_now(name, "no trial is in progress")),
+        };
+        let view = self.view(cursor);
+        self.stage = Stage::Trial(TrialCursor { presented: false, ..cursor });
+        Ok(Applied::Voided { view, retracted })
+    }
+
+    fn answer(&mut self, name: &'static str, program: usize, item: &str, value: i64) -> Result<Applied, SessionError> {
+        if self.stage != Stage::Questionnaire {
+            return Err(not_now(name, "the questionnaire has not started"));
+        }
+        let items = &self.study.protocol.questionnaire.items;
+        let Some(i) = items.iter().position(|it| it.id == item) else {
+            return Err(SessionError::UnknownItem { item: item.to_string(), program });
+        };
+        if program >= self.learners.len() {
+            return Err(SessionError::UnknownProgram(program));
+        }
+        let scale = &self.study.protocol.questionnaire.scale;
+        if !scale.iter().any(|p| p.value == value) {
+            return Err(SessionError::OffScale {
+                value,
+                min: scale.first().map_or(0, |p| p.value),
+                max: scale.last().map_or(0, |p| p.value),
+            });
+        }
+        self.likert.insert((program, i), value);
+        Ok(Applied::Other)
+    }
+
+    fn choose(&mut self, name: &'static str, program: usize) -> Result<Applied, SessionError> {
+        if self.stage != Stage::Questionnaire {
+            return Err(not_now(name, "the questionnaire has not started"));
+        }
+        if program >= self.learners.len() {
+            return Err(SessionError::UnknownProgram(program));
+        }
+        self.choice = Some(program);
+        Ok(Applied::Other)
+    }
+
+    /// Takes back the last grasp: its record, its learning step, and the trial again awaits
+    /// its grasp.
+    fn restore(&mut self, undo: UndoPoint) -> (TrialCursor, Option<BeliefSummary>) {
+        self.trials.pop();
+        let cursor = TrialCursor { presented: true, ..undo.cursor };
+        self.stage = Stage::Trial(cursor);
+        let belief = undo.learner.map(|(run, l)| {
+            self.learners[run] = l;
+            self.learners[run].summary.clone()
+        });
+        (cursor, belief)
+    }
+}
+
+fn not_now(event: &'static str, why: impl Into<String>) -> SessionError {
+    SessionError::NotNow { event, why: why.into() }
+}
