@@ -18,6 +18,7 @@ pub mod protocol;
 pub mod record;
 pub mod select;
 pub mod session;
+pub mod setup;
 pub mod stats;
 pub mod study_dir;
 pub mod tui;

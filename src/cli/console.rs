@@ -122,7 +122,7 @@ fn config_of(old: &LogContents, dirs: StudyDirs, simulate: bool, pace: u64) -> R
 pub fn resume(old: LogContents, dirs: StudyDirs, simulate: bool, pace: u64) -> Result<()> {
     let config = config_of(&old, dirs, simulate, pace)?;
     require_terminal()?;
-    let app = App::resume(config, &old).map_err(anyhow::Error::msg)?;
+    let app = App::resume(config, &old)?;
     finish(run_terminal(app))
 }
 

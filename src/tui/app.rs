@@ -5,21 +5,19 @@
 use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::sync::mpsc::{Receiver, TryRecvError, channel};
 use std::time::Duration;
 
-use rand::RngExt;
 use ratatui::crossterm::event::KeyEvent;
 
 use super::keys::{Action, Counts, Mode, action_for};
+use super::worker::{Done, Failure, Worker};
 use crate::analysis::{SessionAnalysis, analyse};
-use crate::dryrun::{now_ns, plan};
-use crate::participant::{ParticipantRecord, ScriptedParticipant, SimulatedPerson, new_id, validate_id};
-use crate::protocol::{Study, for_body};
-use crate::record::{
-    LogContents, RecordError, RecordedSession, SubmitError, continuation_path, log_folder, new_log_path, read_log,
-};
-use crate::session::{Event, Prompt, Session, SessionStart, Stamped, VoidReason, condition_order};
+use crate::dryrun::now_ns;
+use crate::participant::{ScriptedParticipant, SimulatedPerson, validate_id};
+use crate::protocol::Study;
+use crate::record::{LogContents, RecordError, RecordedSession, continuation_path, log_folder};
+use crate::session::{Event, Prompt, Session, Stamped, VoidReason};
+use crate::setup::{Plan, SetupConfig, SetupError, lock_for, plan_session, start_session};
 use crate::study_dir::{ParticipantLock, StudyDirs};
 
 /// How the console was started.
@@ -73,34 +71,15 @@ pub enum Overlay {
     },
 }
 
-/// What a new session will be (shown on the setup screen).
-#[derive(Clone, Debug)]
-pub struct Plan {
-    pub start: SessionStart,
-    /// A participant record to create when the session starts ("new").
-    pub new_record: Option<ParticipantRecord>,
-    pub simulated: Option<ScriptedParticipant>,
-    pub log_path: PathBuf,
-    pub error: Option<String>,
-    /// The protocol as this session runs it: the participant's body height scales the arm.
-    pub study: Arc<Study>,
-    pub protocol_text: String,
-    /// The study's folders, and which of them are new (read once, when planned).
-    pub folders: String,
-    pub new_folders: bool,
-}
-
-/// Why a submitted event did not take effect.
-enum Failure {
-    /// The session refused it (nothing was logged).
-    Rejected(String),
-    /// The log could not be written; the event is kept to be retried.
-    Log { message: String, last_event: usize, event: Stamped },
-}
-
-enum WorkDone {
-    Submitted(Box<RecordedSession>, Result<(), Failure>),
-    Finished(Box<SummaryView>),
+/// Why the console could not open a session.
+#[derive(Debug, thiserror::Error)]
+pub enum ConsoleError {
+    /// Another console or command holds the participant.
+    #[error(transparent)]
+    Lock(#[from] crate::study_dir::LockError),
+    /// The log could not be read, replayed or continued.
+    #[error(transparent)]
+    Log(#[from] RecordError),
 }
 
 /// The console.
@@ -109,12 +88,12 @@ pub struct App {
     pub screen: Screen,
     pub overlay: Option<Overlay>,
     pub plan: Option<Plan>,
-    live: Option<RecordedSession>,
+    /// The thread that owns the recorded session while it runs.
+    worker: Option<Worker>,
     /// This console's hold on the participant (one live session per participant).
     lock: Option<ParticipantLock>,
-    /// A copy of the session as last shown (kept while the worker has the live one).
+    /// The session as last reported by the worker (what the screens show).
     shown: Option<Session>,
-    worker: Option<Receiver<WorkDone>>,
     pending: VecDeque<KeyEvent>,
     /// The event whose log write failed, waiting for a retry.
     unwritten: Option<Stamped>,
@@ -132,6 +111,8 @@ pub struct App {
     pub session_started_ns: Option<u64>,
     last_simulated_ns: u64,
     pub quit: bool,
+    /// The log finished at a quit: its path, and why it could not be finished.
+    closed: Option<(PathBuf, Option<String>)>,
     /// Printed after the terminal is restored.
     pub exit_message: Option<String>,
 }
@@ -146,12 +127,11 @@ impl App {
 
     /// Continues an interrupted session in a new log beside the old one (never at a path
     /// taken from the log's content), at the screen where it stopped.
-    pub fn resume(config: AppConfig, old: &LogContents) -> Result<Self, String> {
+    pub fn resume(config: AppConfig, old: &LogContents) -> Result<Self, ConsoleError> {
         let mut app = Self::empty(config);
-        let lock = ParticipantLock::acquire(&log_folder(&old.path), &old.start.participant, "console");
-        app.lock = Some(lock.map_err(|e| e.to_string())?);
+        app.lock = Some(ParticipantLock::acquire(&log_folder(&old.path), &old.start.participant, "console")?);
         let path = continuation_path(old, chrono::Utc::now());
-        let rec = RecordedSession::resume(old, &path, now_ns()).map_err(|e| e.to_string())?;
+        let rec = RecordedSession::resume(old, &path, now_ns())?;
         let path = rec.path().to_path_buf();
         let status = format!(
             "Resumed {} after {} events; continuing in {}",
@@ -176,7 +156,7 @@ impl App {
             });
         }
         app.shown = Some(rec.session().clone());
-        app.live = Some(rec);
+        app.worker = Some(Worker::spawn(rec));
         app.screen = Screen::Session;
         app.sync_cursor();
         app.after_event();
@@ -204,9 +184,8 @@ impl App {
             screen: Screen::Setup,
             overlay: None,
             plan: None,
-            live: None,
-            shown: None,
             worker: None,
+            shown: None,
             pending: VecDeque::new(),
             unwritten: None,
             visible: true,
@@ -217,97 +196,26 @@ impl App {
             session_started_ns: None,
             last_simulated_ns: 0,
             quit: false,
+            closed: None,
             exit_message: None,
         }
     }
 
     fn make_plan(&self) -> Plan {
         let c = &self.config;
-        let study = &c.study;
-        let seed = c.seed.unwrap_or_else(|| rand::rng().random());
-        let now = chrono::Utc::now();
-        let started_at = now.to_rfc3339_opts(chrono::SecondsFormat::Millis, true);
-        if c.simulate {
-            let p = plan(study, seed, 0, None, started_at);
-            let log_path = new_log_path(&c.dirs.logs, &p.start.participant, now);
-            return Plan {
-                start: p.start,
-                new_record: None,
-                simulated: Some(p.participant),
-                log_path,
-                error: None,
-                study: Arc::clone(study),
-                protocol_text: c.protocol_text.clone(),
-                folders: c.dirs.describe(),
-                new_folders: !c.dirs.missing().is_empty(),
-            };
-        }
-        let (mut study, mut protocol_text) = (Arc::clone(study), c.protocol_text.clone());
-        let (id, slot, new_record, error) = if c.participant == "new" {
-            let id = new_id(&mut rand::rng());
-            let counts = crate::counterbalance::completed_per_slot(&c.dirs.logs, &c.dirs.participants, 2);
-            let slot = counts.least_filled();
-            let rec = ParticipantRecord {
-                id: id.clone(),
-                slot,
-                created_at: now.to_rfc3339_opts(chrono::SecondsFormat::Secs, true),
-                body_height_m: None,
-                handedness: None,
-                withdrawn_at: None,
-            };
-            (id, slot, Some(rec), None)
-        } else {
-            match ParticipantRecord::load(&c.dirs.participants, &c.participant) {
-                Ok(r) if r.is_withdrawn() => {
-                    let why = format!(
-                        "participant {} withdrew from the study ({}): no new session can be started for them",
-                        r.id,
-                        r.withdrawn_at.as_deref().unwrap_or_default()
-                    );
-                    (r.id, r.slot, None, Some(why))
-                }
-                Ok(r) => match for_body(&c.protocol_text, &study.source_name, r.body()) {
-                    Ok((text, fitted)) => {
-                        (study, protocol_text) = (Arc::new(fitted), text);
-                        (r.id, r.slot, None, None)
-                    }
-                    Err(e) => (r.id, r.slot, None, Some(e.to_string())),
-                },
-                Err(e) => (c.participant.clone(), 0, None, Some(e.to_string())),
-            }
-        };
-        let start = SessionStart {
-            session_id: format!("{:016x}", rand::rng().random::<u64>()),
-            participant: id.clone(),
-            protocol_name: study.protocol.name.clone(),
-            protocol_sha256: study.sha256.clone(),
-            seed,
-            condition_order: condition_order(&study, slot),
-            program_labels: study.protocol.session.program_labels.clone(),
-            software_version: env!("CARGO_PKG_VERSION").to_string(),
-            pilot: false,
-            slot,
-            started_at,
-            simulated_truth: None,
-            resumed_from: None,
-        };
-        let log_path = if validate_id(&id).is_ok() { new_log_path(&c.dirs.logs, &id, now) } else { PathBuf::new() };
-        Plan {
-            start,
-            new_record,
-            simulated: None,
-            log_path,
-            error,
-            study,
-            protocol_text,
-            folders: c.dirs.describe(),
-            new_folders: !c.dirs.missing().is_empty(),
-        }
+        plan_session(&SetupConfig {
+            study: &c.study,
+            protocol_text: &c.protocol_text,
+            dirs: &c.dirs,
+            participant: &c.participant,
+            simulate: c.simulate,
+            seed: c.seed,
+        })
     }
 
     /// The session as currently shown.
     pub fn session(&self) -> Option<&Session> {
-        self.live.as_ref().map(|l| l.session()).or(self.shown.as_ref())
+        self.shown.as_ref()
     }
 
     /// The log being written.
@@ -315,16 +223,16 @@ impl App {
         match &self.screen {
             Screen::Summary(s) => Some(s.log_path.clone()),
             _ => self
-                .live
+                .worker
                 .as_ref()
-                .map(|l| l.path().to_path_buf())
+                .map(|w| w.path().clone())
                 .or_else(|| self.plan.as_ref().map(|p| p.log_path.clone())),
         }
     }
 
     /// Whether work is under way (the screen shows "computing").
     pub fn busy(&self) -> bool {
-        self.worker.is_some()
+        self.worker.as_ref().is_some_and(Worker::busy)
     }
 
     /// What the keyboard drives now.
@@ -403,46 +311,40 @@ impl App {
 
     /// Blocks until the worker is done (headless drivers and tests).
     pub fn wait_idle(&mut self) {
-        while let Some(rx) = &self.worker {
-            match rx.recv() {
-                Ok(done) => {
-                    self.worker = None;
-                    self.finish_work(done);
-                }
-                Err(_) => self.worker = None,
-            }
-        }
-        while !self.busy() {
+        loop {
+            self.wait_worker();
             let Some(k) = self.pending.pop_front() else { break };
             self.key(k);
-            if let Some(rx) = self.worker.take()
-                && let Ok(done) = rx.recv()
-            {
-                self.finish_work(done);
+        }
+    }
+
+    /// Takes every report of the worker, waiting for them when `block`.
+    fn poll_worker(&mut self, block: bool) {
+        loop {
+            let Some(worker) = self.worker.as_mut() else { return };
+            match worker.poll(block) {
+                Ok(Some(done)) => self.finish_work(done),
+                Ok(None) => return,
+                Err(e) => {
+                    self.status = e.to_string();
+                    return;
+                }
             }
         }
+    }
+
+    fn wait_worker(&mut self) {
+        self.poll_worker(true);
     }
 
     fn collect(&mut self) {
-        let Some(rx) = &self.worker else { return };
-        match rx.try_recv() {
-            Ok(done) => {
-                self.worker = None;
-                self.finish_work(done);
-            }
-            Err(TryRecvError::Empty) => {}
-            Err(TryRecvError::Disconnected) => {
-                self.worker = None;
-                self.status = "internal error: the worker stopped".into();
-            }
-        }
+        self.poll_worker(false);
     }
 
-    fn finish_work(&mut self, done: WorkDone) {
+    fn finish_work(&mut self, done: Done) {
         match done {
-            WorkDone::Submitted(rec, result) => {
-                self.shown = Some(rec.session().clone());
-                self.live = Some(*rec);
+            Done::Submitted(session, result) => {
+                self.shown = Some(*session);
                 match result {
                     Ok(()) => {
                         self.unwritten = None;
@@ -461,7 +363,14 @@ impl App {
                     }
                 }
             }
-            WorkDone::Finished(view) => self.screen = Screen::Summary(view),
+            Done::Finished(view) => {
+                self.worker = None;
+                self.screen = Screen::Summary(view);
+            }
+            Done::Closed { path, error } => {
+                self.worker = None;
+                self.closed = Some((path, error));
+            }
         }
     }
 
@@ -471,22 +380,9 @@ impl App {
     }
 
     fn submit_stamped(&mut self, stamped: Stamped) {
-        let Some(mut live) = self.live.take() else { return };
-        let (tx, rx) = channel();
-        std::thread::spawn(move || {
-            let result = live.submit(stamped.clone()).map(|_| ()).map_err(|e| match e {
-                SubmitError::Rejected(e) => Failure::Rejected(e.to_string()),
-                SubmitError::Log(e) => {
-                    let last_event = match &e {
-                        RecordError::Write { last_event, .. } => *last_event,
-                        _ => live.session().event_count(),
-                    };
-                    Failure::Log { message: e.to_string(), last_event, event: stamped }
-                }
-            });
-            let _ = tx.send(WorkDone::Submitted(Box::new(live), result));
-        });
-        self.worker = Some(rx);
+        if let Some(w) = self.worker.as_mut() {
+            w.submit(stamped);
+        }
     }
 
     /// After an event took effect: keep the questionnaire cursor in step, and finish the
@@ -513,96 +409,63 @@ impl App {
     }
 
     fn finish_log(&mut self, completed: bool) {
-        let Some(live) = self.live.take() else { return };
-        let (tx, rx) = channel();
-        std::thread::spawn(move || {
-            let view = match live.finish() {
-                Ok(path) => {
-                    let analysis =
-                        read_log(&path).map_err(|e| e.to_string()).and_then(|l| analyse(&l).map_err(|e| e.to_string()));
-                    let (analysis, error) = match analysis {
-                        Ok(a) => (Some(a), None),
-                        Err(e) => (None, Some(e)),
-                    };
-                    SummaryView { log_path: path, completed, analysis, error }
-                }
-                Err(e) => {
-                    SummaryView { log_path: PathBuf::new(), completed, analysis: None, error: Some(e.to_string()) }
-                }
-            };
-            let _ = tx.send(WorkDone::Finished(Box::new(view)));
-        });
-        self.worker = Some(rx);
+        if let Some(w) = self.worker.as_mut() {
+            w.finish(completed);
+        }
     }
 
     fn start(&mut self) {
-        let Some(plan) = self.plan.clone() else { return };
-        if let Some(e) = &plan.error {
-            self.status = format!("cannot start: {e}");
-            return;
-        }
-        if self.lock.is_none() {
-            let dir = plan.log_path.parent().unwrap_or(std::path::Path::new("."));
-            match ParticipantLock::acquire(dir, &plan.start.participant, "console") {
-                Ok(lock) => self.lock = Some(lock),
-                Err(e) => {
-                    self.status = format!("cannot start: {e}");
-                    return;
-                }
-            }
-        }
-        if let Some(rec) = &plan.new_record {
-            if let Err(e) = rec.create(&self.config.dirs.participants) {
-                self.status = format!("cannot create the participant record: {e}");
-                return;
-            }
-            // Made once: a retry after a failed log does not make it again.
-            if let Some(p) = self.plan.as_mut() {
-                p.new_record = None;
-            }
-        }
-        let session = match Session::new(Arc::clone(&plan.study), plan.start.clone()) {
-            Ok(s) => s,
-            Err(e) => {
-                self.status = e.to_string();
-                return;
-            }
-        };
-        match RecordedSession::create(&plan.log_path, &plan.protocol_text, session, now_ns()) {
+        let Some(mut plan) = self.plan.take() else { return };
+        let started = self.lock_and_start(&mut plan);
+        self.plan = Some(plan);
+        match started {
             Ok(rec) => {
                 self.status = format!("Session started; logging to {}", rec.path().display());
                 self.shown = Some(rec.session().clone());
-                self.live = Some(rec);
+                self.worker = Some(Worker::spawn(rec));
                 self.screen = Screen::Session;
                 self.session_started_ns = Some(self.now_ns);
             }
-            Err(e) => self.status = format!("cannot create the log: {e}"),
+            Err(e) => self.status = e.to_string(),
         }
     }
 
+    fn lock_and_start(&mut self, plan: &mut Plan) -> Result<RecordedSession, SetupError> {
+        if let Some(e) = &plan.error {
+            return Err(SetupError::Plan(e.clone()));
+        }
+        if self.lock.is_none() {
+            self.lock = Some(lock_for(plan)?);
+        }
+        start_session(plan, &self.config.dirs)
+    }
+
     fn quit_now(&mut self) {
-        if let Some(live) = self.live.take() {
-            let done = matches!(live.session().prompt(), Prompt::Done { .. });
-            let path = live.path().to_path_buf();
+        // Whatever is under way is written first; then the log is finished.
+        self.wait_worker();
+        if let Some(w) = self.worker.as_mut() {
+            let done = self.shown.as_ref().is_some_and(|s| matches!(s.prompt(), Prompt::Done { .. }));
+            w.close();
+            self.wait_worker();
             let lost = self.unwritten.as_ref().map_or(String::new(), |_| {
                 " (the last event could not be written and is not in it: record it again after resuming)".to_string()
             });
-            match live.finish() {
-                Ok(path) if !done => {
+            match self.closed.take() {
+                Some((path, None)) if !done => {
                     self.exit_message = Some(format!(
                         "Session left unfinished; continue it with: handover resume {}{lost}",
                         path.display()
                     ))
                 }
-                Ok(_) => {}
                 // The events on disk are whole: the log replays without its summary.
-                Err(e) => {
+                Some((path, Some(e))) => {
                     self.exit_message = Some(format!(
                         "could not finish the log ({e}); everything acknowledged is in it: continue it with: \
                          handover resume {}{lost}",
                         path.display()
                     ))
                 }
+                _ => {}
             }
         }
         self.quit = true;
@@ -611,17 +474,9 @@ impl App {
     /// A termination signal: let the worker finish the event it is writing, then leave as
     /// `q` then `y` does (the session stays resumable).
     pub fn interrupt(&mut self) {
-        self.wait_idle_worker();
+        self.wait_worker();
         self.pending.clear();
         self.quit_now();
-    }
-
-    fn wait_idle_worker(&mut self) {
-        while let Some(rx) = self.worker.take() {
-            if let Ok(done) = rx.recv() {
-                self.finish_work(done);
-            }
-        }
     }
 
     /// Applies an operator's intent.
@@ -640,7 +495,7 @@ impl App {
             }
             (Mode::ConfirmQuit, Action::No) => self.overlay = None,
             (Mode::ConfirmQuit, Action::Abort) => {
-                self.overlay = if self.live.is_some() { Some(Overlay::AbortReason(String::new())) } else { None };
+                self.overlay = if self.worker.is_some() { Some(Overlay::AbortReason(String::new())) } else { None };
             }
             (Mode::WriteFailed, Action::Retry) => {
                 if let Some(event) = self.unwritten.clone() {

@@ -5,6 +5,7 @@ pub mod app;
 pub mod keys;
 mod screens;
 pub mod theme;
+mod worker;
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
