@@ -457,3 +457,37 @@ fn completions_and_the_man_page_cover_every_subcommand() {
     let (code, _, err) = handover(&["completions", "nosh"]);
     assert_eq!(code, 2, "{err}");
 }
+
+/// Every command's `--help` says what it writes (or that it writes no file).
+#[test]
+fn every_help_says_what_the_command_writes() {
+    let help = |args: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_handover")).args(args).output().unwrap();
+        assert!(out.status.success(), "{args:?}");
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let commands = [
+        vec!["run"],
+        vec!["score"],
+        vec!["feasible"],
+        vec!["simulate"],
+        vec!["front"],
+        vec!["protocol", "check"],
+        vec!["participant", "new"],
+        vec!["participant", "withdraw"],
+        vec!["participant", "show"],
+        vec!["dry-run"],
+        vec!["resume"],
+        vec!["analyze"],
+        vec!["completions"],
+        vec!["man"],
+    ];
+    let listed = help(&["--help"]);
+    for c in &commands {
+        assert!(listed.contains(&format!("  {} ", c[0])), "{} is a command: {listed}", c[0]);
+        let mut args = c.clone();
+        args.push("--help");
+        let text = help(&args);
+        assert!(text.contains("Writes:"), "handover {} --help says what it writes:\n{text}", c.join(" "));
+    }
+}

@@ -61,33 +61,66 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Open the operator console and run a study session.
+    ///
+    /// Writes: the session's log LOGS/<id>/<id>_<UTC time>.mcap (owner-only, never
+    /// overwritten) and, while it runs, LOGS/<id>/.session.lock; for the participant "new",
+    /// their record PARTICIPANTS/<id>.json when the session starts.
     Run(console::RunArgs),
     /// The learning engine as a JSON tool: score a menu of queries, update a belief.
+    ///
+    /// Writes: the scores (and the updated belief) as JSON on stdout; no file.
     Score(score::ScoreArgs),
     /// The feasible arm configurations of a protocol's handover queries.
+    ///
+    /// Writes: JSON or CSV on stdout (docs/outputs.md: feasible.csv); with --plot, one SVG
+    /// per query into that folder.
     Feasible(feasible::FeasibleArgs),
     /// Reproduce the paper's simulation studies (planar 2-DoF, 7-DoF arm, two sets).
+    ///
+    /// Writes: a table on stdout; with --out DIR, metrics.csv, summary.csv, tests.csv and one
+    /// SVG per measure (two-sets: two_sets.csv) into DIR (docs/outputs.md).
     Simulate(simulate::SimulateArgs),
     /// The comfort–accuracy front of the comfort-aware selectors (hybrid β, budgeted ε).
+    ///
+    /// Writes: a table on stdout; with --out DIR, front.csv and front.svg into DIR.
     Front(front::FrontArgs),
     /// Validate a protocol file.
+    ///
+    /// Writes: the problems or a summary on stdout; no file.
     Protocol(protocol::ProtocolArgs),
     /// Create pseudonymous participants.
+    ///
+    /// Writes: participant records PARTICIPANTS/<id>.json (new, withdraw); withdraw
+    /// --delete-data deletes that participant's logs and record.
     Participant(participant::ParticipantArgs),
     /// Run whole sessions with simulated participants (pilot logs).
+    ///
+    /// Writes: one pilot log per simulated participant, LOGS/<id>/<id>_<UTC time>.mcap,
+    /// stamped at a session's pace; the measures on stdout.
     DryRun(dry_run::DryRunArgs),
     /// Continue an interrupted session from its log.
+    ///
+    /// Writes: a new log beside the old one (the old one is kept, never changed) holding every
+    /// event of the old one and the rest of the session; a finished session is only read.
     Resume(resume::ResumeArgs),
     /// Analyse session logs (Fig. 10, Table I), optionally verifying every derived value.
+    ///
+    /// Writes: a table (or JSON) on stdout; with --out DIR, the tidy CSVs of docs/outputs.md,
+    /// fig10.svg, fig10_predictive.svg, objects.svg, alpha.svg and table1.md into DIR (pilot
+    /// sessions into DIR/pilot). Never writes to a log.
     Analyze(analyze::AnalyzeArgs),
     /// Print a shell completion script on stdout, e.g.
     /// `handover completions bash > ~/.local/share/bash-completion/completions/handover`.
+    ///
+    /// Writes: the script on stdout; no file.
     Completions {
         /// The shell.
         #[arg(value_enum)]
         shell: clap_complete::Shell,
     },
     /// Print the manual page (roff) on stdout, e.g. `handover man > handover.1; man ./handover.1`.
+    ///
+    /// Writes: the page on stdout; no file.
     Man,
 }
 

@@ -23,6 +23,8 @@ pub struct ParticipantArgs {
 enum ParticipantCommand {
     /// Create a random, uninformative id and participants/<id>.json with its counterbalancing
     /// slot: the order (AB or BA) with the fewest completed real sessions in the logs.
+    ///
+    /// Writes: PARTICIPANTS/<id>.json (owner-only); the id on stdout.
     New {
         /// Protocol (default: the embedded protocols/bike-handover.json).
         #[arg(long, value_name = "FILE")]
@@ -41,6 +43,9 @@ enum ParticipantCommand {
     /// leaves their sessions out and their counterbalancing slot is free again. With
     /// --delete-data, also delete every file of theirs in the study folders (their logs and
     /// their record), after listing the files and asking for the id to be typed back.
+    ///
+    /// Writes: the record's withdrawal time into PARTICIPANTS/<id>.json (an atomic rewrite);
+    /// with --delete-data, deletes their logs and record instead.
     Withdraw {
         /// The participant's id.
         id: String,
@@ -54,6 +59,8 @@ enum ParticipantCommand {
         folders: Folders,
     },
     /// Print a participant's record.
+    ///
+    /// Writes: the record on stdout; no file.
     Show {
         /// The participant's id.
         id: String,

@@ -24,6 +24,8 @@ pub struct ProtocolArgs {
 #[derive(Debug, Subcommand)]
 enum ProtocolCommand {
     /// Validate a protocol (every problem with its field's path; exit 2 if any) and print a summary.
+    ///
+    /// Writes: the problems or the summary on stdout; no file.
     Check {
         /// The protocol JSON file.
         file: PathBuf,
