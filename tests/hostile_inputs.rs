@@ -3,6 +3,9 @@
 //! runs the real binary on each under a memory limit, and asserts: exit 0, 1 or 2, with a
 //! message naming the file; never a panic; never a write outside the case's own folder;
 //! within the time and memory budgets below.
+//!
+//! Its length: one test per untrusted input (protocol, log, participant record, JSON), each
+//! with its many hostile cases.
 
 use std::collections::BTreeSet;
 use std::io::Read;

@@ -1,5 +1,8 @@
 //! The study commands as a user runs them: protocol check, participant new/show, dry-run,
 //! resume.
+//!
+//! Its length: the study commands a researcher runs (participant, protocol check, dry runs,
+//! help), one test each.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};

@@ -21,6 +21,7 @@ macro_rules! out {
 }
 
 mod analyze;
+mod analyze_report;
 mod by_body;
 mod console;
 mod dry_run;

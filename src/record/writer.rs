@@ -9,6 +9,9 @@
 //! channels, attachments and messages; on `finish` a data end with the data section's
 //! CRC, a summary (schemas, channels, statistics, attachment index), summary offsets and a
 //! footer with the summary CRC.
+//!
+//! Its length: one binary format (the MCAP records this writer emits, their CRCs, the summary)
+//! and its failure tests.
 
 use std::collections::BTreeMap;
 use std::io::{Seek, SeekFrom, Write};

@@ -1,10 +1,12 @@
-//! The operator console: ratatui screens, the pure key map, and one event loop generic over
+//! The operator console: ratatui screens, the one key table, the update, the worker that owns
+//! the recorded session, and one event loop generic over
 //! the backend. The only module that uses ratatui and crossterm.
 
 pub mod app;
 pub mod keys;
 mod screens;
 pub mod theme;
+mod update;
 mod worker;
 
 use std::sync::Arc;

@@ -1,0 +1,148 @@
+//! The console's update: an operator's intent, in the mode the keys are in, becomes an
+//! event for the session, a dialog, or a move of the questionnaire's cursor.
+
+use super::app::{App, Overlay};
+use super::keys::{Action, Mode};
+use crate::participant::validate_id;
+use crate::session::{Event, Prompt, VoidReason};
+
+impl App {
+    /// Applies an operator's intent.
+    pub fn update(&mut self, action: Action) {
+        let mode = self.mode();
+        match (mode, action) {
+            (_, Action::Help) => self.overlay = Some(Overlay::Help),
+            (Mode::Help, Action::Cancel) => self.overlay = None,
+            (Mode::Setup, Action::Quit) | (Mode::Summary, Action::Quit) => self.quit_now(),
+            (_, Action::Quit) if !matches!(mode, Mode::LineEdit | Mode::WriteFailed) => {
+                self.overlay = Some(Overlay::ConfirmQuit)
+            }
+            (Mode::ConfirmQuit, Action::Yes) => {
+                self.overlay = None;
+                self.quit_now();
+            }
+            (Mode::ConfirmQuit, Action::No) => self.overlay = None,
+            (Mode::ConfirmQuit, Action::Abort) => {
+                self.overlay = if self.worker.is_some() { Some(Overlay::AbortReason(String::new())) } else { None };
+            }
+            (Mode::WriteFailed, Action::Retry) => {
+                if let Some(event) = self.unwritten.clone() {
+                    self.submit_stamped(event);
+                }
+            }
+            (Mode::WriteFailed, Action::Quit) => self.quit_now(),
+            (Mode::Setup, Action::Confirm) => self.start(),
+            (Mode::Setup, Action::EditParticipant) if !self.config.simulate => {
+                self.overlay = Some(Overlay::ParticipantId(String::new()))
+            }
+            (Mode::LineEdit, Action::Char(c)) => {
+                if let Some(Overlay::Note(t) | Overlay::ParticipantId(t) | Overlay::AbortReason(t)) = &mut self.overlay
+                {
+                    t.push(c);
+                }
+            }
+            (Mode::LineEdit, Action::Backspace) => {
+                if let Some(Overlay::Note(t) | Overlay::ParticipantId(t) | Overlay::AbortReason(t)) = &mut self.overlay
+                {
+                    t.pop();
+                }
+            }
+            (Mode::LineEdit | Mode::VoidReason, Action::Cancel) => self.overlay = None,
+            (Mode::LineEdit, Action::Confirm) => match self.overlay.take() {
+                Some(Overlay::Note(text)) if !text.trim().is_empty() => self.submit(Event::Note { text }),
+                Some(Overlay::AbortReason(text)) if !text.trim().is_empty() => {
+                    self.submit(Event::Aborted { reason: text.trim().to_string() })
+                }
+                Some(Overlay::AbortReason(text)) => {
+                    self.status = "A reason is needed to end the session for good (Esc goes back)".into();
+                    self.overlay = Some(Overlay::AbortReason(text));
+                }
+                Some(Overlay::ParticipantId(id)) => {
+                    let id = id.trim().to_string();
+                    if id == "new" || validate_id(&id).is_ok() {
+                        self.config.participant = id;
+                        self.plan = Some(self.make_plan());
+                    } else {
+                        self.status = format!("'{id}' is not a participant id (A–Z, a–z, 0–9, '-', at most 32)");
+                    }
+                }
+                _ => {}
+            },
+            (Mode::Present | Mode::Grasp | Mode::Questionnaire | Mode::Paused, Action::Note) => {
+                self.overlay = Some(Overlay::Note(String::new()))
+            }
+            (Mode::Present | Mode::Grasp | Mode::Questionnaire, Action::Pause) => self.submit(Event::Paused),
+            (Mode::Paused, Action::Pause) => self.submit(Event::Resumed),
+            (Mode::Present | Mode::Grasp, Action::SwitchJoints) => self.joint_pair += 1,
+            (Mode::Present | Mode::Grasp, Action::Void) => self.overlay = Some(Overlay::VoidReason),
+            (Mode::VoidReason, Action::VoidReason(k)) => {
+                self.overlay = None;
+                self.submit(Event::TrialVoided { reason: VoidReason::ALL[k], detail: String::new() });
+            }
+            (Mode::Present, Action::Undo) => {
+                if self.session().is_some_and(|s| s.can_undo()) {
+                    self.submit(Event::GraspUndone);
+                } else {
+                    self.status = "Nothing to undo: a grasp can be undone until the next query is presented".into();
+                }
+            }
+            (Mode::Present, Action::Confirm) => {
+                if let Some(Prompt::Present(v)) = self.session().map(|s| s.prompt()) {
+                    let id = self.session().expect("a session").query(v.query).query.id.clone();
+                    self.submit(Event::QueryPresented { query: id });
+                }
+            }
+            (Mode::Grasp, Action::Region(k)) => {
+                let Some(s) = self.session() else { return };
+                let Prompt::Grasp(v) = s.prompt() else { return };
+                let q = s.query(v.query);
+                match q.regions.get(k) {
+                    Some(&r) => {
+                        let region = s.study().object(q).regions[r].id.clone();
+                        self.submit(Event::GraspRecorded { region });
+                    }
+                    None => self.status = format!("Only {} regions are offered", q.regions.len()),
+                }
+            }
+            (Mode::Questionnaire, a) => self.questionnaire(a),
+            _ => {}
+        }
+    }
+
+    fn questionnaire(&mut self, action: Action) {
+        let n = self.likert_count();
+        let Some(s) = self.session() else { return };
+        let order = s.likert_order();
+        match action {
+            Action::Prev => self.cursor = self.cursor.saturating_sub(1),
+            Action::Next => self.cursor = (self.cursor + 1).min(n + 1),
+            Action::Likert(k) if self.cursor < n => {
+                let scale = &s.study().protocol.questionnaire.scale;
+                let Some(point) = scale.get(k) else {
+                    self.status = format!("The scale has {} points", scale.len());
+                    return;
+                };
+                let (program, item) = order[self.cursor];
+                let event = Event::LikertAnswered {
+                    program,
+                    item: s.study().protocol.questionnaire.items[item].id.clone(),
+                    value: point.value,
+                };
+                self.cursor += 1;
+                self.submit(event);
+            }
+            Action::Choice(p) if self.cursor >= n => {
+                self.cursor = n + 1;
+                self.submit(Event::ForcedChoice { program: p });
+            }
+            Action::Confirm => {
+                if s.prompt() == Prompt::Finish && self.cursor >= n {
+                    self.submit(Event::Ended);
+                } else {
+                    self.cursor = (self.cursor + 1).min(n + 1);
+                }
+            }
+            _ => {}
+        }
+    }
+}
