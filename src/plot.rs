@@ -287,17 +287,21 @@ pub fn alpha_plot(
     let clip = |pts: &[(f64, f64)]| -> Vec<(f64, f64)> {
         pts.iter().filter(|(_, y)| *y >= floor).map(|(x, y)| (x.log2(), *y)).collect()
     };
+    // Room above the curves (their maximum is 0) for the legend's four lines.
+    let top = 0.5 + (0.5 - floor) * legend_headroom(4);
     let mut chart = ChartBuilder::on(&root)
         .caption("α by maximum marginal likelihood", ("sans-serif", 20))
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(70)
-        .build_cartesian_2d(x0..x1, floor..0.5)
+        .build_cartesian_2d(x0..x1, floor..top)
         .map_err(|e| err(&e))?;
     chart
         .configure_mesh()
         .x_desc("α (log scale)")
         .y_desc("log evidence − its maximum")
+        // Above 0 is the legend's room, not a value the curves take.
+        .y_label_formatter(&|y| if *y > 1e-9 { String::new() } else { tick_label(*y, 0.5 - floor) })
         .x_labels((x1 - x0).round() as usize + 1)
         .x_label_formatter(&|x| {
             let a = 2f64.powf(*x);
@@ -309,7 +313,7 @@ pub fn alpha_plot(
     if let Some(p) = pooled {
         let (l, h) = (p.low.log2(), p.high.log2());
         chart
-            .draw_series(std::iter::once(Rectangle::new([(l, floor), (h, 0.5)], PALETTE[0].mix(0.12).filled())))
+            .draw_series(std::iter::once(Rectangle::new([(l, floor), (h, 0.0)], PALETTE[0].mix(0.12).filled())))
             .map_err(|e| err(&e))?;
     }
     for (k, s) in sessions.iter().enumerate() {
@@ -336,7 +340,7 @@ pub fn alpha_plot(
     for (k, a) in protocol.iter().enumerate() {
         let x = a.log2();
         let series = chart
-            .draw_series(std::iter::once(PathElement::new(vec![(x, floor), (x, 0.5)], PALETTE[1].stroke_width(2))))
+            .draw_series(std::iter::once(PathElement::new(vec![(x, floor), (x, 0.3)], PALETTE[1].stroke_width(2))))
             .map_err(|e| err(&e))?;
         if k == 0 {
             series
@@ -344,7 +348,7 @@ pub fn alpha_plot(
                 .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], PALETTE[1].stroke_width(2)));
         }
     }
-    legend(&mut chart, SeriesLabelPosition::LowerRight).map_err(|e| err(&e))?;
+    legend(&mut chart, SeriesLabelPosition::UpperRight).map_err(|e| err(&e))?;
     root.present().map_err(|e| err(&e))?;
     Ok(())
 }
@@ -378,6 +382,8 @@ pub fn front_plot(path: &Path, title: &str, panels: &[FrontPanel]) -> Result<(),
         let ys: Vec<f64> = panel.lines.iter().flat_map(|l| l.1.iter().map(|p| p.1)).collect();
         let y_min = ys.iter().copied().fold(-0.1f64, f64::min) - 0.05;
         let y_max = ys.iter().copied().fold(1.1f64, f64::max) + 0.05;
+        // Room above the points for the legend (the lines, the target, the mix, active, passive).
+        let y_max = y_max + (y_max - y_min) * legend_headroom(panel.lines.len() + 4);
         let mut chart = ChartBuilder::on(&area)
             .caption(&panel.title, ("sans-serif", 15))
             .margin(10)
@@ -431,7 +437,7 @@ pub fn front_plot(path: &Path, title: &str, panels: &[FrontPanel]) -> Result<(),
                     .legend(move |(x, y)| TriangleMarker::new((x + 6, y), 5, colour.filled()));
             }
         }
-        legend(&mut chart, SeriesLabelPosition::LowerRight).map_err(|e| err(&e))?;
+        legend(&mut chart, SeriesLabelPosition::UpperRight).map_err(|e| err(&e))?;
     }
     root.present().map_err(|e| err(&e))?;
     Ok(())
