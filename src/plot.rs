@@ -270,6 +270,7 @@ pub struct PooledEvidence {
 /// the support threshold −`drop` dashed, and each protocol α as a vertical line.
 pub fn alpha_plot(
     path: &Path,
+    title: &str,
     sessions: &[Vec<(f64, f64)>],
     pooled: Option<&PooledEvidence>,
     protocol: &[f64],
@@ -290,7 +291,7 @@ pub fn alpha_plot(
     // Room above the curves (their maximum is 0) for the legend's four lines.
     let top = 0.5 + (0.5 - floor) * legend_headroom(4);
     let mut chart = ChartBuilder::on(&root)
-        .caption("α by maximum marginal likelihood", ("sans-serif", 20))
+        .caption(title, ("sans-serif", 17))
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(70)

@@ -374,11 +374,11 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &Alph
     bar_chart(&dir.join("objects.svg"), &title, "times offered (training trials)", &objects, &groups)
         .map_err(anyhow::Error::msg)?;
     std::fs::write(dir.join("table1.md"), format!("# Table I — {} sessions\n\n{}", s.sessions, table1_markdown(s)))?;
-    write_alpha_plot(dir, alpha)
+    write_alpha_plot(dir, alpha, kind)
 }
 
 /// alpha.svg.
-fn write_alpha_plot(dir: &Path, a: &AlphaSummary) -> Result<()> {
+fn write_alpha_plot(dir: &Path, a: &AlphaSummary, kind: &str) -> Result<()> {
     let sessions: Vec<Vec<(f64, f64)>> = a.sessions.iter().filter_map(|s| s.fit.as_ref()).map(relative_curve).collect();
     let pooled = a.pooled.as_ref().map(|f| PooledEvidence {
         curve: relative_curve(f),
@@ -387,7 +387,9 @@ fn write_alpha_plot(dir: &Path, a: &AlphaSummary) -> Result<()> {
         high: f.high,
     });
     let protocol: Vec<f64> = a.protocol_alphas.iter().map(|(x, _)| *x).collect();
-    alpha_plot(&dir.join("alpha.svg"), &sessions, pooled.as_ref(), &protocol, SUPPORT_DROP).map_err(anyhow::Error::msg)
+    let title = format!("α by maximum marginal likelihood — {} {kind} sessions", a.sessions.len());
+    alpha_plot(&dir.join("alpha.svg"), &title, &sessions, pooled.as_ref(), &protocol, SUPPORT_DROP)
+        .map_err(anyhow::Error::msg)
 }
 
 /// A fit's curve relative to its maximum.
