@@ -4,18 +4,19 @@
 
 use serde::{Deserialize, Serialize};
 
-/// The official schema text of each `foxglove.*` schema used.
-pub const SCHEMAS: [(&str, &str); 4] = [
-    ("foxglove.FrameTransforms", include_str!("../../schemas/foxglove/FrameTransforms.json")),
-    ("foxglove.Log", include_str!("../../schemas/foxglove/Log.json")),
-    ("foxglove.PoseInFrame", include_str!("../../schemas/foxglove/PoseInFrame.json")),
-    ("foxglove.SceneUpdate", include_str!("../../schemas/foxglove/SceneUpdate.json")),
-];
+/// A `foxglove.*` schema: its name and Foxglove's published text.
+pub type OfficialSchema = (&'static str, &'static str);
 
-/// The official schema of `name` (a `foxglove.*` schema name in [`SCHEMAS`]).
-pub fn official_schema(name: &str) -> Option<&'static str> {
-    SCHEMAS.iter().find(|(n, _)| *n == name).map(|(_, s)| *s)
-}
+pub const FRAME_TRANSFORMS: OfficialSchema =
+    ("foxglove.FrameTransforms", include_str!("../../schemas/foxglove/FrameTransforms.json"));
+pub const LOG: OfficialSchema = ("foxglove.Log", include_str!("../../schemas/foxglove/Log.json"));
+pub const POSE_IN_FRAME: OfficialSchema =
+    ("foxglove.PoseInFrame", include_str!("../../schemas/foxglove/PoseInFrame.json"));
+pub const SCENE_UPDATE: OfficialSchema =
+    ("foxglove.SceneUpdate", include_str!("../../schemas/foxglove/SceneUpdate.json"));
+
+/// Every `foxglove.*` schema the log uses.
+pub const SCHEMAS: [OfficialSchema; 4] = [FRAME_TRANSFORMS, LOG, POSE_IN_FRAME, SCENE_UPDATE];
 
 /// `time`: seconds and nanoseconds since the Unix epoch.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

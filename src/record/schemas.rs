@@ -4,7 +4,7 @@
 use schemars::{JsonSchema, generate::SchemaSettings};
 
 use super::Topic;
-use super::foxglove::official_schema;
+use super::foxglove::{self, OfficialSchema};
 use super::types::{
     BeliefMessage, ForcedChoice, JointAngles, LikertAnswer, SessionEnd, SessionMark, SessionStartMessage,
     TestLogLikelihood, TrialQuery, TrialResponse, TrialUndo, TrialVoid,
@@ -15,8 +15,8 @@ fn derived<T: JsonSchema>(name: &'static str) -> (&'static str, String) {
     (name, serde_json::to_string(&schema).expect("a schema serialises"))
 }
 
-fn foxglove(name: &'static str) -> (&'static str, String) {
-    (name, official_schema(name).expect("every foxglove schema used is in foxglove::SCHEMAS").to_string())
+fn official((name, text): OfficialSchema) -> (&'static str, String) {
+    (name, text.to_string())
 }
 
 /// (schema name, schema text) of a topic: the bytes embedded in the log.
@@ -34,9 +34,9 @@ pub fn schema(topic: Topic) -> (&'static str, String) {
         Topic::SessionEnd => derived::<SessionEnd>("handover.SessionEnd"),
         Topic::HumanJoints => derived::<JointAngles>("handover.JointAngles"),
         Topic::TestLogLikelihood => derived::<TestLogLikelihood>("handover.TestLogLikelihood"),
-        Topic::RobotHandoverPose => foxglove("foxglove.PoseInFrame"),
-        Topic::HumanArm | Topic::ObjectScene => foxglove("foxglove.SceneUpdate"),
-        Topic::Transforms => foxglove("foxglove.FrameTransforms"),
-        Topic::Notes => foxglove("foxglove.Log"),
+        Topic::RobotHandoverPose => official(foxglove::POSE_IN_FRAME),
+        Topic::HumanArm | Topic::ObjectScene => official(foxglove::SCENE_UPDATE),
+        Topic::Transforms => official(foxglove::FRAME_TRANSFORMS),
+        Topic::Notes => official(foxglove::LOG),
     }
 }
