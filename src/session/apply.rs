@@ -3,7 +3,7 @@
 
 use super::{
     Applied, BeliefSummary, Event, Prompt, QueryRef, Session, SessionError, Stage, TrialCursor, TrialRecord, TrialSlot,
-    UndoPoint, VoidReason,
+    UndoPoint,
 };
 use crate::ergo::{FeasibleSet, Observation, most_likely_in_region};
 use crate::select::OutcomeModel;
@@ -41,7 +41,7 @@ impl Session {
             Event::QueryPresented { query } => self.present(name, query)?,
             Event::GraspRecorded { region } => self.record_grasp(name, region)?,
             Event::GraspUndone => self.undo_grasp(name)?,
-            Event::TrialVoided { reason, .. } => self.void(name, *reason)?,
+            Event::TrialVoided { .. } => self.void(name)?,
             Event::Note { text } => {
                 self.notes.push(text.clone());
                 Applied::Other
@@ -164,7 +164,7 @@ impl Session {
         Ok(Applied::Undone { view: self.view(cursor), belief })
     }
 
-    fn void(&mut self, name: &'static str, _reason: VoidReason) -> Result<Applied, SessionError> {
+    fn void(&mut self, name: &'static str) -> Result<Applied, SessionError> {
         let (cursor, retracted) = match (self.undo.take(), self.cursor()) {
             (Some(undo), _) => (self.restore(*undo).0, true),
             (None, Some(c)) if c.presented => (c, false),
