@@ -9,7 +9,8 @@ use crate::kinematics::Hand;
 use crate::participant::{ScriptedParticipant, SimulatedPerson};
 use crate::protocol::{Body, Study};
 use crate::record::{RecordedSession, SubmitError};
-use crate::session::{Event, SessionStart, Stamped, condition_order};
+use crate::robot::{Report, Robot, command_for};
+use crate::session::{Event, RobotState, SessionStart, Stamped, VoidReason, condition_order};
 use crate::{SeededRng, derive_seed};
 
 mod purpose {
@@ -140,4 +141,73 @@ pub fn drive(rec: &mut RecordedSession, participant: &ScriptedParticipant, pace:
         rec.submit(Stamped { time_ns, event })?;
     }
     Ok(())
+}
+
+/// Failed robot commands in a row after which a dry run gives the session up.
+pub const MAX_ROBOT_FAILURES: u32 = 3;
+
+/// How a dry run with a robot ended.
+#[derive(Clone, Debug, PartialEq)]
+pub enum RobotDrive {
+    /// Every prompt was answered.
+    Completed,
+    /// The robot failed [`MAX_ROBOT_FAILURES`] times in a row; the session was aborted (the
+    /// log says why).
+    GaveUp(String),
+}
+
+/// [`drive`] with a robot in the loop, stamped with the clock: each query is commanded (the
+/// command logged before it is sent), every report is logged as it comes, and the query is
+/// presented on `at_pose`. A failure or a timeout voids the trial as a robot fault and the
+/// command is sent again; after [`MAX_ROBOT_FAILURES`] in a row the session is aborted.
+pub fn drive_with_robot(
+    rec: &mut RecordedSession,
+    participant: &ScriptedParticipant,
+    robot: &mut Robot,
+) -> Result<RobotDrive, SubmitError> {
+    let stamp = |rec: &RecordedSession, event: Event| Stamped { time_ns: now_ns().max(rec.last_time_ns() + 1), event };
+    let mut failures = 0;
+    while let Some(event) = participant.respond(rec.session()) {
+        if !matches!(event, Event::QueryPresented { .. }) {
+            rec.submit(stamp(rec, event))?;
+            continue;
+        }
+        let Some(command) = command_for(rec.session(), &robot.settings) else {
+            rec.submit(stamp(rec, event))?;
+            continue;
+        };
+        rec.submit(stamp(rec, command.event(robot.kind())))?;
+        let outcome = match robot.send(&command) {
+            Ok(()) => loop {
+                let Some(report) = robot.next_report(Duration::from_millis(100)) else { continue };
+                rec.submit(stamp(rec, report.event()))?;
+                if report.query == command.query && report.state.is_final() {
+                    break report;
+                }
+            },
+            Err(why) => {
+                let report = Report { query: command.query.clone(), state: RobotState::Failed, detail: why };
+                rec.submit(stamp(rec, report.event()))?;
+                report
+            }
+        };
+        if outcome.state == RobotState::AtPose {
+            failures = 0;
+            rec.submit(stamp(rec, event))?;
+            continue;
+        }
+        failures += 1;
+        let detail = format!(
+            "robot {}{}",
+            outcome.state.name(),
+            if outcome.detail.is_empty() { String::new() } else { format!(": {}", outcome.detail) }
+        );
+        rec.submit(stamp(rec, Event::TrialVoided { reason: VoidReason::RobotFault, detail: detail.clone() }))?;
+        if failures >= MAX_ROBOT_FAILURES {
+            let reason = format!("the robot failed {failures} times in a row (last: {detail})");
+            rec.submit(stamp(rec, Event::Aborted { reason: reason.clone() }))?;
+            return Ok(RobotDrive::GaveUp(reason));
+        }
+    }
+    Ok(RobotDrive::Completed)
 }

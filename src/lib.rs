@@ -16,6 +16,7 @@ pub mod plot;
 pub mod private_files;
 pub mod protocol;
 pub mod record;
+pub mod robot;
 pub mod select;
 pub mod session;
 pub mod setup;

@@ -260,8 +260,11 @@ impl ScriptedParticipant {
     pub fn respond(&self, session: &crate::session::Session) -> Option<crate::session::Event> {
         use crate::session::{Event, Prompt};
         use rand::SeedableRng;
-        let mut rng =
-            SeededRng::seed_from_u64(crate::derive_seed(session.start().seed, session.event_count() as u64, RESPOND));
+        let mut rng = SeededRng::seed_from_u64(crate::derive_seed(
+            session.start().seed,
+            session.events_without_robot() as u64,
+            RESPOND,
+        ));
         Some(match session.prompt() {
             Prompt::Present(view) => Event::QueryPresented { query: session.query(view.query).query.id.clone() },
             Prompt::Grasp(view) => {

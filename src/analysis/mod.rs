@@ -21,7 +21,7 @@ pub use alpha::{
     SessionAlpha, alpha_grid, alpha_summary, fit_alpha,
 };
 pub use collect::{Analysed, most_complete};
-pub use rows::{NoteRow, TrialRow, TrialStatus, rfc3339_ms, trial_columns};
+pub use rows::{NoteRow, RobotRow, RobotTimings, TrialRow, TrialStatus, rfc3339_ms, robot_timings, trial_columns};
 pub use seeds::{
     HEIGHT_BANDS_M, ObjectsByBody, OverSeeds, Paired, SEED_MEASURES, SeedRun, object_shares, objects_by_body,
     over_seeds, paired_across, paired_over_seeds,
@@ -76,6 +76,8 @@ pub struct SessionAnalysis {
     pub trial_rows: Vec<TrialRow>,
     /// The experimenter's notes, in order.
     pub notes: Vec<NoteRow>,
+    /// Every command sent to the robot and how it ended (none without a robot).
+    pub robot: Vec<RobotRow>,
 }
 
 /// Replays a log and computes its per-session results.
@@ -177,6 +179,7 @@ pub fn analyse_and_verify(log: &LogContents, verify: bool) -> Result<(SessionAna
         body: crate::protocol::Body { height_m: study.protocol.arm.body_height_m, hand: study.arm.side },
         trial_rows: rows.trials,
         notes: rows.notes,
+        robot: rows.robot,
         start: log.start.clone(),
         runs: out_runs,
         test_trials: session

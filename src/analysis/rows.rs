@@ -3,7 +3,7 @@
 //! the mapped configuration and the times.
 
 use crate::kinematics::{ArmConfig, JOINT_NAMES};
-use crate::session::{Applied, Event, Session, Stamped, program_letter};
+use crate::session::{Applied, Event, RobotState, Session, Stamped, program_letter};
 
 /// What became of one presentation of a query.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -60,12 +60,44 @@ pub struct NoteRow {
     pub text: String,
 }
 
+/// One command sent to the robot, and what became of it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RobotRow {
+    pub event_index: usize,
+    pub phase: &'static str,
+    pub condition: Option<&'static str>,
+    pub program: Option<String>,
+    pub trial: usize,
+    pub query: String,
+    pub attempt: u32,
+    pub link: &'static str,
+    pub frame: String,
+    pub commanded_ns: u64,
+    /// The first `moving`, if the robot said so.
+    pub moving_ns: Option<u64>,
+    /// How the command ended (`at_pose`, `failed`, `timeout`; none: no final answer logged).
+    pub outcome: Option<(RobotState, u64)>,
+    /// The detail of the final report.
+    pub detail: String,
+    /// Every report logged for it.
+    pub reports: usize,
+}
+
+impl RobotRow {
+    /// Seconds from the command to its final report.
+    pub fn seconds(&self) -> Option<f64> {
+        self.outcome.map(|(_, t)| t.saturating_sub(self.commanded_ns) as f64 / 1e9)
+    }
+}
+
 /// Collects the rows during a replay.
 #[derive(Default)]
 pub(crate) struct RowCollector {
     pub trials: Vec<TrialRow>,
     pub notes: Vec<NoteRow>,
+    pub robot: Vec<RobotRow>,
     open: Option<usize>,
+    open_robot: Option<usize>,
 }
 
 impl RowCollector {
@@ -127,6 +159,42 @@ impl RowCollector {
                     row.void_detail = detail.clone();
                 }
             }
+            Applied::RobotCommanded { view, attempt } => {
+                let Event::RobotCommanded { query, link, pose } = &stamped.event else { return };
+                self.robot.push(RobotRow {
+                    event_index: index,
+                    phase: view.phase.name(),
+                    condition: view.condition.map(|c| c.name()),
+                    program: view.program.map(program_letter),
+                    trial: view.trial,
+                    query: query.clone(),
+                    attempt: *attempt,
+                    link: link.name(),
+                    frame: pose.frame.clone(),
+                    commanded_ns: stamped.time_ns,
+                    moving_ns: None,
+                    outcome: None,
+                    detail: String::new(),
+                    reports: 0,
+                });
+                self.open_robot = Some(self.robot.len() - 1);
+            }
+            Applied::RobotReported { attempt: Some(attempt) } => {
+                let Event::RobotReported { query, state, detail } = &stamped.event else { return };
+                let Some(row) = self.open_robot.map(|i| &mut self.robot[i]) else { return };
+                if row.query != *query || row.attempt != *attempt || row.outcome.is_some() {
+                    return;
+                }
+                row.reports += 1;
+                if *state == RobotState::Moving && row.moving_ns.is_none() {
+                    row.moving_ns = Some(stamped.time_ns);
+                }
+                if state.is_final() {
+                    row.outcome = Some((*state, stamped.time_ns));
+                    row.detail = detail.clone();
+                }
+            }
+            Applied::RobotReported { attempt: None } => {}
             Applied::Ended { .. } | Applied::Other => {
                 if let Event::Note { text } = &stamped.event {
                     self.notes.push(NoteRow { event_index: index, time_ns: stamped.time_ns, text: text.clone() });
@@ -197,4 +265,45 @@ impl TrialRow {
         ]);
         v
     }
+}
+
+/// The robot's timings over sessions: how its commands ended, and the seconds from a command
+/// to `at_pose` (median and range).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct RobotTimings {
+    pub commands: usize,
+    pub at_pose: usize,
+    pub failed: usize,
+    pub timeout: usize,
+    /// Commands with no final report in the log (superseded, or the log ends).
+    pub unanswered: usize,
+    /// Seconds from command to `at_pose`: median, minimum, maximum (none without an `at_pose`).
+    pub to_at_pose_s: Option<[f64; 3]>,
+}
+
+/// [`RobotTimings`] of the commands in `rows` (none without any).
+pub fn robot_timings<'a>(rows: impl IntoIterator<Item = &'a RobotRow>) -> Option<RobotTimings> {
+    let rows: Vec<&RobotRow> = rows.into_iter().collect();
+    if rows.is_empty() {
+        return None;
+    }
+    let ended = |s: RobotState| rows.iter().filter(|r| r.outcome.is_some_and(|(o, _)| o == s)).count();
+    let secs: Vec<f64> = rows
+        .iter()
+        .filter(|r| r.outcome.is_some_and(|(o, _)| o == RobotState::AtPose))
+        .filter_map(|r| r.seconds())
+        .collect();
+    let range = (!secs.is_empty()).then(|| {
+        let min = secs.iter().copied().fold(f64::INFINITY, f64::min);
+        let max = secs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        [crate::stats::median(&secs), min, max]
+    });
+    Some(RobotTimings {
+        commands: rows.len(),
+        at_pose: ended(RobotState::AtPose),
+        failed: ended(RobotState::Failed),
+        timeout: ended(RobotState::Timeout),
+        unanswered: rows.iter().filter(|r| r.outcome.is_none()).count(),
+        to_at_pose_s: range,
+    })
 }

@@ -71,6 +71,29 @@ struct NoteCsvRow<'a> {
     text: &'a str,
 }
 
+/// `robot.csv`.
+#[derive(Serialize, Default)]
+struct RobotCsvRow<'a> {
+    session_id: &'a str,
+    participant: &'a str,
+    event_index: usize,
+    phase: &'a str,
+    condition: Option<&'a str>,
+    program: Option<&'a str>,
+    trial: usize,
+    query: &'a str,
+    attempt: u32,
+    link: &'a str,
+    frame: &'a str,
+    commanded_at: String,
+    moving_at: Option<String>,
+    outcome: Option<&'a str>,
+    outcome_at: Option<String>,
+    seconds_to_outcome: Option<f64>,
+    detail: &'a str,
+    reports: usize,
+}
+
 /// `test_log_likelihood.csv`.
 #[derive(Serialize, Default)]
 struct TestLogLikelihoodRow<'a> {
@@ -233,6 +256,32 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
                 event_index: n.event_index,
                 time: rfc3339_ms(n.time_ns),
                 text: &n.text,
+            })
+        }),
+    )?;
+    write_rows(
+        &dir.join("robot.csv"),
+        group.iter().flat_map(|a| {
+            let (session_id, participant) = ids(a);
+            a.analysis.robot.iter().map(move |r| RobotCsvRow {
+                session_id,
+                participant,
+                event_index: r.event_index,
+                phase: r.phase,
+                condition: r.condition,
+                program: r.program.as_deref(),
+                trial: r.trial,
+                query: &r.query,
+                attempt: r.attempt,
+                link: r.link,
+                frame: &r.frame,
+                commanded_at: rfc3339_ms(r.commanded_ns),
+                moving_at: r.moving_ns.map(rfc3339_ms),
+                outcome: r.outcome.map(|(s, _)| s.name()),
+                outcome_at: r.outcome.map(|(_, t)| rfc3339_ms(t)),
+                seconds_to_outcome: r.seconds(),
+                detail: &r.detail,
+                reports: r.reports,
             })
         }),
     )?;

@@ -30,7 +30,8 @@ pub struct AnalyzeArgs {
     #[arg(required = true, value_name = "LOG|DIR")]
     paths: Vec<PathBuf>,
     /// Write sessions.csv, trials.csv (every presentation: taken, undone or voided),
-    /// notes.csv, test_log_likelihood.csv, fig10_tests.csv, beliefs.csv (long),
+    /// notes.csv, robot.csv (sessions with a robot: every command and its timing),
+    /// test_log_likelihood.csv, fig10_tests.csv, beliefs.csv (long),
     /// belief_summary.csv, objects_by_body.csv,
     /// questionnaire.csv, alpha.csv, alpha_curve.csv, fig10.svg, objects.svg, alpha.svg and
     /// table1.md here (pilot sessions under DIR/pilot/).
@@ -76,6 +77,9 @@ struct JsonSession<'a> {
     test_trials: &'a [(String, String, String)],
     likert: &'a [(usize, String, i64)],
     forced_choice: Option<String>,
+    /// The robot's timings (sessions with a robot only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    robot: Option<handover::analysis::RobotTimings>,
 }
 
 #[derive(Serialize)]
@@ -314,6 +318,7 @@ fn json_session(a: &Analysed) -> JsonSession<'_> {
         test_trials: &s.test_trials,
         likert: &s.likert,
         forced_choice: s.choice.map(program_letter),
+        robot: handover::analysis::robot_timings(&s.robot),
     }
 }
 

@@ -156,6 +156,17 @@ pub(super) fn table(label: &str, group: &[&Analysed], s: &StudySummary, alpha: &
     for line in super::by_body::lines(&sessions) {
         o += &format!("{line}\n");
     }
+    if let Some(t) = handover::analysis::robot_timings(sessions.iter().flat_map(|s| &s.robot)) {
+        let with_robot = sessions.iter().filter(|s| !s.robot.is_empty()).count();
+        o += &format!(
+            "\nRobot ({with_robot} session(s)): {} commands: {} at pose, {} failed, {} timed out, {} unanswered",
+            t.commands, t.at_pose, t.failed, t.timeout, t.unanswered
+        );
+        if let Some([median, min, max]) = t.to_at_pose_s {
+            o += &format!("; command → at_pose {median:.2} s median [{min:.2}–{max:.2}]");
+        }
+        o += " (per command: robot.csv)\n";
+    }
     o += &alpha_table(alpha);
     o += "\nTable I — Likert (mean / median [IQR]) and forced choice:\n";
     o += &table1_markdown(s);

@@ -12,6 +12,7 @@ use handover::study_dir::StudyDirs;
 use handover::tui::{App, AppConfig, Outcome, run_terminal};
 
 use super::input::{bad, load_protocol};
+use super::robot::RobotArgs;
 
 /// Open the operator console and run a study session: setup, the training runs (blinded
 /// as Program A / B), the test phase, the questionnaire and a summary. Every event is on
@@ -43,6 +44,9 @@ pub struct RunArgs {
     /// The session seed (random by default; recorded in the log).
     #[arg(long)]
     seed: Option<u64>,
+    /// A robot in the loop: `s` sends each query's pose to it (see README "With a robot").
+    #[command(flatten)]
+    robot: RobotArgs,
 }
 
 impl RunArgs {
@@ -57,6 +61,7 @@ impl RunArgs {
             simulate: false,
             pace: 800,
             seed: None,
+            robot: RobotArgs::default(),
         }
     }
 }
@@ -82,7 +87,7 @@ fn finish(result: Result<Outcome, String>) -> Result<()> {
 }
 
 pub fn run(args: RunArgs) -> Result<()> {
-    let RunArgs { protocol, participant, study_dir, logs, participants, simulate, pace, seed } = args;
+    let RunArgs { protocol, participant, study_dir, logs, participants, simulate, pace, seed, robot } = args;
     if participant != "new" {
         validate_id(&participant).map_err(|e| bad(format!("--participant: {e}")))?;
     }
@@ -102,7 +107,8 @@ pub fn run(args: RunArgs) -> Result<()> {
         return Err(bad(format!("--participant: {e}")));
     }
     require_terminal()?;
-    finish(run_terminal(app))
+    let robot = robot.connect()?;
+    finish(run_terminal(app.with_robot(robot)))
 }
 
 /// The console on an interrupted session's log.
@@ -119,11 +125,12 @@ fn config_of(old: &LogContents, dirs: StudyDirs, simulate: bool, pace: u64) -> R
     })
 }
 
-pub fn resume(old: LogContents, dirs: StudyDirs, simulate: bool, pace: u64) -> Result<()> {
+pub fn resume(old: LogContents, dirs: StudyDirs, simulate: bool, pace: u64, robot: &RobotArgs) -> Result<()> {
     let config = config_of(&old, dirs, simulate, pace)?;
     require_terminal()?;
+    let robot = robot.connect()?;
     let app = App::resume(config, &old)?;
-    finish(run_terminal(app))
+    finish(run_terminal(app.with_robot(robot)))
 }
 
 /// A finished session, read-only on the summary screen.

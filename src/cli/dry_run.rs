@@ -9,14 +9,16 @@ use clap::Args;
 use handover::analysis::{
     SEED_MEASURES, SeedRun, SessionAnalysis, analyse, object_shares, over_seeds, paired_across, paired_over_seeds,
 };
-use handover::dryrun::{BodyPopulation, drive, now_ns, plan};
+use handover::dryrun::{BodyPopulation, RobotDrive, drive, drive_with_robot, now_ns, plan};
 use handover::ergo::Lambda;
 use handover::protocol::{LambdaSpec, Study, for_body};
 use handover::record::{RecordedSession, new_log_path, read_log};
+use handover::robot::Robot;
 use handover::session::{Session, program_letter};
 use handover::study_dir::{ParticipantLock, StudyDirs};
 
 use super::input::{HandArg, bad, body_height, load_protocol, parse_json, read_text};
+use super::robot::RobotArgs;
 
 /// Run whole sessions with simulated participants (a rehearsal of the study, or a check of
 /// the protocol). Each participant gets a pilot id and slot, a ground truth from the prior
@@ -69,6 +71,9 @@ pub struct DryRunArgs {
     /// protocols update on the same observation model), e.g. to compare observation models.
     #[arg(long, value_name = "FILE")]
     versus: Option<PathBuf>,
+    /// A robot in the loop: each query is sent to it, and presented when it reports at_pose.
+    #[command(flatten)]
+    robot: RobotArgs,
 }
 
 fn load_truth(path: &std::path::Path) -> Result<Lambda> {
@@ -128,18 +133,14 @@ pub fn run(args: DryRunArgs) -> Result<()> {
         indicatif::ProgressBar::hidden()
     };
     let report_each = args.seeds == 1 && versus.is_none();
-    let runs = run_seeds(&study, &text, &args, &population, &dirs.logs, truth.as_ref(), &bar, report_each)?;
+    let mut robot = args.robot.connect()?;
+    let mut ctx =
+        RunContext { args: &args, population: &population, logs: &dirs.logs, truth: truth.as_ref(), bar: &bar };
+    let runs = run_seeds(&study, &text, &mut ctx, robot.as_mut(), report_each)?;
     let second = match &versus {
-        Some((text_b, study_b)) => Some(run_seeds(
-            &Arc::new(study_b.clone()),
-            text_b,
-            &args,
-            &population,
-            &dirs.logs,
-            truth.as_ref(),
-            &bar,
-            false,
-        )?),
+        Some((text_b, study_b)) => {
+            Some(run_seeds(&Arc::new(study_b.clone()), text_b, &mut ctx, robot.as_mut(), false)?)
+        }
         None => None,
     };
     bar.finish_and_clear();
@@ -159,19 +160,25 @@ pub fn run(args: DryRunArgs) -> Result<()> {
     Ok(())
 }
 
+/// What every protocol's run of a dry run shares.
+struct RunContext<'a> {
+    args: &'a DryRunArgs,
+    population: &'a BodyPopulation,
+    logs: &'a std::path::Path,
+    truth: Option<&'a Lambda>,
+    bar: &'a indicatif::ProgressBar,
+}
+
 /// Every seed's participants under one protocol, each session logged, replayed and analysed,
-/// each run for its participant's body.
-#[allow(clippy::too_many_arguments)]
+/// each run for its participant's body; with a robot, each query goes through it.
 fn run_seeds(
     study: &Arc<Study>,
     text: &str,
-    args: &DryRunArgs,
-    population: &BodyPopulation,
-    logs: &std::path::Path,
-    truth: Option<&Lambda>,
-    bar: &indicatif::ProgressBar,
+    ctx: &mut RunContext,
+    mut robot: Option<&mut Robot>,
     report_each: bool,
 ) -> Result<Vec<SeedRun>> {
+    let RunContext { args, population, logs, truth, bar } = *ctx;
     let mut runs = Vec::new();
     for k in 0..args.seeds {
         let seed = args.seed + k;
@@ -187,8 +194,20 @@ fn run_seeds(
             let path = new_log_path(logs, &p.start.participant, now);
             let _lock = ParticipantLock::acquire(&logs.join(&p.start.participant), &p.start.participant, "dry-run")?;
             let mut rec = RecordedSession::create(&path, &text, session, now_ns())?;
-            drive(&mut rec, &p.participant, Duration::from_millis(args.pace))?;
+            let gave_up = match robot.as_deref_mut() {
+                Some(robot) => match drive_with_robot(&mut rec, &p.participant, robot)? {
+                    RobotDrive::Completed => None,
+                    RobotDrive::GaveUp(why) => Some(why),
+                },
+                None => {
+                    drive(&mut rec, &p.participant, Duration::from_millis(args.pace))?;
+                    None
+                }
+            };
             let path = rec.finish()?;
+            if let Some(why) = gave_up {
+                anyhow::bail!("{}: the session was aborted: {why}; log: {}", p.start.participant, path.display());
+            }
             let analysis = analysed(&path)?;
             if report_each {
                 report(&fitted, &path, &analysis)?;

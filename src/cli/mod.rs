@@ -31,6 +31,7 @@ mod input;
 mod participant;
 mod protocol;
 mod resume;
+mod robot;
 mod score;
 mod simulate;
 

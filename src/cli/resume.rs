@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result};
 use clap::Args;
-use handover::dryrun::{drive, now_ns};
+use handover::dryrun::{RobotDrive, drive, drive_with_robot, now_ns};
 use handover::participant::{ScriptedParticipant, SimulatedPerson};
 use handover::record::{
     LogContents, RecordedSession, continuation_path, is_over, lineage, log_folder, read_log, study_of,
@@ -13,6 +13,7 @@ use handover::record::{
 use handover::study_dir::{ParticipantLock, StudyDirs};
 
 use super::input::bad;
+use super::robot::RobotArgs;
 
 /// Continue an interrupted session (a crash, a kill or a quit) from its log, a truncated
 /// file included. The old file is kept; a new log beside it holds all of its events and
@@ -41,6 +42,9 @@ pub struct ResumeArgs {
     /// Milliseconds to wait between simulated actions.
     #[arg(long, value_name = "MS", default_value_t = 0)]
     pace: u64,
+    /// A robot in the loop, as for `run` and `dry-run`.
+    #[command(flatten)]
+    robot: RobotArgs,
 }
 
 /// The log to continue: the given one, or its newest continuation.
@@ -88,7 +92,7 @@ pub fn run(args: ResumeArgs) -> Result<()> {
                 old.start.participant
             )));
         }
-        return super::console::resume(old, dirs, args.simulate, args.pace);
+        return super::console::resume(old, dirs, args.simulate, args.pace, &args.robot);
     }
     let Some(truth) = old.start.simulated_truth.clone() else {
         return Err(bad(format!(
@@ -102,8 +106,21 @@ pub fn run(args: ResumeArgs) -> Result<()> {
     let mut rec = RecordedSession::resume(&old, &path, now_ns())?;
     eprintln!("resumed {} ({} events) into {}", old.path.display(), old.events.len(), rec.path().display());
     let person = SimulatedPerson { truth, alpha: study.protocol.learning.alpha };
-    drive(&mut rec, &ScriptedParticipant { person }, Duration::from_millis(args.pace))?;
+    let participant = ScriptedParticipant { person };
+    let gave_up = match args.robot.connect()? {
+        Some(mut robot) => match drive_with_robot(&mut rec, &participant, &mut robot)? {
+            RobotDrive::Completed => None,
+            RobotDrive::GaveUp(why) => Some(why),
+        },
+        None => {
+            drive(&mut rec, &participant, Duration::from_millis(args.pace))?;
+            None
+        }
+    };
     let path = rec.finish().context("cannot finish the log")?;
+    if let Some(why) = gave_up {
+        anyhow::bail!("the session was aborted: {why}; log: {}", path.display());
+    }
     let a = handover::analysis::analyse(&read_log(&path)?)?;
     super::dry_run::report(&study, &path, &a)
 }

@@ -6,9 +6,9 @@ use super::Topic;
 use super::foxglove::{self, PoseInFrame, SceneUpdate, Time};
 use super::scene;
 use super::types::{
-    BeliefMessage, EndStatus, ForcedChoice, Interval, JointAngles, LikertAnswer, QueryScore, RobotPose, SessionEnd,
-    SessionMark, SessionStartMessage, TestLogLikelihood, TrialFields, TrialQuery, TrialResponse, TrialUndo, TrialVoid,
-    program_index,
+    BeliefMessage, EndStatus, ForcedChoice, Interval, JointAngles, LikertAnswer, QueryScore, RobotCommand, RobotPose,
+    RobotStatus, SessionEnd, SessionMark, SessionStartMessage, TestLogLikelihood, TrialFields, TrialQuery,
+    TrialResponse, TrialUndo, TrialVoid, program_index,
 };
 use crate::kinematics::ArmConfig;
 use crate::session::{Applied, BeliefSummary, Event, Session, Stamped, TrialView, program_letter};
@@ -26,6 +26,8 @@ pub fn topic_of(e: &Event) -> Topic {
         Event::LikertAnswered { .. } => Topic::QuestionnaireLikert,
         Event::ForcedChoice { .. } => Topic::QuestionnaireChoice,
         Event::Ended | Event::Aborted { .. } => Topic::SessionEnd,
+        Event::RobotCommanded { .. } => Topic::RobotCommand,
+        Event::RobotReported { .. } => Topic::RobotStatus,
     }
 }
 
@@ -231,6 +233,39 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                 out.push((Topic::TestLogLikelihood, value(&m)));
             }
         }
+        (Event::RobotCommanded { link, pose, .. }, Applied::RobotCommanded { view, attempt }) => {
+            let q = session.query(view.query);
+            let (regions, region_labels): (Vec<_>, Vec<_>) = region_labels(session, view).into_iter().unzip();
+            let [x, y, z, w] = pose.orientation;
+            let (r, p, yaw) =
+                nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z)).euler_angles();
+            let m = RobotCommand {
+                trial: trial_fields(index, view, session),
+                label: q.query.label.clone(),
+                attempt: *attempt,
+                link: *link,
+                pose: pose.clone(),
+                rpy_deg: [r, p, yaw].map(f64::to_degrees),
+                shoulder_pose: RobotPose {
+                    frame: scene::SHOULDER.into(),
+                    position: q.pose.position,
+                    rpy_deg: q.pose.rpy_deg,
+                },
+                regions,
+                region_labels,
+            };
+            out.push((Topic::RobotCommand, value(&m)));
+        }
+        (Event::RobotReported { query, state, detail }, Applied::RobotReported { attempt }) => {
+            let m = RobotStatus {
+                event_index: index as u32,
+                query: query.clone(),
+                attempt: *attempt,
+                state: *state,
+                detail: detail.clone(),
+            };
+            out.push((Topic::RobotStatus, value(&m)));
+        }
         (Event::Aborted { reason }, _) => out.push((
             Topic::SessionEnd,
             value(&SessionEnd { event_index: index as u32, status: EndStatus::Aborted, reason: Some(reason.clone()) }),
@@ -280,6 +315,14 @@ pub fn event_from_message(topic: Topic, v: &Value) -> Option<Event> {
                 EndStatus::Completed => Event::Ended,
                 EndStatus::Aborted => Event::Aborted { reason: m.reason.unwrap_or_default() },
             }
+        }
+        Topic::RobotCommand => {
+            let m = typed::<RobotCommand>(v)?;
+            Event::RobotCommanded { query: m.trial.query, link: m.link, pose: m.pose }
+        }
+        Topic::RobotStatus => {
+            let m = typed::<RobotStatus>(v)?;
+            Event::RobotReported { query: m.query, state: m.state, detail: m.detail }
         }
         _ => return None,
     })

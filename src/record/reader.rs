@@ -112,6 +112,8 @@ fn validate_event(event: &Event) -> Result<(), String> {
         Event::Note { text } => long("text", text),
         Event::TrialVoided { detail, .. } => long("detail", detail),
         Event::Aborted { reason } => long("reason", reason),
+        Event::RobotReported { detail, .. } => long("detail", detail),
+        Event::RobotCommanded { pose, .. } => crate::session::validate_sent_pose(pose),
         _ => Ok(()),
     }
 }

@@ -17,6 +17,8 @@ pub struct Recorder {
     path: PathBuf,
     writer: McapWriter<Box<dyn Sink>>,
     channels: HashMap<Topic, u16>,
+    /// The schemas written, by name.
+    schema_ids: HashMap<&'static str, u16>,
     /// Index of the last event on disk.
     last_index: usize,
     /// Log time of the last message on disk.
@@ -54,18 +56,20 @@ impl Recorder {
         time_ns: u64,
     ) -> Result<Self, RecordError> {
         let library = format!("handover {}", env!("CARGO_PKG_VERSION"));
-        let mut writer = McapWriter::new(sink, &library).map_err(commit_err(path, 0))?;
-        let mut channels = HashMap::new();
+        let writer = McapWriter::new(sink, &library).map_err(commit_err(path, 0))?;
+        let mut rec = Self {
+            path: path.to_path_buf(),
+            writer,
+            channels: HashMap::new(),
+            schema_ids: HashMap::new(),
+            last_index: 0,
+            last_time_ns: time_ns,
+        };
         let conditions = &session.start().condition_order;
-        let mut schema_ids: HashMap<&str, u16> = HashMap::new();
         for topic in Topic::ALL.into_iter().filter(|t| t.used_by(conditions)) {
-            let (name, schema) = schema(topic);
-            let sid =
-                *schema_ids.entry(name).or_insert_with(|| writer.add_schema(name, "jsonschema", schema.as_bytes()));
-            channels.insert(topic, writer.add_channel(sid, topic.name(), "json"));
+            rec.add_channel(topic);
         }
-        writer.attach(time_ns, time_ns, PROTOCOL_ATTACHMENT, "application/json", protocol_text.as_bytes());
-        let mut rec = Self { path: path.to_path_buf(), writer, channels, last_index: 0, last_time_ns: time_ns };
+        rec.writer.attach(time_ns, time_ns, PROTOCOL_ATTACHMENT, "application/json", protocol_text.as_bytes());
         rec.write(&messages::start_messages(session, time_ns), 0, time_ns)?;
         Ok(rec)
     }
@@ -112,16 +116,43 @@ impl Recorder {
         RecordError::Io { path: self.path.clone(), source: std::io::Error::other(e) }
     }
 
+    /// Stages a topic's channel (and its schema, once per schema).
+    fn add_channel(&mut self, topic: Topic) -> u16 {
+        let (name, schema) = schema(topic);
+        let writer = &mut self.writer;
+        let sid =
+            *self.schema_ids.entry(name).or_insert_with(|| writer.add_schema(name, "jsonschema", schema.as_bytes()));
+        let id = self.writer.add_channel(sid, topic.name(), "json");
+        self.channels.insert(topic, id);
+        id
+    }
+
     fn write(&mut self, msgs: &[(Topic, Value)], sequence: u32, time_ns: u64) -> Result<(), RecordError> {
+        // Channels (and schemas) registered with this commit are forgotten again if it fails.
+        let mut added: Vec<Topic> = Vec::new();
         for (topic, value) in msgs {
             let data = serde_json::to_vec(value).map_err(|e| self.not_serialisable(e))?;
-            let Some(&channel) = self.channels.get(topic) else {
-                let why = format!("{topic} has no channel in this log");
-                return Err(RecordError::Io { path: self.path.clone(), source: std::io::Error::other(why) });
+            let channel = match self.channels.get(topic) {
+                Some(&c) => c,
+                None if topic.registered_on_use() => {
+                    added.push(*topic);
+                    self.add_channel(*topic)
+                }
+                None => {
+                    let why = format!("{topic} has no channel in this log");
+                    return Err(RecordError::Io { path: self.path.clone(), source: std::io::Error::other(why) });
+                }
             };
             self.writer.message(&writer::Message { channel, sequence, log_time: time_ns, data: &data });
         }
-        self.writer.commit().map_err(commit_err(&self.path, self.last_index))
+        let result = self.writer.commit().map_err(commit_err(&self.path, self.last_index));
+        if result.is_err() {
+            for topic in added {
+                self.channels.remove(&topic);
+                self.schema_ids.remove(schema(topic).0);
+            }
+        }
+        result
     }
 
     /// Writes the summary and footer (a finished file) and syncs.

@@ -6,8 +6,8 @@ use schemars::{JsonSchema, generate::SchemaSettings};
 use super::Topic;
 use super::foxglove::{self, OfficialSchema};
 use super::types::{
-    BeliefMessage, ForcedChoice, JointAngles, LikertAnswer, SessionEnd, SessionMark, SessionStartMessage,
-    TestLogLikelihood, TrialQuery, TrialResponse, TrialUndo, TrialVoid,
+    BeliefMessage, ForcedChoice, JointAngles, LikertAnswer, RobotCommand, RobotStatus, SessionEnd, SessionMark,
+    SessionStartMessage, TestLogLikelihood, TrialQuery, TrialResponse, TrialUndo, TrialVoid,
 };
 
 fn derived<T: JsonSchema>(name: &'static str) -> (&'static str, String) {
@@ -38,5 +38,7 @@ pub fn schema(topic: Topic) -> (&'static str, String) {
         Topic::HumanArm | Topic::ObjectScene => official(foxglove::SCENE_UPDATE),
         Topic::Transforms => official(foxglove::FRAME_TRANSFORMS),
         Topic::Notes => official(foxglove::LOG),
+        Topic::RobotCommand => derived::<RobotCommand>("handover.RobotCommand"),
+        Topic::RobotStatus => derived::<RobotStatus>("handover.RobotStatus"),
     }
 }

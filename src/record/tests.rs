@@ -71,14 +71,29 @@ fn small_study() -> (Arc<Study>, String) {
     (Arc::new(Study::from_json(&text, "test").unwrap()), text)
 }
 
-#[test]
-fn a_failed_write_changes_nothing_and_a_retry_logs_the_event_once() {
+/// A dry run's session recording onto a disk whose room the test sets.
+fn on_disk(seed: u64) -> (crate::dryrun::DryRunPlan, Disk, RecordedSession) {
     let (study, text) = small_study();
-    let p = plan(&study, 5, 0, None, "2026-11-22T00:00:00Z".into());
+    let p = plan(&study, seed, 0, None, "2026-11-22T00:00:00Z".into());
     let disk = Disk::with_room(usize::MAX);
     let session = Session::new(Arc::clone(&study), p.start.clone()).unwrap();
     let recorder = Recorder::with_sink(Box::new(disk.clone()), &text, &session).unwrap();
-    let mut rec = RecordedSession { session, recorder };
+    (p, disk, RecordedSession { session, recorder })
+}
+
+/// The bytes of a disk as a log file in a fresh folder named for the test.
+fn as_file(disk: &Disk, name: &str) -> (std::path::PathBuf, std::path::PathBuf) {
+    let dir = std::env::temp_dir().join(format!("handover-{name}-{}", std::process::id()));
+    crate::private_files::create_dir(&dir).unwrap();
+    let path = dir.join(format!("{name}.mcap"));
+    let _ = std::fs::remove_file(&path);
+    std::fs::write(&path, disk.bytes()).unwrap();
+    (dir, path)
+}
+
+#[test]
+fn a_failed_write_changes_nothing_and_a_retry_logs_the_event_once() {
+    let (p, disk, mut rec) = on_disk(5);
     let answer = |rec: &RecordedSession, p: &ScriptedParticipant| p.respond(rec.session()).unwrap();
     for k in 0..4 {
         let e = answer(&rec, &p.participant);
@@ -99,11 +114,7 @@ fn a_failed_write_changes_nothing_and_a_retry_logs_the_event_once() {
     disk.set_room(usize::MAX);
     rec.submit(Stamped { time_ns: 21, event: event.clone() }).unwrap();
     drop(rec.recorder.finish().unwrap());
-    let dir = std::env::temp_dir().join(format!("handover-retry-{}", std::process::id()));
-    crate::private_files::create_dir(&dir).unwrap();
-    let path = dir.join("retry.mcap");
-    let _ = std::fs::remove_file(&path);
-    std::fs::write(&path, disk.bytes()).unwrap();
+    let (dir, path) = as_file(&disk, "retry");
     let log = read_log(&path).unwrap();
     assert!(log.finished && !log.cut_tail);
     assert_eq!(log.events.len(), 5);
@@ -115,6 +126,38 @@ fn a_failed_write_changes_nothing_and_a_retry_logs_the_event_once() {
         .map(|m| m.value["event_index"].as_u64().unwrap())
         .collect();
     assert_eq!(indices, vec![1, 2, 3, 4, 5], "one message per event, indices without gaps");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The robot's channels are registered with their first message: a write of it that fails
+/// leaves no channel behind, and the retry registers it once.
+#[test]
+fn a_robot_channel_whose_first_write_fails_is_registered_once_on_the_retry() {
+    let (_, disk, mut rec) = on_disk(5);
+    let command = crate::robot::command_for(rec.session(), &crate::robot::RobotSettings::default()).unwrap();
+    let event = command.event(crate::session::RobotLinkKind::Ros2);
+    let good = disk.bytes();
+    disk.set_room(good.len() + 100);
+    assert!(rec.submit(Stamped { time_ns: 10, event: event.clone() }).is_err());
+    assert_eq!(disk.bytes(), good);
+    disk.set_room(usize::MAX);
+    rec.submit(Stamped { time_ns: 11, event: event.clone() }).unwrap();
+    let report = Event::RobotReported {
+        query: command.query.clone(),
+        state: crate::session::RobotState::AtPose,
+        detail: String::new(),
+    };
+    rec.submit(Stamped { time_ns: 12, event: report.clone() }).unwrap();
+    drop(rec.recorder.finish().unwrap());
+    let (dir, path) = as_file(&disk, "robot-retry");
+    let log = read_log(&path).unwrap();
+    assert!(log.integrity.is_empty(), "{:?}", log.integrity);
+    let events: Vec<&Event> = log.events.iter().map(|e| &e.event).collect();
+    assert_eq!(events, vec![&event, &report]);
+    // The topic as a channel record writes it: its length (u32, little-endian), then its bytes.
+    let record = [&14u32.to_le_bytes()[..], b"/robot/command"].concat();
+    let robot_channels = std::fs::read(&path).unwrap().windows(record.len()).filter(|w| *w == record).count();
+    assert_eq!(robot_channels, 2, "one channel record in the data section and one in the summary");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -142,6 +185,8 @@ fn read_back(topic: Topic, v: &Value) -> Result<Value, serde_json::Error> {
         Topic::HumanArm | Topic::ObjectScene => again::<fx::SceneUpdate>(v),
         Topic::Transforms => again::<fx::FrameTransforms>(v),
         Topic::Notes => again::<fx::Log>(v),
+        Topic::RobotCommand => again::<t::RobotCommand>(v),
+        Topic::RobotStatus => again::<t::RobotStatus>(v),
     }
 }
 
@@ -164,6 +209,15 @@ fn every_logged_message_validates_against_its_schema_and_reads_back() {
     while !matches!(rec.session().prompt(), crate::session::Prompt::Done { .. }) {
         let e = p.participant.respond(rec.session()).unwrap();
         let response = matches!(e, Event::GraspRecorded { .. });
+        if step == 7 && matches!(e, Event::QueryPresented { .. }) {
+            // A robot in the loop for this trial: its command and its reports.
+            let settings = crate::robot::RobotSettings::default();
+            let c = crate::robot::command_for(rec.session(), &settings).unwrap();
+            submit(&mut rec, c.event(crate::session::RobotLinkKind::Ros2));
+            for state in [crate::session::RobotState::Moving, crate::session::RobotState::AtPose] {
+                submit(&mut rec, Event::RobotReported { query: c.query.clone(), state, detail: String::new() });
+            }
+        }
         submit(&mut rec, e);
         step += 1;
         match step {
@@ -185,7 +239,7 @@ fn every_logged_message_validates_against_its_schema_and_reads_back() {
     let path = rec.finish().unwrap();
     let log = read_log(&path).unwrap();
     let mut schemas: HashMap<String, jsonschema::Validator> = HashMap::new();
-    for topic in Topic::ALL.into_iter().filter(|t| t.used_by(&log.start.condition_order)) {
+    for topic in Topic::ALL.into_iter().filter(|t| t.used_by(&log.start.condition_order) || t.registered_on_use()) {
         let (_, text) = schema(topic);
         let v: Value = serde_json::from_str(&text).unwrap();
         schemas.insert(topic.name().to_string(), jsonschema::validator_for(&v).unwrap());
@@ -206,8 +260,10 @@ fn every_logged_message_validates_against_its_schema_and_reads_back() {
         assert!(!schemas[topic.name()].is_valid(&broken), "{topic} without {field} is refused");
     }
     // Every topic a session of these conditions can log was seen.
-    let missing: Vec<_> =
-        Topic::ALL.into_iter().filter(|t| t.used_by(&log.start.condition_order) && !seen.contains(t)).collect();
+    let missing: Vec<_> = Topic::ALL
+        .into_iter()
+        .filter(|t| (t.used_by(&log.start.condition_order) || t.registered_on_use()) && !seen.contains(t))
+        .collect();
     assert!(missing.is_empty(), "not logged: {missing:?}");
     assert!(log.integrity.is_empty(), "{:?}", log.integrity);
     layout_paths_resolve(&log);

@@ -24,11 +24,15 @@ pub enum Topic {
     ObjectScene,
     TestLogLikelihood,
     Notes,
+    /// What was sent to the robot (sessions with a robot only).
+    RobotCommand,
+    /// What the robot answered, or the console's timeout (sessions with a robot only).
+    RobotStatus,
 }
 
 impl Topic {
     /// Every topic, in a fixed order (channels are registered in it).
-    pub const ALL: [Topic; 23] = [
+    pub const ALL: [Topic; 25] = [
         Topic::SessionStart,
         Topic::TrialQuery,
         Topic::TrialResponse,
@@ -52,6 +56,8 @@ impl Topic {
         Topic::ObjectScene,
         Topic::TestLogLikelihood,
         Topic::Notes,
+        Topic::RobotCommand,
+        Topic::RobotStatus,
     ];
 
     /// The MCAP channel's topic name.
@@ -82,6 +88,8 @@ impl Topic {
             Topic::ObjectScene => "/scene/object",
             Topic::TestLogLikelihood => "/test/log_likelihood",
             Topic::Notes => "/notes",
+            Topic::RobotCommand => "/robot/command",
+            Topic::RobotStatus => "/robot/status",
         }
     }
 
@@ -104,16 +112,24 @@ impl Topic {
                 | Topic::SessionResume
                 | Topic::SessionEnd
                 | Topic::Notes
+                | Topic::RobotCommand
+                | Topic::RobotStatus
         )
     }
 
-    /// Whether a session with training conditions `conditions` logs on it (a belief topic
-    /// per condition run; every other topic always).
+    /// Whether a session with training conditions `conditions` registers its channel at the
+    /// start (a belief topic per condition run, and every other topic but the robot's).
     pub fn used_by(self, conditions: &[SelectorKind]) -> bool {
         match self {
             Topic::Belief(k) => conditions.contains(&k),
-            _ => true,
+            _ => !self.registered_on_use(),
         }
+    }
+
+    /// Whether its channel is registered with its first message: the robot's topics, so
+    /// that a session without a robot logs exactly what it logged before there was one.
+    pub fn registered_on_use(self) -> bool {
+        matches!(self, Topic::RobotCommand | Topic::RobotStatus)
     }
 }
 
@@ -138,6 +154,6 @@ mod tests {
         for k in SelectorKind::ALL {
             assert!(Topic::ALL.contains(&Topic::Belief(k)), "{k:?} has a belief topic");
         }
-        assert_eq!(Topic::ALL.iter().filter(|t| t.is_event()).count(), 10);
+        assert_eq!(Topic::ALL.iter().filter(|t| t.is_event()).count(), 12);
     }
 }

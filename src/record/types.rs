@@ -6,7 +6,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::ergo::Lambda;
-use crate::session::{SessionStart, VoidReason};
+use crate::session::{RobotLinkKind, RobotState, SentPose, SessionStart, VoidReason};
 
 /// `/session/start`: the session's fixed settings.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -270,6 +270,45 @@ pub struct SessionEnd {
     /// Aborted only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
+}
+
+/// `/robot/command`: the object's pose sent to the robot for a trial. An event.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "handover.RobotCommand")]
+pub struct RobotCommand {
+    #[serde(flatten)]
+    pub trial: TrialFields,
+    /// The pose's name.
+    pub label: String,
+    /// 1-based: the trial's first command, or a re-send.
+    #[schemars(range(min = 1))]
+    pub attempt: u32,
+    /// How it was sent: `ros2` or `command`.
+    pub link: RobotLinkKind,
+    /// The pose as sent: the frame, position (m) and orientation (quaternion x, y, z, w).
+    pub pose: SentPose,
+    /// The same orientation as roll, pitch, yaw (degrees).
+    pub rpy_deg: [f64; 3],
+    /// The commanded pose in the participant's shoulder frame (as `/trial/query` has it).
+    pub shoulder_pose: RobotPose,
+    /// Ids of the grip regions offered, and their labels.
+    pub regions: Vec<String>,
+    pub region_labels: Vec<String>,
+}
+
+/// `/robot/status`: what the robot said of a command (or the console's timeout). An event.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "handover.RobotStatus")]
+pub struct RobotStatus {
+    pub event_index: u32,
+    /// The query whose command it answers.
+    pub query: String,
+    /// The command of the trial under way it answers (absent when the trial has moved on).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub attempt: Option<u32>,
+    pub state: RobotState,
+    /// The robot's words (an unknown status text, a program's exit status and error output).
+    pub detail: String,
 }
 
 /// The run index of a program letter (`A` is 0).

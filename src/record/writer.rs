@@ -161,6 +161,9 @@ pub struct McapWriter<S: Sink> {
     staged: Vec<u8>,
     staged_attachments: Vec<AttachmentRef>,
     staged_counts: Vec<(u16, u64)>,
+    /// Schemas and channels staged with the next commit (the summary lists only committed ones).
+    staged_schemas: Vec<SchemaRec>,
+    staged_channels: Vec<ChannelRec>,
     broken: bool,
 }
 
@@ -179,6 +182,8 @@ impl<S: Sink> McapWriter<S> {
             staged: MAGIC.to_vec(),
             staged_attachments: Vec::new(),
             staged_counts: Vec::new(),
+            staged_schemas: Vec::new(),
+            staged_channels: Vec::new(),
             broken: false,
         };
         let mut h = Body::default();
@@ -188,23 +193,23 @@ impl<S: Sink> McapWriter<S> {
         Ok(w)
     }
 
-    /// Stages a schema; its id.
+    /// Stages a schema; its id (kept only if the next commit succeeds).
     pub fn add_schema(&mut self, name: &str, encoding: &str, data: &[u8]) -> u16 {
-        let id = self.schemas.len() as u16 + 1;
+        let id = (self.schemas.len() + self.staged_schemas.len()) as u16 + 1;
         let mut b = Body::default();
         b.u16(id).str(name).str(encoding).bytes32(data);
         record(&mut self.staged, op::SCHEMA, &b);
-        self.schemas.push(SchemaRec { id, name: name.into(), encoding: encoding.into(), data: data.to_vec() });
+        self.staged_schemas.push(SchemaRec { id, name: name.into(), encoding: encoding.into(), data: data.to_vec() });
         id
     }
 
-    /// Stages a channel; its id.
+    /// Stages a channel; its id (kept only if the next commit succeeds).
     pub fn add_channel(&mut self, schema_id: u16, topic: &str, encoding: &str) -> u16 {
-        let id = self.channels.len() as u16;
+        let id = (self.channels.len() + self.staged_channels.len()) as u16;
         let mut b = Body::default();
         b.u16(id).u16(schema_id).str(topic).str(encoding).u32(0);
         record(&mut self.staged, op::CHANNEL, &b);
-        self.channels.push(ChannelRec { id, schema_id, topic: topic.into(), encoding: encoding.into() });
+        self.staged_channels.push(ChannelRec { id, schema_id, topic: topic.into(), encoding: encoding.into() });
         id
     }
 
@@ -256,6 +261,8 @@ impl<S: Sink> McapWriter<S> {
                 self.committed += staged.len() as u64;
                 self.crc.update(&staged);
                 self.attachments.append(&mut self.staged_attachments);
+                self.schemas.append(&mut self.staged_schemas);
+                self.channels.append(&mut self.staged_channels);
                 for (channel, t) in self.staged_counts.drain(..) {
                     *self.counts.entry(channel).or_default() += 1;
                     self.times = Some(self.times.map_or((t, t), |(a, b)| (a.min(t), b.max(t))));
@@ -265,6 +272,8 @@ impl<S: Sink> McapWriter<S> {
             Err(source) => {
                 self.staged_attachments.clear();
                 self.staged_counts.clear();
+                self.staged_schemas.clear();
+                self.staged_channels.clear();
                 let restored = self.sink.truncate(self.committed).and_then(|()| self.sink.sync()).is_ok();
                 self.broken = !restored;
                 Err(CommitError { source, restored })
@@ -283,6 +292,8 @@ impl<S: Sink> McapWriter<S> {
         self.staged.clear();
         self.staged_counts.clear();
         self.staged_attachments.clear();
+        self.staged_schemas.clear();
+        self.staged_channels.clear();
         let mut out = Vec::new();
         let mut d = Body::default();
         d.u32(self.crc.clone().finalize());

@@ -2,8 +2,8 @@
 //! the state before it changes anything, so that on error the state is unchanged.
 
 use super::{
-    Applied, BeliefSummary, Event, Prompt, QueryRef, Session, SessionError, Stage, TrialCursor, TrialRecord, TrialSlot,
-    UndoPoint,
+    Applied, BeliefSummary, Event, Prompt, QueryRef, RobotTrack, Session, SessionError, Stage, TrialCursor,
+    TrialRecord, TrialSlot, UndoPoint,
 };
 use crate::ergo::{FeasibleSet, Observation, most_likely_in_region};
 use crate::select::OutcomeModel;
@@ -23,6 +23,8 @@ impl Event {
             Event::ForcedChoice { .. } => "forced choice",
             Event::Ended => "end",
             Event::Aborted { .. } => "abort",
+            Event::RobotCommanded { .. } => "robot command",
+            Event::RobotReported { .. } => "robot report",
         }
     }
 }
@@ -34,7 +36,13 @@ impl Session {
         if let Stage::Done { .. } = self.stage {
             return Err(not_now(name, "the session is over"));
         }
-        if self.paused && !matches!(event, Event::Resumed | Event::Note { .. } | Event::Aborted { .. }) {
+        // What the robot says is logged whenever it says it.
+        if self.paused
+            && !matches!(
+                event,
+                Event::Resumed | Event::Note { .. } | Event::Aborted { .. } | Event::RobotReported { .. }
+            )
+        {
             return Err(not_now(name, "the session is paused"));
         }
         let applied = match event {
@@ -71,8 +79,22 @@ impl Session {
                 self.paused = false;
                 Applied::Ended { completed: false }
             }
+            Event::RobotCommanded { query, .. } => self.command_robot(name, query)?,
+            Event::RobotReported { query, state, detail } => {
+                let attempt = match &mut self.robot {
+                    Some(track) if track.query == *query => {
+                        track.last = Some((*state, detail.clone()));
+                        Some(track.attempts)
+                    }
+                    _ => None,
+                };
+                Applied::RobotReported { attempt }
+            }
         };
         self.events += 1;
+        if matches!(event, Event::RobotCommanded { .. } | Event::RobotReported { .. }) {
+            self.robot_events += 1;
+        }
         Ok(applied)
     }
 
@@ -100,6 +122,22 @@ impl Session {
         self.undo = None;
         let scores = view.program.map_or_else(Vec::new, |run| self.learners[run].scores.clone());
         Ok(Applied::Presented { view, scores })
+    }
+
+    fn command_robot(&mut self, name: &'static str, query: &str) -> Result<Applied, SessionError> {
+        let Some(cursor) = self.cursor().filter(|c| !c.presented) else {
+            return Err(not_now(name, "no trial is waiting for its query to be presented"));
+        };
+        let view = self.view(cursor);
+        let expected = &self.query(view.query).query.id;
+        if query != expected {
+            return Err(SessionError::WrongQuery { found: query.to_string(), expected: expected.clone() });
+        }
+        let attempts = self.robot.as_ref().filter(|t| t.query == query).map_or(0, |t| t.attempts) + 1;
+        self.robot = Some(RobotTrack { query: query.to_string(), attempts, last: None });
+        // The robot moves on: the last grasp is final.
+        self.undo = None;
+        Ok(Applied::RobotCommanded { view, attempt: attempts })
     }
 
     fn record_grasp(&mut self, name: &'static str, region: &str) -> Result<Applied, SessionError> {
@@ -152,6 +190,7 @@ impl Session {
         };
         self.trials.push(record.clone());
         self.stage = self.next_stage(cursor.slot);
+        self.robot = None;
         self.undo = Some(Box::new(undo));
         Ok(Applied::Responded { view, record, belief })
     }
@@ -161,17 +200,21 @@ impl Session {
             return Err(not_now(name, "there is no grasp to undo since the last query was presented"));
         };
         let (cursor, belief) = self.restore(*undo);
+        self.robot = None;
         Ok(Applied::Undone { view: self.view(cursor), belief })
     }
 
     fn void(&mut self, name: &'static str) -> Result<Applied, SessionError> {
         let (cursor, retracted) = match (self.undo.take(), self.cursor()) {
             (Some(undo), _) => (self.restore(*undo).0, true),
-            (None, Some(c)) if c.presented => (c, false),
+            // Before its query is presented, a trial the robot was sent to can be voided (the
+            // robot did not reach the pose).
+            (None, Some(c)) if c.presented || self.robot.is_some() => (c, false),
             _ => return Err(not_now(name, "no trial is in progress")),
         };
         let view = self.view(cursor);
         self.stage = Stage::Trial(TrialCursor { presented: false, ..cursor });
+        self.robot = None;
         Ok(Applied::Voided { view, retracted })
     }
 

@@ -65,6 +65,96 @@ impl VoidReason {
     }
 }
 
+/// How the console reaches the robot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum RobotLinkKind {
+    /// ROS 2 topics over DDS.
+    Ros2,
+    /// A program run for each command (`--robot-command`).
+    Command,
+}
+
+impl RobotLinkKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            RobotLinkKind::Ros2 => "ros2",
+            RobotLinkKind::Command => "command",
+        }
+    }
+}
+
+/// What a robot said of a command.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum RobotState {
+    /// On its way to the pose.
+    Moving,
+    /// Holding the object at the pose.
+    AtPose,
+    /// It could not reach or hold the pose.
+    Failed,
+    /// No answer within the configured time (said by the console, not the robot).
+    Timeout,
+    /// Anything else it said (the text is the detail).
+    Other,
+}
+
+impl RobotState {
+    pub fn name(self) -> &'static str {
+        match self {
+            RobotState::Moving => "moving",
+            RobotState::AtPose => "at_pose",
+            RobotState::Failed => "failed",
+            RobotState::Timeout => "timeout",
+            RobotState::Other => "other",
+        }
+    }
+
+    /// Whether the command is over (nothing more is expected of it).
+    pub fn is_final(self) -> bool {
+        matches!(self, RobotState::AtPose | RobotState::Failed | RobotState::Timeout)
+    }
+}
+
+/// The object's pose as sent to the robot: a frame, a position (m) and a unit quaternion
+/// (x, y, z, w), as `geometry_msgs/msg/Pose` has them.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct SentPose {
+    pub frame: String,
+    pub position: [f64; 3],
+    pub orientation: [f64; 4],
+}
+
+/// Checks a frame id as ROS 2 and Foxglove take one: 1 to 64 characters from A–Z, a–z, 0–9,
+/// `_`, `/`, `.` and `-`.
+pub fn validate_frame_id(frame: &str) -> Result<(), String> {
+    let ok = (1..=64).contains(&frame.len())
+        && frame.bytes().all(|b| b.is_ascii_alphanumeric() || matches!(b, b'_' | b'/' | b'.' | b'-'));
+    if ok {
+        Ok(())
+    } else {
+        Err(format!(
+            "frame '{}' is not a frame id: expected 1 to 64 characters from A–Z, a–z, 0–9, '_', '/', '.', '-'",
+            frame.escape_debug()
+        ))
+    }
+}
+
+/// Checks a pose sent to a robot: a frame id, a finite position within 10 m of the frame's
+/// origin, and a unit quaternion (to 1e-6).
+pub fn validate_sent_pose(pose: &SentPose) -> Result<(), String> {
+    validate_frame_id(&pose.frame)?;
+    if !pose.position.iter().all(|v| v.is_finite() && v.abs() <= 10.0) {
+        return Err(format!("position {:?} is not finite within 10 m of the frame's origin", pose.position));
+    }
+    let norm = pose.orientation.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if !pose.orientation.iter().all(|v| v.is_finite()) || (norm - 1.0).abs() > 1e-6 {
+        return Err(format!("orientation {:?} is not a unit quaternion (x, y, z, w)", pose.orientation));
+    }
+    Ok(())
+}
+
 /// One thing that happened, as the operator (or a simulated participant) reports it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "kebab-case")]
@@ -104,6 +194,18 @@ pub enum Event {
     /// The session stops early.
     Aborted {
         reason: String,
+    },
+    /// The robot was sent the waiting query's pose (again, for a second attempt).
+    RobotCommanded {
+        query: String,
+        link: RobotLinkKind,
+        pose: SentPose,
+    },
+    /// The robot (or the console's timeout) reported on a command for `query`.
+    RobotReported {
+        query: String,
+        state: RobotState,
+        detail: String,
     },
 }
 

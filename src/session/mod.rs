@@ -22,7 +22,10 @@ use crate::protocol::{ResolvedQuery, Study};
 use crate::select::{OutcomeModel, QueryValue, SelectorKind};
 use crate::{SeededRng, derive_seed};
 
-pub use events::{Event, SessionStart, Stamped, VoidReason, program_letter};
+pub use events::{
+    Event, RobotLinkKind, RobotState, SentPose, SessionStart, Stamped, VoidReason, program_letter, validate_frame_id,
+    validate_sent_pose,
+};
 pub use learner::{BeliefSummary, Learner, LearningContext};
 
 /// The counterbalancing orders: slot 0 runs the protocol's conditions as listed, slot 1 reversed.
@@ -137,11 +140,35 @@ pub struct TrialRecord {
 /// What applying an event derived, for the recorder.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Applied {
-    Presented { view: TrialView, scores: Vec<QueryValue> },
-    Responded { view: TrialView, record: TrialRecord, belief: Option<BeliefSummary> },
-    Voided { view: TrialView, retracted: bool },
-    Undone { view: TrialView, belief: Option<BeliefSummary> },
-    Ended { completed: bool },
+    Presented {
+        view: TrialView,
+        scores: Vec<QueryValue>,
+    },
+    Responded {
+        view: TrialView,
+        record: TrialRecord,
+        belief: Option<BeliefSummary>,
+    },
+    Voided {
+        view: TrialView,
+        retracted: bool,
+    },
+    Undone {
+        view: TrialView,
+        belief: Option<BeliefSummary>,
+    },
+    /// A robot command for the trial `view` (its `attempt`, 1-based).
+    RobotCommanded {
+        view: TrialView,
+        attempt: u32,
+    },
+    /// A robot report; `attempt` is the command of the trial under way it answers, if any.
+    RobotReported {
+        attempt: Option<u32>,
+    },
+    Ended {
+        completed: bool,
+    },
     Other,
 }
 
@@ -164,6 +191,14 @@ enum Stage {
     Trial(TrialCursor),
     Questionnaire,
     Done { completed: bool },
+}
+
+/// The robot's commands for the trial under way: how many were sent, and the last report.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RobotTrack {
+    pub query: String,
+    pub attempts: u32,
+    pub last: Option<(RobotState, String)>,
 }
 
 /// The state before the last grasp, kept so that it can be undone.
@@ -190,7 +225,11 @@ pub struct Session {
     likert: BTreeMap<(usize, usize), i64>,
     choice: Option<usize>,
     notes: Vec<String>,
+    /// The robot's commands for the trial under way (none without a robot).
+    robot: Option<RobotTrack>,
     events: usize,
+    /// How many of `events` were the robot's.
+    robot_events: usize,
 }
 
 mod purpose {
@@ -258,7 +297,9 @@ impl Session {
             likert: BTreeMap::new(),
             choice: None,
             notes: Vec::new(),
+            robot: None,
             events: 0,
+            robot_events: 0,
         })
     }
 
@@ -298,9 +339,20 @@ impl Session {
         self.paused
     }
 
+    /// The robot's commands for the trial under way, if it was sent any.
+    pub fn robot(&self) -> Option<&RobotTrack> {
+        self.robot.as_ref()
+    }
+
     /// Number of events applied.
     pub fn event_count(&self) -> usize {
         self.events
+    }
+
+    /// Events applied other than the robot's commands and reports: what a simulated
+    /// participant's draws are keyed on, so that a robot in the loop changes no answer.
+    pub fn events_without_robot(&self) -> usize {
+        self.events - self.robot_events
     }
 
     /// Whether `GraspUndone` is possible now.

@@ -19,7 +19,8 @@ use crate::dryrun::now_ns;
 use crate::participant::{ScriptedParticipant, SimulatedPerson};
 use crate::protocol::Study;
 use crate::record::{LogContents, RecordError, RecordedSession, continuation_path, log_folder};
-use crate::session::{Event, Prompt, Session, Stamped};
+use crate::robot::{PresentOn, Report, Robot, RobotCommand, command_for};
+use crate::session::{Event, Prompt, RobotState, Session, Stamped};
 use crate::setup::{Plan, SetupConfig, SetupError, lock_for, plan_session, start_session};
 use crate::study_dir::{ParticipantLock, StudyDirs};
 
@@ -118,6 +119,10 @@ pub struct App {
     closed: Option<(PathBuf, Option<String>)>,
     /// Printed after the terminal is restored.
     pub exit_message: Option<String>,
+    /// The robot in the loop, if the lab has one.
+    pub(super) robot: Option<Robot>,
+    /// The command whose event is being logged: sent once it is on disk.
+    robot_outbox: Option<RobotCommand>,
 }
 
 impl App {
@@ -201,7 +206,20 @@ impl App {
             quit: false,
             closed: None,
             exit_message: None,
+            robot: None,
+            robot_outbox: None,
         }
+    }
+
+    /// The console drives `robot` (none: the operator commands the robot by hand).
+    pub fn with_robot(mut self, robot: Option<Robot>) -> Self {
+        self.robot = robot;
+        self
+    }
+
+    /// The robot, if one is connected.
+    pub fn robot(&self) -> Option<&Robot> {
+        self.robot.as_ref()
     }
 
     pub(super) fn make_plan(&self) -> Plan {
@@ -272,6 +290,7 @@ impl App {
             regions,
             scale_points: self.config.study.protocol.questionnaire.scale.len(),
             void_reasons: crate::session::VoidReason::ALL.len(),
+            robot: self.robot.is_some(),
         }
     }
 
@@ -299,6 +318,9 @@ impl App {
             let Some(k) = self.pending.pop_front() else { break };
             self.key(k);
         }
+        if !self.busy() && matches!(self.screen, Screen::Session) {
+            self.hear_robot();
+        }
         if self.busy() || self.overlay.is_some() || !matches!(self.screen, Screen::Session) {
             return;
         }
@@ -308,7 +330,59 @@ impl App {
         }
         if let Some(event) = self.session().and_then(|s| sim.respond(s)) {
             self.last_simulated_ns = now_ns;
-            self.submit(event);
+            // With a robot, a rehearsal's query is presented when the robot is at the pose.
+            match (&event, self.robot.is_some(), self.session().and_then(Session::robot)) {
+                (Event::QueryPresented { .. }, true, None) => self.send_robot(),
+                (Event::QueryPresented { .. }, true, Some(_)) => {}
+                _ => self.submit(event),
+            }
+        }
+    }
+
+    /// Logs what the robot reported; on `at_pose`, presents the query when the lab says so
+    /// (and in a rehearsal).
+    fn hear_robot(&mut self) {
+        let Some(robot) = self.robot.as_mut() else { return };
+        let present_on_at_pose = robot.settings.present_on == PresentOn::AtPose || self.config.simulate;
+        let Some(report) = robot.next_report(Duration::ZERO) else { return };
+        self.submit(report.event());
+        match report.state {
+            RobotState::AtPose if present_on_at_pose => {
+                if let Some(Prompt::Present(v)) = self.session().map(Session::prompt) {
+                    let id = self.session().map(|s| s.query(v.query).query.id.clone());
+                    if id.as_deref() == Some(report.query.as_str()) {
+                        self.submit(Event::QueryPresented { query: report.query });
+                    }
+                }
+            }
+            RobotState::Failed | RobotState::Timeout => {
+                self.status = format!(
+                    "The robot reported {}{}: s sends again, x voids the trial, Enter continues by hand",
+                    report.state.name(),
+                    if report.detail.is_empty() { String::new() } else { format!(" ({})", report.detail) }
+                );
+            }
+            _ => {}
+        }
+    }
+
+    /// Sends the waiting query's pose to the robot: its command is logged first and sent
+    /// once on disk.
+    pub(super) fn send_robot(&mut self) {
+        let Some(robot) = self.robot.as_ref() else { return };
+        let Some(command) = self.session().and_then(|s| command_for(s, &robot.settings)) else { return };
+        let event = command.event(robot.kind());
+        self.robot_outbox = Some(command);
+        self.submit(event);
+    }
+
+    /// A logged robot command goes to the robot.
+    fn dispatch_robot(&mut self) {
+        let (Some(robot), Some(command)) = (self.robot.as_mut(), self.robot_outbox.take()) else { return };
+        if let Err(why) = robot.send(&command) {
+            let report = Report { query: command.query.clone(), state: RobotState::Failed, detail: why };
+            self.status = format!("The robot could not be sent the pose: {}", report.detail);
+            self.submit(report.event());
         }
     }
 
@@ -349,16 +423,19 @@ impl App {
             Done::Submitted(session, result) => {
                 self.shown = Some(*session);
                 match result {
-                    Ok(()) => {
+                    Ok(event) => {
                         self.unwritten = None;
                         if matches!(self.overlay, Some(Overlay::WriteFailed { .. })) {
                             self.overlay = None;
                         }
                         self.after_event();
+                        if let Event::RobotCommanded { .. } = event {
+                            self.dispatch_robot();
+                        }
                     }
                     Err(Failure::Rejected(e)) => self.status = e,
                     Err(Failure::Log { message, last_event, event }) => {
-                        self.unwritten = Some(event);
+                        self.unwritten = Some(*event);
                         // Keys typed after the failed event must not act on a state that
                         // does not have it.
                         self.pending.clear();

@@ -56,6 +56,8 @@ pub enum Action {
     Cancel,
     /// Write the event that failed to be logged again.
     Retry,
+    /// Send the waiting query's pose to the robot (again).
+    SendRobot,
 }
 
 /// The keys a binding answers to.
@@ -72,6 +74,8 @@ pub enum Keys {
     Digits(Picked),
     /// Any printable character (a line editor).
     Typed,
+    /// A letter that acts only while a robot is connected ([`Counts::robot`]).
+    RobotChar(char),
 }
 
 /// What a digit picks, whose count bounds the digits that act.
@@ -91,6 +95,8 @@ pub struct Counts {
     pub regions: usize,
     pub scale_points: usize,
     pub void_reasons: usize,
+    /// Whether a robot is connected (its keys act and are listed).
+    pub robot: bool,
 }
 
 impl Counts {
@@ -190,6 +196,14 @@ pub const BINDINGS: &[Binding] = &[
         Section::Setup,
     ),
     // Trials.
+    bind(
+        Keys::RobotChar('s'),
+        &[M::Present],
+        Does::Is(Action::SendRobot),
+        "send to robot",
+        "send the pose to the robot (again: a new attempt)",
+        Section::Trial,
+    ),
     bind(
         Keys::Enter,
         &[M::Present],
@@ -291,6 +305,7 @@ pub const BINDINGS: &[Binding] = &[
 fn matches(keys: Keys, code: KeyCode, counts: Counts) -> Option<Option<usize>> {
     match (keys, code) {
         (Keys::Char(a), KeyCode::Char(b)) if a == b => Some(None),
+        (Keys::RobotChar(a), KeyCode::Char(b)) if a == b && counts.robot => Some(None),
         (Keys::Enter, KeyCode::Enter)
         | (Keys::Esc, KeyCode::Esc)
         | (Keys::Tab, KeyCode::Tab)
@@ -329,7 +344,7 @@ pub fn action_for(mode: Mode, key: KeyEvent, counts: Counts) -> Option<Action> {
 /// How a binding's keys are written on screen (`1–4` for digits, with the count now).
 pub fn key_label(keys: Keys, counts: Counts) -> String {
     match keys {
-        Keys::Char(c) => c.to_string(),
+        Keys::Char(c) | Keys::RobotChar(c) => c.to_string(),
         Keys::Enter => "Enter".into(),
         Keys::Esc => "Esc".into(),
         Keys::Tab => "Tab".into(),
@@ -344,11 +359,16 @@ pub fn key_label(keys: Keys, counts: Counts) -> String {
     }
 }
 
+/// Whether a binding's keys can act at all now (a robot's keys need a robot).
+fn acts(keys: Keys, counts: Counts) -> bool {
+    !matches!(keys, Keys::RobotChar(_)) || counts.robot
+}
+
 /// The footer's hints for a mode: (keys, what), in table order; bindings of one action
 /// with the same hint are merged ("←/→").
 pub fn hints(mode: Mode, counts: Counts) -> Vec<(String, &'static str)> {
     let mut out: Vec<(String, &'static str)> = Vec::new();
-    for b in BINDINGS.iter().filter(|b| b.modes.contains(&mode) && !b.hint.is_empty()) {
+    for b in BINDINGS.iter().filter(|b| b.modes.contains(&mode) && !b.hint.is_empty() && acts(b.keys, counts)) {
         let keys = key_label(b.keys, counts);
         match out.last_mut() {
             Some((k, hint)) if *hint == b.hint => *k = format!("{k}/{keys}"),
@@ -364,7 +384,7 @@ pub fn help(counts: Counts) -> Vec<(&'static str, Vec<(String, &'static str)>)> 
         .into_iter()
         .map(|(section, heading)| {
             let mut lines: Vec<(String, &'static str)> = Vec::new();
-            for b in BINDINGS.iter().filter(|b| b.section == section && !b.help.is_empty()) {
+            for b in BINDINGS.iter().filter(|b| b.section == section && !b.help.is_empty() && acts(b.keys, counts)) {
                 let line = (key_label(b.keys, counts), b.help);
                 if !lines.contains(&line) {
                     lines.push(line);
@@ -383,7 +403,7 @@ mod tests {
         KeyEvent::new(code, KeyModifiers::NONE)
     }
 
-    const COUNTS: Counts = Counts { regions: 2, scale_points: 5, void_reasons: 4 };
+    const COUNTS: Counts = Counts { regions: 2, scale_points: 5, void_reasons: 4, robot: false };
 
     fn action_for(mode: Mode, key: KeyEvent) -> Option<Action> {
         super::action_for(mode, key, COUNTS)
@@ -464,6 +484,19 @@ mod tests {
             for b in BINDINGS.iter().filter(|b| b.modes.contains(&mode)) {
                 let code = match b.keys {
                     Keys::Char(c) => KeyCode::Char(c),
+                    Keys::RobotChar(c) => {
+                        let with_robot = Counts { robot: true, ..COUNTS };
+                        assert_eq!(super::action_for(mode, key(KeyCode::Char(c)), COUNTS), None, "no robot");
+                        assert!(super::action_for(mode, key(KeyCode::Char(c)), with_robot).is_some());
+                        assert!(
+                            super::hints(mode, with_robot).iter().any(|(k, h)| *k == c.to_string() && *h == b.hint)
+                        );
+                        assert!(
+                            !super::hints(mode, COUNTS).iter().any(|(_, h)| *h == b.hint),
+                            "hidden without a robot"
+                        );
+                        continue;
+                    }
                     Keys::Enter => KeyCode::Enter,
                     Keys::Esc => KeyCode::Esc,
                     Keys::Tab => KeyCode::Tab,

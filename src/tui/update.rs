@@ -86,6 +86,7 @@ impl App {
                     self.status = "Nothing to undo: a grasp can be undone until the next query is presented".into();
                 }
             }
+            (Mode::Present, Action::SendRobot) => self.send_robot(),
             (Mode::Present, Action::Confirm) => {
                 if let Some(Prompt::Present(v)) = self.session().map(|s| s.prompt()) {
                     let id = self.session().expect("a session").query(v.query).query.id.clone();

@@ -8,7 +8,7 @@ use std::thread::JoinHandle;
 use super::app::SummaryView;
 use crate::analysis::analyse;
 use crate::record::{RecordError, RecordedSession, SubmitError, read_log};
-use crate::session::{Session, Stamped};
+use crate::session::{Event, Session, Stamped};
 
 /// What the console asks of the worker.
 enum Job {
@@ -27,13 +27,13 @@ pub enum Failure {
     /// The session refused it (nothing was logged).
     Rejected(String),
     /// The log could not be written; the event is kept to be retried.
-    Log { message: String, last_event: usize, event: Stamped },
+    Log { message: String, last_event: usize, event: Box<Stamped> },
 }
 
 /// What the worker reports.
 pub enum Done {
-    /// An event was applied and logged (or not): the session as it now is.
-    Submitted(Box<Session>, Result<(), Failure>),
+    /// An event was applied and logged (or not): the session as it now is, and the event.
+    Submitted(Box<Session>, Result<Event, Failure>),
     Finished(Box<SummaryView>),
     /// The log was finished at a quit: its path, or why it could not be finished.
     Closed {
@@ -144,15 +144,15 @@ impl Drop for Worker {
     }
 }
 
-fn submit(rec: &mut RecordedSession, stamped: Stamped) -> Result<(), Failure> {
-    rec.submit(stamped.clone()).map(|_| ()).map_err(|e| match e {
+fn submit(rec: &mut RecordedSession, stamped: Stamped) -> Result<Event, Failure> {
+    rec.submit(stamped.clone()).map(|_| stamped.event.clone()).map_err(|e| match e {
         SubmitError::Rejected(e) => Failure::Rejected(e.to_string()),
         SubmitError::Log(e) => {
             let last_event = match &e {
                 RecordError::Write { last_event, .. } => *last_event,
                 _ => rec.session().event_count(),
             };
-            Failure::Log { message: e.to_string(), last_event, event: stamped }
+            Failure::Log { message: e.to_string(), last_event, event: Box::new(stamped) }
         }
     })
 }

@@ -10,7 +10,7 @@ use ratatui::widgets::canvas::{Canvas, Points};
 use ratatui::widgets::{Block, Paragraph, Row, Sparkline, Table, Wrap};
 
 use crate::kinematics::JOINT_NAMES;
-use crate::session::{Phase, Prompt, Session, TrialView};
+use crate::session::{Phase, Prompt, RobotState, Session, TrialView};
 use crate::tui::app::App;
 use crate::tui::theme;
 
@@ -24,7 +24,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
     let [left, right] = Layout::horizontal([Constraint::Percentage(58), Constraint::Percentage(42)]).areas(area);
     let [instr, grasp, history] =
         Layout::vertical([Constraint::Length(11), Constraint::Length(6), Constraint::Min(3)]).areas(left);
-    instruction(session, &view, awaiting_grasp, frame, instr);
+    instruction(session, &view, awaiting_grasp, robot_line(app, session), frame, instr);
     grasp_prompt(session, &view, awaiting_grasp, frame, grasp);
     history_panel(session, &view, frame, history);
     if view.phase == Phase::Training {
@@ -46,7 +46,30 @@ fn phase_title(session: &Session, v: &TrialView) -> String {
     }
 }
 
-fn instruction(session: &Session, v: &TrialView, done: bool, frame: &mut Frame, area: Rect) {
+/// What the robot is doing about this trial (a blank line without a robot).
+fn robot_line(app: &App, session: &Session) -> Line<'static> {
+    let Some(robot) = app.robot() else { return Line::from("") };
+    let (text, style) = match session.robot() {
+        None => ("not sent yet: s sends the pose".to_string(), theme::key()),
+        Some(t) => {
+            let secs = robot.elapsed().map_or(String::new(), |d| format!(", {:.1} s", d.as_secs_f64()));
+            match &t.last {
+                None => (format!("sent (attempt {}{secs}), no answer yet", t.attempts), Style::default()),
+                Some((state, detail)) => {
+                    let detail = if detail.is_empty() { String::new() } else { format!(": {detail}") };
+                    let style = match state {
+                        RobotState::Failed | RobotState::Timeout => theme::warning(),
+                        _ => Style::default(),
+                    };
+                    (format!("{} (attempt {}{secs}){detail}", state.name(), t.attempts), style)
+                }
+            }
+        }
+    };
+    Line::from(vec![Span::raw("  robot        "), Span::styled(text, style)])
+}
+
+fn instruction(session: &Session, v: &TrialView, done: bool, robot: Line<'static>, frame: &mut Frame, area: Rect) {
     let q = session.query(v.query);
     let object = session.study().object(q);
     let [x, y, z] = q.pose.position;
@@ -63,7 +86,7 @@ fn instruction(session: &Session, v: &TrialView, done: bool, frame: &mut Frame, 
         Line::from(format!("  orientation  roll {r:+.1}°  pitch {p:+.1}°  yaw {yaw:+.1}°")),
         Line::from(format!("  frame        {} shoulder (x forward, y left, z up)", side.name())),
         Line::from(format!("  hand         {}", theme::hand_sides(side))),
-        Line::from(""),
+        robot,
         Line::from(Span::styled(
             if done { "Presented." } else { theme::PRESENT_DONE },
             if done { theme::dim() } else { theme::instruction() },

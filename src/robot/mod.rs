@@ -1,0 +1,226 @@
+//! The robot in the loop: what a command says ([`RobotCommand`]), the links that carry it
+//! (ROS 2 topics, [`ros2`]; a program per command, [`hook`]) and the [`Robot`] that sends
+//! commands, collects what the link reports and times a command out. The session logs both
+//! sides as events (`/robot/command`, `/robot/status`); the operator keeps the last word.
+
+pub mod hook;
+pub mod ros2;
+mod settings;
+
+use std::sync::mpsc::{Receiver, Sender, channel};
+use std::time::{Duration, Instant};
+
+use nalgebra::UnitQuaternion;
+use serde::Serialize;
+
+pub use settings::{BaseFrame, PresentOn, RobotSettings, Ros2Settings, validate_topic};
+
+use crate::session::{Event, Phase, Prompt, RobotLinkKind, RobotState, SentPose, Session};
+
+/// A grip offered at a query.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Grip {
+    pub id: String,
+    pub label: String,
+}
+
+/// A quaternion as `geometry_msgs/msg/Quaternion` names its parts.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Xyzw {
+    pub x: f64,
+    pub y: f64,
+    pub z: f64,
+    pub w: f64,
+}
+
+/// One command: the trial and the object's pose, as a program's standard input and the ROS 2
+/// trial message carry it (JSON).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RobotCommand {
+    pub phase: Phase,
+    /// 1-based within the run (training) or the test phase.
+    pub trial: usize,
+    /// 1 for the trial's first command, 2… for re-sends.
+    pub attempt: u32,
+    pub query: String,
+    /// The pose's name.
+    pub label: String,
+    pub object: String,
+    pub grips: Vec<Grip>,
+    pub frame: String,
+    /// The object's centre (m).
+    pub position: [f64; 3],
+    pub orientation: Xyzw,
+    /// The same orientation as roll, pitch, yaw (degrees; R = Rz(yaw) Ry(pitch) Rx(roll)).
+    pub rpy_deg: [f64; 3],
+}
+
+impl RobotCommand {
+    /// The pose as the log records it.
+    pub fn sent_pose(&self) -> SentPose {
+        let o = self.orientation;
+        SentPose { frame: self.frame.clone(), position: self.position, orientation: [o.x, o.y, o.z, o.w] }
+    }
+
+    /// The event that logs it.
+    pub fn event(&self, link: RobotLinkKind) -> Event {
+        Event::RobotCommanded { query: self.query.clone(), link, pose: self.sent_pose() }
+    }
+}
+
+/// The command for the query the session waits to have presented (none when it waits for
+/// something else): its commanded pose, in the base frame when the lab gave one.
+pub fn command_for(session: &Session, settings: &RobotSettings) -> Option<RobotCommand> {
+    let Prompt::Present(view) = session.prompt() else { return None };
+    let q = session.query(view.query);
+    let object = session.study().object(q);
+    let mut pose = q.pose.to_isometry();
+    if let Some(base) = &settings.base_frame {
+        pose = base.base_from_shoulder() * pose;
+    }
+    let rotation: UnitQuaternion<f64> = pose.rotation;
+    let (r, p, y) = rotation.euler_angles();
+    let attempt = session.robot().filter(|t| t.query == q.query.id).map_or(0, |t| t.attempts) + 1;
+    Some(RobotCommand {
+        phase: view.phase,
+        trial: view.trial,
+        attempt,
+        query: q.query.id.clone(),
+        label: q.query.label.clone(),
+        object: object.id.clone(),
+        grips: q
+            .regions
+            .iter()
+            .map(|&r| Grip { id: object.regions[r].id.clone(), label: object.regions[r].label.clone() })
+            .collect(),
+        frame: settings.frame_id().to_string(),
+        position: [pose.translation.x, pose.translation.y, pose.translation.z],
+        orientation: Xyzw { x: rotation.i, y: rotation.j, z: rotation.k, w: rotation.w },
+        rpy_deg: [r, p, y].map(f64::to_degrees),
+    })
+}
+
+/// What a link heard about a command.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Report {
+    /// The query of the command it answers.
+    pub query: String,
+    pub state: RobotState,
+    pub detail: String,
+}
+
+impl Report {
+    /// The event that logs it.
+    pub fn event(&self) -> Event {
+        Event::RobotReported { query: self.query.clone(), state: self.state, detail: self.detail.clone() }
+    }
+}
+
+/// A way of reaching the robot. Reports arrive on the channel the link was made with.
+pub trait Link: Send {
+    fn kind(&self) -> RobotLinkKind;
+    /// Starts carrying out `command` (a command under way is abandoned).
+    fn send(&mut self, command: &RobotCommand) -> Result<(), String>;
+    /// The command under way timed out: stop working on it.
+    fn cancel(&mut self) {}
+    /// Where it is connected, for the screen (`ros2 domain 0`, the program's name).
+    fn describe(&self) -> String;
+}
+
+/// A command under way.
+#[derive(Clone, Debug)]
+struct Pending {
+    query: String,
+    sent: Instant,
+}
+
+/// The robot as the console and dry runs see it: a link, its reports, and the timeout.
+pub struct Robot {
+    link: Box<dyn Link>,
+    reports: Receiver<Report>,
+    pending: Option<Pending>,
+    pub settings: RobotSettings,
+}
+
+impl Robot {
+    /// A robot reached through the link that `make` builds with a report channel.
+    pub fn new(
+        settings: RobotSettings,
+        make: impl FnOnce(Sender<Report>, &RobotSettings) -> Result<Box<dyn Link>, String>,
+    ) -> Result<Self, String> {
+        let (tx, reports) = channel();
+        let link = make(tx, &settings)?;
+        Ok(Self { link, reports, pending: None, settings })
+    }
+
+    pub fn kind(&self) -> RobotLinkKind {
+        self.link.kind()
+    }
+
+    pub fn describe(&self) -> String {
+        self.link.describe()
+    }
+
+    /// Sends a command (logged before: see [`RobotCommand::event`]).
+    pub fn send(&mut self, command: &RobotCommand) -> Result<(), String> {
+        self.pending = Some(Pending { query: command.query.clone(), sent: Instant::now() });
+        self.link.send(command)
+    }
+
+    /// Whether a command is waiting for its final report.
+    pub fn busy(&self) -> bool {
+        self.pending.is_some()
+    }
+
+    /// How long the command under way has taken.
+    pub fn elapsed(&self) -> Option<Duration> {
+        self.pending.as_ref().map(|p| p.sent.elapsed())
+    }
+
+    /// The next report, waiting at most `wait`; a command past its time is reported as a
+    /// timeout (and the link told to give it up).
+    pub fn next_report(&mut self, wait: Duration) -> Option<Report> {
+        let deadline = self.pending.as_ref().map(|p| p.sent + self.settings.timeout());
+        let wait = deadline.map_or(wait, |d| wait.min(d.saturating_duration_since(Instant::now())));
+        let got = if wait.is_zero() { self.reports.try_recv().ok() } else { self.reports.recv_timeout(wait).ok() };
+        if let Some(report) = got {
+            if report.state.is_final() && self.pending.as_ref().is_some_and(|p| p.query == report.query) {
+                self.pending = None;
+            }
+            return Some(report);
+        }
+        match (&self.pending, deadline) {
+            (Some(p), Some(d)) if Instant::now() >= d => {
+                let report = Report {
+                    query: p.query.clone(),
+                    state: RobotState::Timeout,
+                    detail: format!("no answer within {} s", self.settings.timeout_s),
+                };
+                self.pending = None;
+                self.link.cancel();
+                Some(report)
+            }
+            _ => None,
+        }
+    }
+}
+
+/// The text a robot's status message carries, as a state (anything else is `other`, with
+/// the text as the detail).
+pub fn parse_status(text: &str) -> (RobotState, String) {
+    match text.trim() {
+        "moving" => (RobotState::Moving, String::new()),
+        "at_pose" => (RobotState::AtPose, String::new()),
+        "failed" => (RobotState::Failed, String::new()),
+        other => {
+            let mut detail: String = other.chars().filter(|c| !c.is_control()).take(500).collect();
+            if detail.is_empty() {
+                detail = "(empty status)".into();
+            }
+            (if other.starts_with("failed") { RobotState::Failed } else { RobotState::Other }, detail)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

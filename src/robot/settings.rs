@@ -1,0 +1,181 @@
+//! The lab's robot settings (`--robot-config FILE`): which frame poses are sent in, how long a
+//! command may take, what confirms a presentation, and the ROS 2 topics. Untrusted input:
+//! every field is checked and named in the error.
+
+use std::net::IpAddr;
+use std::time::Duration;
+
+use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+use serde::Deserialize;
+
+use crate::session::validate_frame_id;
+
+/// The largest settings file read.
+pub const MAX_SETTINGS_BYTES: u64 = 64 << 10;
+
+/// What makes a trial's query "presented".
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PresentOn {
+    /// The operator's Enter (the default: the operator sees the robot).
+    Operator,
+    /// The robot's `at_pose` (or the operator's Enter, whichever comes first).
+    AtPose,
+}
+
+/// The robot's base frame, when poses are sent in it rather than the shoulder frame: the
+/// participant's shoulder frame as seen from the base (measured in the lab).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BaseFrame {
+    pub frame_id: String,
+    /// Where the shoulder frame's origin is in the base frame (m).
+    pub shoulder_position: [f64; 3],
+    /// The shoulder frame's orientation in the base frame: roll, pitch, yaw (degrees,
+    /// R = Rz(yaw) Ry(pitch) Rx(roll), as poses are written).
+    pub shoulder_rpy_deg: [f64; 3],
+}
+
+impl BaseFrame {
+    /// The transform from the shoulder frame to the base frame.
+    pub fn base_from_shoulder(&self) -> Isometry3<f64> {
+        let [r, p, y] = self.shoulder_rpy_deg.map(f64::to_radians);
+        let [x, yy, z] = self.shoulder_position;
+        Isometry3::from_parts(Translation3::new(x, yy, z), UnitQuaternion::from_euler_angles(r, p, y))
+    }
+}
+
+/// The ROS 2 side: DDS domain, topic names, and the networks DDS may use.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Ros2Settings {
+    /// `ROS_DOMAIN_ID` (0–232).
+    pub domain_id: u16,
+    /// `geometry_msgs/msg/PoseStamped`: the object's pose for the robot.
+    pub pose_topic: String,
+    /// `std_msgs/msg/String`, JSON: the trial (phase, trial, query, object, grips, attempt).
+    pub trial_topic: String,
+    /// `std_msgs/msg/String`: `moving`, `at_pose`, `failed` from the robot.
+    pub status_topic: String,
+    /// Local addresses whose interfaces DDS uses (all when empty).
+    pub networks: Vec<IpAddr>,
+    /// Seconds to wait for the robot's subscription before publishing anyway, and between
+    /// re-sends of a command nothing answered.
+    pub resend_s: f64,
+}
+
+impl Default for Ros2Settings {
+    fn default() -> Self {
+        Self {
+            domain_id: 0,
+            pose_topic: "/handover/target_pose".into(),
+            trial_topic: "/handover/trial".into(),
+            status_topic: "/handover/robot_status".into(),
+            networks: Vec::new(),
+            resend_s: 2.0,
+        }
+    }
+}
+
+/// Everything a lab sets about its robot.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RobotSettings {
+    /// Seconds a command may take to reach `at_pose` (or a program to exit) before it is
+    /// reported as a timeout.
+    pub timeout_s: f64,
+    pub present_on: PresentOn,
+    /// The frame id poses are sent in when there is no base frame.
+    pub shoulder_frame_id: String,
+    pub base_frame: Option<BaseFrame>,
+    pub ros2: Ros2Settings,
+}
+
+impl Default for RobotSettings {
+    fn default() -> Self {
+        Self {
+            timeout_s: 60.0,
+            present_on: PresentOn::Operator,
+            shoulder_frame_id: "shoulder".into(),
+            base_frame: None,
+            ros2: Ros2Settings::default(),
+        }
+    }
+}
+
+/// A ROS 2 topic name as ROS 2 takes it: absolute, segments of letters, digits and `_`
+/// not starting with a digit, at most 200 characters.
+pub fn validate_topic(name: &str) -> Result<(), String> {
+    let segment_ok = |s: &str| {
+        !s.is_empty()
+            && !s.starts_with(|c: char| c.is_ascii_digit())
+            && s.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_')
+    };
+    if name.len() <= 200 && name.starts_with('/') && name[1..].split('/').all(segment_ok) {
+        Ok(())
+    } else {
+        Err(format!(
+            "'{}' is not a ROS 2 topic name: expected '/' and segments of A–Z, a–z, 0–9, '_' (not starting with a digit)",
+            name.escape_debug()
+        ))
+    }
+}
+
+impl RobotSettings {
+    /// Parses and checks a settings file's text (`name` names it in errors).
+    pub fn from_json(text: &str, name: &str) -> Result<Self, String> {
+        if text.len() as u64 > MAX_SETTINGS_BYTES {
+            return Err(format!(
+                "{name}: {} bytes, over the budget of {MAX_SETTINGS_BYTES} for robot settings",
+                text.len()
+            ));
+        }
+        let de = &mut serde_json::Deserializer::from_str(text);
+        let settings: Self =
+            serde_path_to_error::deserialize(de).map_err(|e| format!("{name}: {}: {}", e.path(), e.inner()))?;
+        settings.validate().map_err(|e| format!("{name}: {e}"))?;
+        Ok(settings)
+    }
+
+    /// Checks every field against its range.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.timeout_s.is_finite() && (1.0..=600.0).contains(&self.timeout_s)) {
+            return Err(format!("timeout_s is {}, expected 1 to 600 seconds", self.timeout_s));
+        }
+        validate_frame_id(&self.shoulder_frame_id).map_err(|e| format!("shoulder_frame_id: {e}"))?;
+        if let Some(b) = &self.base_frame {
+            validate_frame_id(&b.frame_id).map_err(|e| format!("base_frame.frame_id: {e}"))?;
+            if !b.shoulder_position.iter().all(|v| v.is_finite() && v.abs() <= 5.0) {
+                return Err("base_frame.shoulder_position: expected 3 finite numbers within 5 m".into());
+            }
+            if !b.shoulder_rpy_deg.iter().all(|v| v.is_finite() && v.abs() <= 360.0) {
+                return Err("base_frame.shoulder_rpy_deg: expected 3 finite angles within ±360°".into());
+            }
+        }
+        let r = &self.ros2;
+        if r.domain_id > 232 {
+            return Err(format!("ros2.domain_id is {}, expected 0 to 232", r.domain_id));
+        }
+        for (field, topic) in
+            [("pose_topic", &r.pose_topic), ("trial_topic", &r.trial_topic), ("status_topic", &r.status_topic)]
+        {
+            validate_topic(topic).map_err(|e| format!("ros2.{field}: {e}"))?;
+        }
+        if r.networks.len() > 16 {
+            return Err(format!("ros2.networks has {} addresses, expected at most 16", r.networks.len()));
+        }
+        if !(r.resend_s.is_finite() && (0.1..=60.0).contains(&r.resend_s)) {
+            return Err(format!("ros2.resend_s is {}, expected 0.1 to 60 seconds", r.resend_s));
+        }
+        Ok(())
+    }
+
+    pub fn timeout(&self) -> Duration {
+        Duration::from_secs_f64(self.timeout_s)
+    }
+
+    /// The frame poses are sent in.
+    pub fn frame_id(&self) -> &str {
+        self.base_frame.as_ref().map_or(&self.shoulder_frame_id, |b| &b.frame_id)
+    }
+}
