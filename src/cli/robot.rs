@@ -39,6 +39,12 @@ pub struct RobotArgs {
 impl RobotArgs {
     /// The robot, connected; none when no robot option is given.
     pub fn connect(&self) -> Result<Option<Robot>> {
+        if self.robot.is_none() && self.robot_command.is_none() {
+            if self.robot_config.is_some() {
+                return Err(bad("--robot-config is given without --robot or --robot-command"));
+            }
+            return Ok(None);
+        }
         let settings = match &self.robot_config {
             Some(path) => RobotSettings::from_json(&read_text(path)?, &path.display().to_string()).map_err(bad)?,
             None => RobotSettings::default(),
@@ -48,9 +54,6 @@ impl RobotArgs {
                 .map_err(|e| anyhow::anyhow!("cannot reach the robot: {e}"))?,
             (None, Some(program)) => {
                 Robot::new(settings, |tx, s| Ok(Box::new(CommandHook::new(program.clone(), tx, s)?))).map_err(bad)?
-            }
-            (None, None) if self.robot_config.is_some() => {
-                return Err(bad("--robot-config is given without --robot or --robot-command"));
             }
             (None, None) => return Ok(None),
         };

@@ -7,9 +7,9 @@ use std::io::{Read, Write};
 use std::os::unix::process::CommandExt;
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::Sender;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use super::{Link, Report, RobotCommand, RobotSettings};
@@ -18,12 +18,16 @@ use crate::session::{RobotLinkKind, RobotState};
 /// The most of a program's error output kept (its end).
 const MAX_STDERR_BYTES: usize = 2000;
 
+/// The program of the command under way: its process group while it runs (None once it
+/// has ended and been waited for, so that a group id is never signalled after reuse).
+type Running = Arc<Mutex<Option<i32>>>;
+
 /// The program link.
 pub struct CommandHook {
     program: PathBuf,
     reports: Sender<Report>,
-    /// Set to abandon the command under way (its program is killed, its end not reported).
-    abandon: Option<Arc<AtomicBool>>,
+    /// The command under way: set to abandon it (its end is not reported), and its program.
+    abandon: Option<(Arc<AtomicBool>, Running)>,
 }
 
 impl CommandHook {
@@ -64,7 +68,8 @@ impl Link for CommandHook {
         let stdin = child.stdin.take();
         let stderr = child.stderr.take();
         let abandon = Arc::new(AtomicBool::new(false));
-        self.abandon = Some(Arc::clone(&abandon));
+        let running: Running = Arc::new(Mutex::new(i32::try_from(child.id()).ok()));
+        self.abandon = Some((Arc::clone(&abandon), Arc::clone(&running)));
         let reports = self.reports.clone();
         let query = command.query.clone();
         std::thread::spawn(move || {
@@ -75,7 +80,12 @@ impl Link for CommandHook {
             }
             let (err_tx, err_rx) = std::sync::mpsc::channel();
             std::thread::spawn(move || err_tx.send(stderr.map(read_tail).unwrap_or_default()));
-            let Some(status) = wait(&mut child, &abandon) else { return };
+            let status = wait(&mut child, &abandon);
+            if let Ok(mut r) = running.lock() {
+                *r = None;
+            }
+            // An abandoned command's end (its kill included) is not reported.
+            let Some(status) = status.filter(|_| !abandon.load(Ordering::SeqCst)) else { return };
             // Something the program left running may hold its error output open: not waited for.
             let err = err_rx.recv_timeout(Duration::from_millis(500)).unwrap_or_default();
             let (state, detail) = match status.code() {
@@ -88,9 +98,16 @@ impl Link for CommandHook {
         Ok(())
     }
 
+    /// Kills the program under way and everything it started, now (the process may be
+    /// about to exit), and leaves its end unreported.
     fn cancel(&mut self) {
-        if let Some(a) = self.abandon.take() {
-            a.store(true, Ordering::SeqCst);
+        if let Some((abandon, running)) = self.abandon.take() {
+            abandon.store(true, Ordering::SeqCst);
+            if let Ok(r) = running.lock()
+                && let Some(pid) = *r
+            {
+                kill_group(pid);
+            }
         }
     }
 }
@@ -105,7 +122,7 @@ impl Drop for CommandHook {
 fn wait(child: &mut Child, abandon: &AtomicBool) -> Option<std::process::ExitStatus> {
     loop {
         if abandon.load(Ordering::SeqCst) {
-            kill_group(child);
+            let _ = child.kill();
             let _ = child.wait();
             return None;
         }
@@ -117,15 +134,12 @@ fn wait(child: &mut Child, abandon: &AtomicBool) -> Option<std::process::ExitSta
     }
 }
 
-/// Kills the program and everything in its process group.
-fn kill_group(child: &mut Child) {
-    if let Ok(pid) = i32::try_from(child.id()) {
-        // SAFETY: kill(2) with a negative pid signals the process group the program leads.
-        unsafe {
-            libc::kill(-pid, libc::SIGKILL);
-        }
+/// Kills everything in the process group the program leads.
+fn kill_group(pid: i32) {
+    // SAFETY: kill(2) with a negative pid signals a process group; no memory is involved.
+    unsafe {
+        libc::kill(-pid, libc::SIGKILL);
     }
-    let _ = child.kill();
 }
 
 /// The last [`MAX_STDERR_BYTES`] of a stream, read to its end.
