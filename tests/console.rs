@@ -1,5 +1,8 @@
 //! The console without a terminal: every screen as a snapshot at 100×30, and whole
-//! sessions driven by key events through the app.
+//! sessions driven by key events through the app, with and without a robot.
+//!
+//! Its length: one test per way a session is driven (keys, failures, resume, the robot),
+//! sharing the console's setup and snapshot helpers.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -366,4 +369,119 @@ fn a_withdrawn_participant_gets_no_new_session() {
     assert!(a.session().is_none(), "no session started");
     assert!(a.status.contains("withdrew"), "{}", a.status);
     assert!(handover::record::mcap_files(&dir.join("logs")).is_empty(), "no log written");
+}
+
+/// A console with a robot reached through a program (`--robot-command`) that runs `body`.
+fn app_with_robot(dir: &Path, body: &str, settings: &str) -> App {
+    use std::os::unix::fs::PermissionsExt;
+    let program = dir.join("robot.sh");
+    std::fs::write(&program, format!("#!/bin/sh\ncat > /dev/null\n{body}\n")).unwrap();
+    std::fs::set_permissions(&program, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let settings = handover::robot::RobotSettings::from_json(settings, "lab.json").unwrap();
+    let robot = handover::robot::Robot::new(settings, |tx, s| {
+        Ok(Box::new(handover::robot::hook::CommandHook::new(program.clone(), tx, s)?))
+    })
+    .unwrap();
+    let mut a = App::new(config(dir, false)).with_robot(Some(robot));
+    a.tick(T0);
+    a
+}
+
+/// Ticks the console until the robot's last report for this trial is `state`.
+fn until_robot(app: &mut App, state: handover::session::RobotState) {
+    let t = std::time::Instant::now();
+    loop {
+        app.tick(T0);
+        app.wait_idle();
+        if app.session().and_then(|s| s.robot()).and_then(|r| r.last.as_ref()).is_some_and(|(s, _)| *s == state) {
+            return;
+        }
+        assert!(t.elapsed() < Duration::from_secs(10), "the robot never said {state:?}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+fn mode_is_grasp(app: &App) -> bool {
+    matches!(app.session().map(|s| s.prompt()), Some(handover::session::Prompt::Grasp(_)))
+}
+
+#[test]
+fn the_operator_sends_the_pose_to_the_robot_and_confirms_it() {
+    use handover::session::RobotState;
+    let dir = tmpdir("robot-ok");
+    let mut a = app_with_robot(&dir, "exit 0", "{}");
+    press(&mut a, KeyCode::Enter);
+    let text = screen(&mut a, 100, 30);
+    assert!(text.contains("robot        not sent yet: s sends the pose"), "{text}");
+    assert!(text.contains(" s  send to robot "), "the footer offers it: {text}");
+    keys(&mut a, "s");
+    until_robot(&mut a, RobotState::AtPose);
+    let text = screen(&mut a, 100, 30);
+    assert!(text.contains("robot        at_pose (attempt 1)"), "{text}");
+    assert!(!mode_is_grasp(&a), "the operator confirms (present_on: operator)");
+    press(&mut a, KeyCode::Enter);
+    assert!(mode_is_grasp(&a));
+    keys(&mut a, "1");
+    // With present_on at_pose, the robot's answer presents the query.
+    let dir = tmpdir("robot-auto");
+    let mut a = app_with_robot(&dir, "exit 0", r#"{"present_on": "at_pose"}"#);
+    press(&mut a, KeyCode::Enter);
+    keys(&mut a, "s");
+    let t = std::time::Instant::now();
+    while !mode_is_grasp(&a) {
+        assert!(t.elapsed() < Duration::from_secs(10), "never presented");
+        a.tick(T0);
+        a.wait_idle();
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let log = read_log(&a.log_path().unwrap()).unwrap();
+    let names: Vec<&str> = log.events.iter().map(|e| e.event.name()).collect();
+    assert_eq!(names, ["robot command", "robot report", "query presented"]);
+}
+
+#[test]
+fn a_robot_failure_is_shown_and_the_operator_resends_voids_or_goes_on_by_hand() {
+    use handover::session::{Event, RobotState};
+    let dir = tmpdir("robot-fail");
+    let mut a = app_with_robot(&dir, "echo 'joint 4 at its limit' >&2\nexit 2", "{}");
+    press(&mut a, KeyCode::Enter);
+    keys(&mut a, "s");
+    until_robot(&mut a, RobotState::Failed);
+    assert!(a.status.contains("The robot reported failed (exit status 2: joint 4 at its limit)"), "{}", a.status);
+    let text = screen(&mut a, 100, 30);
+    assert!(text.contains("robot        failed (attempt 1)"), "{text}");
+    assert!(text.contains("The robot reported failed (exit status 2: joint 4 at its limit)"), "{text}");
+    // Re-send: a second attempt, which fails too.
+    keys(&mut a, "s");
+    until_robot(&mut a, RobotState::Failed);
+    assert_eq!(a.session().unwrap().robot().unwrap().attempts, 2);
+    // Void it as a robot fault: the trial starts over, nothing presented.
+    keys(&mut a, "x2");
+    assert!(a.session().unwrap().robot().is_none());
+    assert!(!mode_is_grasp(&a));
+    // Or go on by hand: Enter presents as without a robot.
+    press(&mut a, KeyCode::Enter);
+    assert!(mode_is_grasp(&a));
+    let log = read_log(&a.log_path().unwrap()).unwrap();
+    let void = log.events.iter().find_map(|e| match &e.event {
+        Event::TrialVoided { reason, .. } => Some(*reason),
+        _ => None,
+    });
+    assert_eq!(void, Some(handover::session::VoidReason::RobotFault));
+    let commands = log.events.iter().filter(|e| matches!(e.event, Event::RobotCommanded { .. })).count();
+    assert_eq!(commands, 2);
+}
+
+#[test]
+fn a_robot_that_does_not_answer_times_out() {
+    use handover::session::RobotState;
+    let dir = tmpdir("robot-hang");
+    let mut a = app_with_robot(&dir, "sleep 600", r#"{"timeout_s": 1}"#);
+    press(&mut a, KeyCode::Enter);
+    keys(&mut a, "s");
+    let text = screen(&mut a, 100, 30);
+    assert!(text.contains("sent (attempt 1"), "{text}");
+    until_robot(&mut a, RobotState::Timeout);
+    assert!(a.status.contains("The robot reported timeout (no answer within 1 s)"), "{}", a.status);
+    assert!(!a.robot().unwrap().busy());
 }

@@ -90,6 +90,14 @@ fn logs(dir: &Path) {
                 t += 1_000_000_000;
                 rec.submit(Stamped { time_ns: t, event }).unwrap();
             };
+            // A robot in the loop for the first trial: its command, then moving and at_pose.
+            let command =
+                handover::robot::command_for(rec.session(), &handover::robot::RobotSettings::default()).unwrap();
+            submit(&mut rec, command.event(handover::session::RobotLinkKind::Ros2));
+            for state in [handover::session::RobotState::Moving, handover::session::RobotState::AtPose] {
+                let report = handover::robot::Report { query: command.query.clone(), state, detail: String::new() };
+                submit(&mut rec, report.event());
+            }
             for _ in 0..2 {
                 let e = p.participant.respond(rec.session()).unwrap();
                 submit(&mut rec, e);
@@ -155,6 +163,8 @@ fn every_csv_matches_the_data_dictionary() {
     let trials = std::fs::read_to_string(dir.join("analyze/pilot/trials.csv")).unwrap();
     assert!(trials.contains(",undone,") && trials.contains(",voided,"), "{trials}");
     assert!(trials.contains("other,\"phone rang, 2 min\""), "{trials}");
+    let robot = std::fs::read_to_string(dir.join("analyze/pilot/robot.csv")).unwrap();
+    assert!(robot.contains(",1,ros2,shoulder,") && robot.contains(",at_pose,"), "{robot}");
     let notes = std::fs::read_to_string(dir.join("analyze/pilot/notes.csv")).unwrap();
     assert!(notes.contains("\"asked to repeat, \"\"twice\"\"\""), "{notes}");
     let _ = std::fs::remove_dir_all(&dir);

@@ -355,13 +355,6 @@ impl App {
                     }
                 }
             }
-            RobotState::Failed | RobotState::Timeout => {
-                self.status = format!(
-                    "The robot reported {}{}: s sends again, x voids the trial, Enter continues by hand",
-                    report.state.name(),
-                    if report.detail.is_empty() { String::new() } else { format!(" ({})", report.detail) }
-                );
-            }
             _ => {}
         }
     }
@@ -429,8 +422,20 @@ impl App {
                             self.overlay = None;
                         }
                         self.after_event();
-                        if let Event::RobotCommanded { .. } = event {
-                            self.dispatch_robot();
+                        match event {
+                            Event::RobotCommanded { .. } => self.dispatch_robot(),
+                            Event::RobotReported {
+                                state: state @ (RobotState::Failed | RobotState::Timeout),
+                                detail,
+                                ..
+                            } => {
+                                let detail = if detail.is_empty() { String::new() } else { format!(" ({detail})") };
+                                self.status = format!(
+                                    "The robot reported {}{detail}: s sends again, x voids the trial, Enter continues by hand",
+                                    state.name()
+                                );
+                            }
+                            _ => {}
                         }
                     }
                     Err(Failure::Rejected(e)) => self.status = e,

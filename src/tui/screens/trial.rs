@@ -55,13 +55,13 @@ fn robot_line(app: &App, session: &Session) -> Line<'static> {
             let secs = robot.elapsed().map_or(String::new(), |d| format!(", {:.1} s", d.as_secs_f64()));
             match &t.last {
                 None => (format!("sent (attempt {}{secs}), no answer yet", t.attempts), Style::default()),
-                Some((state, detail)) => {
-                    let detail = if detail.is_empty() { String::new() } else { format!(": {detail}") };
+                // The detail is in the status line: this line keeps to the panel's width.
+                Some((state, _)) => {
                     let style = match state {
                         RobotState::Failed | RobotState::Timeout => theme::warning(),
                         _ => Style::default(),
                     };
-                    (format!("{} (attempt {}{secs}){detail}", state.name(), t.attempts), style)
+                    (format!("{} (attempt {}{secs})", state.name(), t.attempts), style)
                 }
             }
         }
