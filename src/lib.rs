@@ -11,6 +11,7 @@ pub mod dryrun;
 pub mod ergo;
 pub mod experiment;
 pub mod kinematics;
+pub mod live;
 pub mod participant;
 pub mod plot;
 pub mod private_files;

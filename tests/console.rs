@@ -40,6 +40,7 @@ fn config(dir: &Path, simulate: bool) -> AppConfig {
         simulate,
         pace: Duration::ZERO,
         seed: Some(1),
+        tap: None,
     }
 }
 

@@ -213,6 +213,7 @@ fn the_console_blocks_on_a_failed_write_until_it_is_retried() {
         simulate: false,
         pace: std::time::Duration::ZERO,
         seed: Some(3),
+        tap: None,
     };
     let mut a = App::new(config);
     let press = |a: &mut App, c: KeyCode| {

@@ -7,11 +7,12 @@ use std::time::Duration;
 use anyhow::Result;
 use clap::Args;
 use handover::participant::validate_id;
-use handover::record::{LogContents, study_of};
+use handover::record::{LogContents, SharedTap, study_of};
 use handover::study_dir::StudyDirs;
 use handover::tui::{App, AppConfig, Outcome, run_terminal};
 
 use super::input::{bad, load_protocol};
+use super::live::LiveArgs;
 use super::robot::RobotArgs;
 
 /// Open the operator console and run a study session: setup, the training runs (blinded
@@ -47,6 +48,8 @@ pub struct RunArgs {
     /// A robot in the loop: `s` sends each query's pose to it (see README "With a robot").
     #[command(flatten)]
     robot: RobotArgs,
+    #[command(flatten)]
+    live: LiveArgs,
 }
 
 impl RunArgs {
@@ -62,6 +65,7 @@ impl RunArgs {
             pace: 800,
             seed: None,
             robot: RobotArgs::default(),
+            live: LiveArgs::default(),
         }
     }
 }
@@ -87,7 +91,7 @@ fn finish(result: Result<Outcome, String>) -> Result<()> {
 }
 
 pub fn run(args: RunArgs) -> Result<()> {
-    let RunArgs { protocol, participant, study_dir, logs, participants, simulate, pace, seed, robot } = args;
+    let RunArgs { protocol, participant, study_dir, logs, participants, simulate, pace, seed, robot, live } = args;
     if participant != "new" {
         validate_id(&participant).map_err(|e| bad(format!("--participant: {e}")))?;
     }
@@ -101,6 +105,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         simulate,
         pace: Duration::from_millis(pace),
         seed,
+        tap: None,
     };
     let app = App::new(config);
     if let Some(e) = app.plan.as_ref().and_then(|p| p.error.clone()) {
@@ -108,7 +113,12 @@ pub fn run(args: RunArgs) -> Result<()> {
     }
     require_terminal()?;
     let robot = robot.connect()?;
-    finish(run_terminal(app.with_robot(robot)))
+    let mut app = app.with_robot(robot);
+    if let Some(view) = live.start()? {
+        app.config.tap = Some(SharedTap(Box::new(view.clone())));
+        app.status = format!("Live view: {}", view.url());
+    }
+    finish(run_terminal(app))
 }
 
 /// The console on an interrupted session's log.
@@ -122,15 +132,28 @@ fn config_of(old: &LogContents, dirs: StudyDirs, simulate: bool, pace: u64) -> R
         simulate,
         pace: Duration::from_millis(pace),
         seed: Some(old.start.seed),
+        tap: None,
     })
 }
 
-pub fn resume(old: LogContents, dirs: StudyDirs, simulate: bool, pace: u64, robot: &RobotArgs) -> Result<()> {
-    let config = config_of(&old, dirs, simulate, pace)?;
+pub fn resume(
+    old: LogContents,
+    dirs: StudyDirs,
+    simulate: bool,
+    pace: u64,
+    extra: (&RobotArgs, &LiveArgs),
+) -> Result<()> {
+    let (robot, live) = extra;
+    let mut config = config_of(&old, dirs, simulate, pace)?;
     require_terminal()?;
     let robot = robot.connect()?;
-    let app = App::resume(config, &old)?;
-    finish(run_terminal(app.with_robot(robot)))
+    let view = live.start()?;
+    config.tap = view.as_ref().map(|v| SharedTap(Box::new(v.clone())));
+    let mut app = App::resume(config, &old)?.with_robot(robot);
+    if let Some(v) = view {
+        app.status = format!("{}; live view: {}", app.status, v.url());
+    }
+    finish(run_terminal(app))
 }
 
 /// A finished session, read-only on the summary screen.

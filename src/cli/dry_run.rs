@@ -18,6 +18,7 @@ use handover::session::{Session, program_letter};
 use handover::study_dir::{ParticipantLock, StudyDirs};
 
 use super::input::{HandArg, bad, body_height, load_protocol, parse_json, read_text};
+use super::live::LiveArgs;
 use super::robot::RobotArgs;
 
 /// Run whole sessions with simulated participants (a rehearsal of the study, or a check of
@@ -74,6 +75,8 @@ pub struct DryRunArgs {
     /// A robot in the loop: each query is sent to it, and presented when it reports at_pose.
     #[command(flatten)]
     robot: RobotArgs,
+    #[command(flatten)]
+    live: LiveArgs,
 }
 
 fn load_truth(path: &std::path::Path) -> Result<Lambda> {
@@ -134,13 +137,18 @@ pub fn run(args: DryRunArgs) -> Result<()> {
     };
     let report_each = args.seeds == 1 && versus.is_none();
     let mut robot = args.robot.connect()?;
-    let mut ctx =
-        RunContext { args: &args, population: &population, logs: &dirs.logs, truth: truth.as_ref(), bar: &bar };
-    let runs = run_seeds(&study, &text, &mut ctx, robot.as_mut(), report_each)?;
+    let live = args.live.start()?;
+    let ctx = RunContext {
+        args: &args,
+        population: &population,
+        logs: &dirs.logs,
+        truth: truth.as_ref(),
+        bar: &bar,
+        live: live.as_ref(),
+    };
+    let runs = run_seeds(&study, &text, &ctx, robot.as_mut(), report_each)?;
     let second = match &versus {
-        Some((text_b, study_b)) => {
-            Some(run_seeds(&Arc::new(study_b.clone()), text_b, &mut ctx, robot.as_mut(), false)?)
-        }
+        Some((text_b, study_b)) => Some(run_seeds(&Arc::new(study_b.clone()), text_b, &ctx, robot.as_mut(), false)?),
         None => None,
     };
     bar.finish_and_clear();
@@ -167,6 +175,7 @@ struct RunContext<'a> {
     logs: &'a std::path::Path,
     truth: Option<&'a Lambda>,
     bar: &'a indicatif::ProgressBar,
+    live: Option<&'a handover::live::LiveView>,
 }
 
 /// Every seed's participants under one protocol, each session logged, replayed and analysed,
@@ -174,11 +183,11 @@ struct RunContext<'a> {
 fn run_seeds(
     study: &Arc<Study>,
     text: &str,
-    ctx: &mut RunContext,
+    ctx: &RunContext,
     mut robot: Option<&mut Robot>,
     report_each: bool,
 ) -> Result<Vec<SeedRun>> {
-    let RunContext { args, population, logs, truth, bar } = *ctx;
+    let RunContext { args, population, logs, truth, bar, live } = *ctx;
     let mut runs = Vec::new();
     for k in 0..args.seeds {
         let seed = args.seed + k;
@@ -194,6 +203,9 @@ fn run_seeds(
             let path = new_log_path(logs, &p.start.participant, now);
             let _lock = ParticipantLock::acquire(&logs.join(&p.start.participant), &p.start.participant, "dry-run")?;
             let mut rec = RecordedSession::create(&path, &text, session, now_ns())?;
+            if let Some(view) = live {
+                rec.set_tap(Box::new(view.clone()));
+            }
             let gave_up = match robot.as_deref_mut() {
                 Some(robot) => match drive_with_robot(&mut rec, &p.participant, robot)? {
                     RobotDrive::Completed => None,

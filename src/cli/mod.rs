@@ -28,6 +28,7 @@ mod dry_run;
 mod feasible;
 mod front;
 mod input;
+mod live;
 mod participant;
 mod protocol;
 mod resume;

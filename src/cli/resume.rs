@@ -13,6 +13,7 @@ use handover::record::{
 use handover::study_dir::{ParticipantLock, StudyDirs};
 
 use super::input::bad;
+use super::live::LiveArgs;
 use super::robot::RobotArgs;
 
 /// Continue an interrupted session (a crash, a kill or a quit) from its log, a truncated
@@ -45,6 +46,8 @@ pub struct ResumeArgs {
     /// A robot in the loop, as for `run` and `dry-run`.
     #[command(flatten)]
     robot: RobotArgs,
+    #[command(flatten)]
+    live: LiveArgs,
 }
 
 /// The log to continue: the given one, or its newest continuation.
@@ -92,7 +95,7 @@ pub fn run(args: ResumeArgs) -> Result<()> {
                 old.start.participant
             )));
         }
-        return super::console::resume(old, dirs, args.simulate, args.pace, &args.robot);
+        return super::console::resume(old, dirs, args.simulate, args.pace, (&args.robot, &args.live));
     }
     let Some(truth) = old.start.simulated_truth.clone() else {
         return Err(bad(format!(
@@ -104,6 +107,9 @@ pub fn run(args: ResumeArgs) -> Result<()> {
     let _lock = ParticipantLock::acquire(&log_folder(&old.path), &old.start.participant, "resume --dry-run")?;
     let path = continuation_path(&old, chrono::Utc::now());
     let mut rec = RecordedSession::resume(&old, &path, now_ns())?;
+    if let Some(view) = args.live.start()? {
+        rec.set_tap(Box::new(view));
+    }
     eprintln!("resumed {} ({} events) into {}", old.path.display(), old.events.len(), rec.path().display());
     let person = SimulatedPerson { truth, alpha: study.protocol.learning.alpha };
     let participant = ScriptedParticipant { person };

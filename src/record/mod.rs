@@ -28,7 +28,7 @@ pub use lineage::{Lineage, is_over, lineage};
 pub use paths::{continuation_path, is_log_file_name, log_folder, log_path_in, mcap_files, new_log_path};
 pub use reader::{LogContents, LoggedMessage, MAX_LOG_BYTES, MAX_TEXT_BYTES, read_log, study_of, validate_start};
 pub use recorded::{RecordedSession, SubmitError};
-pub use recorder::Recorder;
+pub use recorder::{Recorder, SharedTap, Tap};
 pub use replay::{ReplayStep, replay_with};
 
 pub use messages::{event_from_message, messages_for, start_messages, topic_of as event_topic};

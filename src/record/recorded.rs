@@ -62,6 +62,11 @@ impl RecordedSession {
         &self.session
     }
 
+    /// Sends every message to `tap` too once it is on disk (see [`super::Tap`]).
+    pub fn set_tap(&mut self, tap: Box<dyn super::Tap>) {
+        self.recorder.set_tap(tap);
+    }
+
     /// Log time of the last event on disk (of the start before any).
     pub fn last_time_ns(&self) -> u64 {
         self.recorder.last_time_ns()

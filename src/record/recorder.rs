@@ -10,6 +10,30 @@ use super::writer::{self, McapWriter, Sink};
 use super::{PROTOCOL_ATTACHMENT, RecordError, Topic, io, messages, messages_for, schema};
 use crate::session::{Applied, Session, Stamped};
 
+/// Where a session's messages also go once they are on disk (a live view). It must not
+/// block: it runs on the recording thread.
+pub trait Tap: Send {
+    /// One message of `topic`, logged at `time_ns`, as the log holds it (JSON).
+    fn publish(&mut self, topic: Topic, time_ns: u64, data: &[u8]);
+    /// Another handle on the same destination (one per session).
+    fn boxed_clone(&self) -> Box<dyn Tap>;
+}
+
+/// A [`Tap`] that configurations can hold: cloned per session, printed by name.
+pub struct SharedTap(pub Box<dyn Tap>);
+
+impl Clone for SharedTap {
+    fn clone(&self) -> Self {
+        Self(self.0.boxed_clone())
+    }
+}
+
+impl std::fmt::Debug for SharedTap {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("SharedTap")
+    }
+}
+
 /// Writes one session's log. Every `record` call returns only after the event's messages
 /// are on disk (written as one buffer and synced); a failed write leaves the file as it was
 /// after the last good event, so a retry logs the event once.
@@ -23,6 +47,10 @@ pub struct Recorder {
     last_index: usize,
     /// Log time of the last message on disk.
     last_time_ns: u64,
+    /// Where messages also go once on disk.
+    tap: Option<Box<dyn Tap>>,
+    /// The start's messages and time (for a tap set later).
+    start: (Vec<(Topic, Vec<u8>)>, u64),
 }
 
 impl Recorder {
@@ -64,13 +92,15 @@ impl Recorder {
             schema_ids: HashMap::new(),
             last_index: 0,
             last_time_ns: time_ns,
+            tap: None,
+            start: (Vec::new(), time_ns),
         };
         let conditions = &session.start().condition_order;
         for topic in Topic::ALL.into_iter().filter(|t| t.used_by(conditions)) {
             rec.add_channel(topic);
         }
         rec.writer.attach(time_ns, time_ns, PROTOCOL_ATTACHMENT, "application/json", protocol_text.as_bytes());
-        rec.write(&messages::start_messages(session, time_ns), 0, time_ns)?;
+        rec.start.0 = rec.write(&messages::start_messages(session, time_ns), 0, time_ns)?;
         Ok(rec)
     }
 
@@ -86,6 +116,15 @@ impl Recorder {
     /// Log time of the last event on disk (of the start before any).
     pub fn last_time_ns(&self) -> u64 {
         self.last_time_ns
+    }
+
+    /// Sends every message from now on to `tap` too, starting with the session's start (the
+    /// frames, the body, the priors), so that a viewer has the scene.
+    pub fn set_tap(&mut self, mut tap: Box<dyn Tap>) {
+        for (topic, data) in &self.start.0 {
+            tap.publish(*topic, self.start.1, data);
+        }
+        self.tap = Some(tap);
     }
 
     /// Index of the last event on disk (0: only the start).
@@ -127,9 +166,16 @@ impl Recorder {
         id
     }
 
-    fn write(&mut self, msgs: &[(Topic, Value)], sequence: u32, time_ns: u64) -> Result<(), RecordError> {
+    /// Writes and syncs one event's messages; what was written.
+    fn write(
+        &mut self,
+        msgs: &[(Topic, Value)],
+        sequence: u32,
+        time_ns: u64,
+    ) -> Result<Vec<(Topic, Vec<u8>)>, RecordError> {
         // Channels (and schemas) registered with this commit are forgotten again if it fails.
         let mut added: Vec<Topic> = Vec::new();
+        let mut written = Vec::with_capacity(msgs.len());
         for (topic, value) in msgs {
             let data = serde_json::to_vec(value).map_err(|e| self.not_serialisable(e))?;
             let channel = match self.channels.get(topic) {
@@ -144,15 +190,21 @@ impl Recorder {
                 }
             };
             self.writer.message(&writer::Message { channel, sequence, log_time: time_ns, data: &data });
+            written.push((*topic, data));
         }
-        let result = self.writer.commit().map_err(commit_err(&self.path, self.last_index));
-        if result.is_err() {
+        if let Err(e) = self.writer.commit() {
             for topic in added {
                 self.channels.remove(&topic);
                 self.schema_ids.remove(schema(topic).0);
             }
+            return Err(commit_err(&self.path, self.last_index)(e));
         }
-        result
+        if let Some(tap) = self.tap.as_mut() {
+            for (topic, data) in &written {
+                tap.publish(*topic, time_ns, data);
+            }
+        }
+        Ok(written)
     }
 
     /// Writes the summary and footer (a finished file) and syncs.

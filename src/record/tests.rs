@@ -330,3 +330,36 @@ fn a_log_name_says_when_it_was_created() {
     assert_eq!(key("crashed.mcap"), None);
     assert_eq!(key("p-1_2026.mcap"), None);
 }
+
+/// A tap that keeps what it is given.
+#[derive(Clone, Default)]
+struct Collect(Arc<std::sync::Mutex<Vec<(Topic, u64)>>>);
+
+impl super::Tap for Collect {
+    fn publish(&mut self, topic: Topic, time_ns: u64, _data: &[u8]) {
+        self.0.lock().unwrap().push((topic, time_ns));
+    }
+    fn boxed_clone(&self) -> Box<dyn super::Tap> {
+        Box::new(self.clone())
+    }
+}
+
+#[test]
+fn a_tap_gets_the_start_then_each_event_once_it_is_on_disk() {
+    let (p, disk, mut rec) = on_disk(6);
+    let seen = Collect::default();
+    rec.set_tap(Box::new(seen.clone()));
+    let start: Vec<Topic> = seen.0.lock().unwrap().iter().map(|(t, _)| *t).collect();
+    assert_eq!(start[0], Topic::SessionStart);
+    assert!(start.contains(&Topic::Transforms) && start.contains(&Topic::HumanArm), "{start:?}");
+    let event = p.participant.respond(rec.session()).unwrap();
+    let good = disk.bytes();
+    disk.set_room(good.len() + 10);
+    assert!(rec.submit(Stamped { time_ns: 50, event: event.clone() }).is_err());
+    assert_eq!(seen.0.lock().unwrap().len(), start.len(), "nothing of a failed write");
+    disk.set_room(usize::MAX);
+    rec.submit(Stamped { time_ns: 51, event }).unwrap();
+    let after: Vec<(Topic, u64)> = seen.0.lock().unwrap()[start.len()..].to_vec();
+    assert_eq!(after.first(), Some(&(Topic::TrialQuery, 51)));
+    assert!(after.iter().all(|(_, t)| *t == 51));
+}

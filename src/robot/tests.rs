@@ -210,3 +210,11 @@ fn a_command_to_the_next_pose_makes_the_last_grasp_final() {
     assert!(matches!(applied, crate::session::Applied::Voided { retracted: false, .. }));
     assert_eq!(s.trials().len(), 1);
 }
+
+#[test]
+fn the_documented_lab_settings_are_valid() {
+    let s =
+        RobotSettings::from_json(include_str!("../../docs/examples/robot.json"), "docs/examples/robot.json").unwrap();
+    assert_eq!(s.frame_id(), "base_link");
+    assert_eq!(s.ros2, Ros2Settings::default());
+}

@@ -18,7 +18,7 @@ use crate::analysis::{SessionAnalysis, analyse};
 use crate::dryrun::now_ns;
 use crate::participant::{ScriptedParticipant, SimulatedPerson};
 use crate::protocol::Study;
-use crate::record::{LogContents, RecordError, RecordedSession, continuation_path, log_folder};
+use crate::record::{LogContents, RecordError, RecordedSession, SharedTap, continuation_path, log_folder};
 use crate::robot::{PresentOn, Report, Robot, RobotCommand, command_for};
 use crate::session::{Event, Prompt, RobotState, Session, Stamped};
 use crate::setup::{Plan, SetupConfig, SetupError, lock_for, plan_session, start_session};
@@ -39,6 +39,8 @@ pub struct AppConfig {
     pub pace: Duration,
     /// The session seed (random when absent).
     pub seed: Option<u64>,
+    /// Where the session's messages also go once on disk (the live view).
+    pub tap: Option<SharedTap>,
 }
 
 /// Which screen is shown.
@@ -139,7 +141,10 @@ impl App {
         let mut app = Self::empty(config);
         app.lock = Some(ParticipantLock::acquire(&log_folder(&old.path), &old.start.participant, "console")?);
         let path = continuation_path(old, chrono::Utc::now());
-        let rec = RecordedSession::resume(old, &path, now_ns())?;
+        let mut rec = RecordedSession::resume(old, &path, now_ns())?;
+        if let Some(tap) = &app.config.tap {
+            rec.set_tap(tap.clone().0);
+        }
         let path = rec.path().to_path_buf();
         let status = format!(
             "Resumed {} after {} events; continuing in {}",
@@ -504,7 +509,10 @@ impl App {
         let started = self.lock_and_start(&mut plan);
         self.plan = Some(plan);
         match started {
-            Ok(rec) => {
+            Ok(mut rec) => {
+                if let Some(tap) = &self.config.tap {
+                    rec.set_tap(tap.clone().0);
+                }
                 self.status = format!("Session started; logging to {}", rec.path().display());
                 self.shown = Some(rec.session().clone());
                 self.worker = Some(Worker::spawn(rec));

@@ -1,0 +1,109 @@
+//! The live view: a session's log served to Foxglove while it runs, over the Foxglove
+//! WebSocket protocol (`foxglove.websocket.v1`, by the official `foxglove` crate's server).
+//! Every message is served once it is on disk, on the log's topics with the log's schemas, so
+//! the app shows the same 3D scene, plots and notes as the log opened later
+//! (`docs/foxglove-layout.json`). A viewer that connects late gets each topic's latest
+//! message when it subscribes, so the frames and the body are there at once.
+
+use std::collections::HashMap;
+use std::net::SocketAddr;
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use foxglove::websocket::{ChannelView, Client, ServerListener};
+use foxglove::{Context, PartialMetadata, RawChannel, Schema, WebSocketServer, WebSocketServerHandle};
+
+use crate::record::{Tap, Topic, schema};
+
+/// Where the live view listens unless told otherwise: this machine only, Foxglove's port.
+pub const DEFAULT_ADDR: &str = "127.0.0.1:8765";
+
+/// The channels, and each topic's latest message (time, JSON).
+#[derive(Default)]
+struct Shared {
+    channels: HashMap<Topic, Arc<RawChannel>>,
+    latest: HashMap<Topic, (u64, Vec<u8>)>,
+}
+
+/// Replays a topic's latest message to a viewer that subscribes to it.
+struct Latch(Arc<Mutex<Shared>>);
+
+fn lock(m: &Mutex<Shared>) -> MutexGuard<'_, Shared> {
+    // A panic while holding it leaves plain maps, still usable.
+    m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+impl ServerListener for Latch {
+    fn on_subscribe(&self, client: Client, channel: ChannelView) {
+        let shared = lock(&self.0);
+        let Some(topic) = Topic::from_name(channel.topic()) else { return };
+        if let (Some(ch), Some((time_ns, data))) = (shared.channels.get(&topic), shared.latest.get(&topic)) {
+            ch.log_with_meta_to_sink(data, PartialMetadata { log_time: Some(*time_ns) }, client.sink_id());
+        }
+    }
+}
+
+/// The live view's server; clones share it (one per process, however many sessions). It
+/// serves until the process ends.
+#[derive(Clone)]
+pub struct LiveView {
+    context: Arc<Context>,
+    shared: Arc<Mutex<Shared>>,
+    _server: Arc<WebSocketServerHandle>,
+    addr: SocketAddr,
+}
+
+impl LiveView {
+    /// Starts serving on `addr` (port 0: any free port).
+    pub fn start(addr: SocketAddr) -> Result<Self, String> {
+        let context = Context::new();
+        let shared = Arc::new(Mutex::new(Shared::default()));
+        let server = WebSocketServer::new()
+            .name(format!("handover {}", env!("CARGO_PKG_VERSION")))
+            .bind(addr.ip().to_string(), addr.port())
+            .context(&context)
+            .listener(Arc::new(Latch(Arc::clone(&shared))))
+            .start_blocking()
+            .map_err(|e| format!("the live view cannot listen on {addr}: {e}"))?;
+        let addr = SocketAddr::new(addr.ip(), server.port());
+        Ok(Self { context, shared, _server: Arc::new(server), addr })
+    }
+
+    /// Where it listens.
+    pub fn addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// What Foxglove's *Open connection…* takes.
+    pub fn url(&self) -> String {
+        format!("ws://{}", self.addr)
+    }
+}
+
+impl Tap for LiveView {
+    fn publish(&mut self, topic: Topic, time_ns: u64, data: &[u8]) {
+        let mut shared = lock(&self.shared);
+        let channel = match shared.channels.get(&topic) {
+            Some(c) => Arc::clone(c),
+            None => {
+                let (name, text) = schema(topic);
+                let built = self
+                    .context
+                    .channel_builder(topic.name())
+                    .message_encoding("json")
+                    .schema(Schema::new(name, "jsonschema", text.into_bytes()))
+                    .build_raw();
+                // A channel that cannot be made is left out of the view; the log has it.
+                let Ok(c) = built else { return };
+                shared.channels.insert(topic, Arc::clone(&c));
+                c
+            }
+        };
+        shared.latest.insert(topic, (time_ns, data.to_vec()));
+        drop(shared);
+        channel.log_with_meta(data, PartialMetadata { log_time: Some(time_ns) });
+    }
+
+    fn boxed_clone(&self) -> Box<dyn Tap> {
+        Box::new(self.clone())
+    }
+}
