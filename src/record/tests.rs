@@ -363,3 +363,38 @@ fn a_tap_gets_the_start_then_each_event_once_it_is_on_disk() {
     assert_eq!(after.first(), Some(&(Topic::TrialQuery, 51)));
     assert!(after.iter().all(|(_, t)| *t == 51));
 }
+
+/// A robot command read back is checked as one is made: its frame id and its pose.
+#[test]
+fn a_log_with_a_malformed_robot_command_is_refused_naming_the_field() {
+    let (study, text) = small_study();
+    let p = plan(&study, 8, 0, None, "2026-11-22T00:00:00Z".into());
+    let dir = std::env::temp_dir().join(format!("handover-badrobot-{}", std::process::id()));
+    let path = dir.join("p_20261122T000000Z.mcap");
+    let _ = std::fs::remove_dir_all(&dir);
+    let session = Session::new(Arc::clone(&study), p.start.clone()).unwrap();
+    let mut rec = RecordedSession::create(&path, &text, session, 1_000).unwrap();
+    let command = crate::robot::command_for(rec.session(), &crate::robot::RobotSettings::default()).unwrap();
+    rec.submit(Stamped { time_ns: 2_000, event: command.event(crate::session::RobotLinkKind::Ros2) }).unwrap();
+    let path = rec.finish().unwrap();
+    assert!(read_log(&path).is_ok());
+    let bytes = std::fs::read(&path).unwrap();
+    let needle = br#""frame":"shoulder","orientation""#;
+    let at = bytes.windows(needle.len()).position(|w| w == needle).unwrap();
+    let mut bad = bytes.clone();
+    bad[at + 9..at + 17].copy_from_slice(b"shoul er");
+    std::fs::write(&path, &bad).unwrap();
+    let e = read_log(&path).unwrap_err().to_string();
+    assert!(e.contains("/robot/command") && e.contains("frame 'shoul er' is not a frame id"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+    // The pose's numbers: finite, within reach of the frame, a unit quaternion.
+    let ok = command.sent_pose();
+    for (position, orientation) in [
+        ([f64::NAN, 0.0, 0.0], ok.orientation),
+        ([11.0, 0.0, 0.0], ok.orientation),
+        (ok.position, [0.0, 0.0, 0.0, 2.0]),
+    ] {
+        let pose = crate::session::SentPose { frame: ok.frame.clone(), position, orientation };
+        assert!(crate::session::validate_sent_pose(&pose).is_err(), "{pose:?}");
+    }
+}
