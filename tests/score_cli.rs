@@ -41,6 +41,22 @@ fn scores_a_menu_and_reports_the_posterior() {
 }
 
 #[test]
+fn a_measured_arm_updates_as_its_nearest_configuration_when_precise_and_not_at_all_when_noisy() {
+    let post = |observation: serde_json::Value| -> Vec<f64> {
+        let (code, out, err) = score(&with(|v| v["observation"] = observation.clone()));
+        assert_eq!(code, 0, "{err}");
+        serde_json::from_value(serde_json::from_str::<serde_json::Value>(&out).unwrap()["posterior"].clone()).unwrap()
+    };
+    let by_config = post(serde_json::json!({"query": "split", "config": 0}));
+    let precise = post(serde_json::json!({"query": "split", "measured": [0.0001], "sigma": [0.0001]}));
+    let noisy = post(serde_json::json!({"query": "split", "measured": [0.0001], "sigma": [100000.0]}));
+    for k in 0..2 {
+        assert!((precise[k] - by_config[k]).abs() < 1e-9, "{precise:?} vs {by_config:?}");
+        assert!((noisy[k] - 0.5).abs() < 1e-9, "the prior is uniform: {noisy:?}");
+    }
+}
+
+#[test]
 fn optional_parts_are_left_out_when_not_asked_for() {
     let input = r#"{"alpha": 1, "particles": [{"q_star": [0], "w": [1]}], "menu": [{"id": "a", "configs": [[0]]}]}"#;
     let (code, out, _) = score(input);
@@ -91,6 +107,15 @@ fn bad_input_exits_2_naming_the_field() {
             }),
             "exactly one",
         ),
+        (
+            with(|v| v["observation"] = json!({"query": "split", "measured": [0.1], "sigma": [0.0]})),
+            "observation.measured",
+        ),
+        (
+            with(|v| v["observation"] = json!({"query": "split", "measured": [0.1, 0.2], "sigma": [0.1]})),
+            "observation.measured",
+        ),
+        (with(|v| v["observation"] = json!({"query": "split", "measured": [0.1]})), "exactly one"),
         (with(|v| v["grid_cell"] = json!([1.0])), "grid_cell"),
         (with(|v| v["grid_cell"] = json!([1.0, 0.0])), "grid_cell[1]"),
         (with(|v| v["menu"][1]["id"] = json!("far")), "duplicate"),

@@ -142,3 +142,47 @@ fn bad_particles_are_refused() {
         Err(BeliefError::BadParticle { index: 1, .. })
     ));
 }
+
+/// A belief over q* of a 2-joint arm, and a feasible set of four configurations.
+fn measured_setup() -> (Belief, FeasibleSet) {
+    let mut rng = SeededRng::seed_from_u64(4);
+    let particles: Vec<Lambda> = (0..200)
+        .map(|_| {
+            use rand::RngExt;
+            lam(&[rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)], &[1.0, 0.5])
+        })
+        .collect();
+    let b = Belief::from_particles(&particles, &vec![1.0; particles.len()]).unwrap();
+    let s = set(&[&[0.0, 0.0], &[0.5, -0.2], &[-0.4, 0.6], &[0.9, 0.9]]);
+    (b, s)
+}
+
+#[test]
+fn a_precise_measurement_updates_as_the_nearest_configuration_does() {
+    let (b, s) = measured_setup();
+    let mut by_config = b.clone();
+    by_config.update(&s, 3.0, &Observation::Config(1)).unwrap();
+    for sigma in [1e-3, 1e-5] {
+        let mut by_measure = b.clone();
+        let obs = Observation::measured(s.configs(), &[0.5 + sigma, -0.2 - sigma], &[sigma, sigma]).unwrap();
+        assert_eq!(obs.nearest(), Some(1));
+        by_measure.update(&s, 3.0, &obs).unwrap();
+        let gap = by_config.weights().iter().zip(by_measure.weights()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        assert!(gap < 1e-9, "σ = {sigma}: largest weight difference {gap}");
+    }
+}
+
+#[test]
+fn a_hopelessly_noisy_measurement_leaves_the_belief_as_it_was() {
+    let (b, s) = measured_setup();
+    let mut after = b.clone();
+    let obs = Observation::measured(s.configs(), &[0.3, 0.1], &[1e4, 1e4]).unwrap();
+    after.update(&s, 3.0, &obs).unwrap();
+    let gap = b.weights().iter().zip(after.weights()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    assert!(gap < 1e-9, "largest weight difference {gap}");
+    // A noise level in between moves it, so the two limits are not the same update.
+    let mut between = b.clone();
+    between.update(&s, 3.0, &Observation::measured(s.configs(), &[0.3, 0.1], &[0.2, 0.2]).unwrap()).unwrap();
+    let moved = b.weights().iter().zip(between.weights()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    assert!(moved > 1e-4, "{moved}");
+}

@@ -18,7 +18,7 @@ use super::input::{bad, parse_json, read_text};
 /// observation. Reads JSON, writes JSON to stdout.
 ///
 /// Input: {"alpha", "particles": [{"q_star", "w", "weight"?}], "menu": [{"id", "configs"}],
-/// "grid_cell"?, "observation"?: {"query", "config" | "region"}}. Output: per query the exact
+/// "grid_cell"?, "observation"?: {"query", "config" | "region" | "measured" with "sigma"}}. Output: per query the exact
 /// information gain (nats), the paper's eq. 8 gain (with grid_cell) and the expected cost
 /// of eq. 10; the active, active_paper and passive choices; the normalised posterior
 /// weights (with observation).
@@ -68,6 +68,11 @@ struct ObservationIn {
     config: Option<usize>,
     #[serde(default)]
     region: Option<Vec<usize>>,
+    /// A measured joint vector (rad), with `sigma`: per-joint noise (rad).
+    #[serde(default)]
+    measured: Option<Vec<f64>>,
+    #[serde(default)]
+    sigma: Option<Vec<f64>>,
 }
 
 #[derive(Debug, Serialize)]
@@ -237,12 +242,15 @@ impl Config {
                     .iter()
                     .position(|id| *id == o.query)
                     .ok_or_else(|| bad(format!("{name}: observation.query '{}' is not a menu id", o.query)))?;
-                let obs = match (o.config, o.region) {
-                    (Some(c), None) => Observation::Config(c),
-                    (None, Some(r)) => Observation::Region(r),
+                let obs = match (o.config, o.region, o.measured, o.sigma) {
+                    (Some(c), None, None, None) => Observation::Config(c),
+                    (None, Some(r), None, None) => Observation::Region(r),
+                    (None, None, Some(q), Some(sigma)) => Observation::measured(menu[k].configs(), &q, &sigma)
+                        .map_err(|e| bad(format!("{name}: observation.measured: {e}")))?,
                     _ => {
                         return Err(bad(format!(
-                            "{name}: observation needs exactly one of \"config\" (an index) or \"region\" (a list of indices)"
+                            "{name}: observation needs exactly one of \"config\" (an index), \"region\" (a list of \
+                             indices) or \"measured\" (joint angles, rad) with \"sigma\" (per-joint noise, rad)"
                         )));
                     }
                 };

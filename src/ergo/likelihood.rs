@@ -22,6 +22,11 @@ pub enum Observation {
     Config(usize),
     /// Only that the choice lies in this subset (the handle grabbed), as indices.
     Region(Vec<usize>),
+    /// A measured joint vector q_m with Gaussian noise: for each configuration q_j of the set,
+    /// log N(q_m; q_j, diag σ²) ([`Observation::measured`]). Its likelihood is
+    /// log Σ_j P(q_j | Q, λ) N(q_m; q_j, Σ): the person chose some q_j, and the measuring
+    /// system saw it with noise.
+    Measured(Vec<f64>),
 }
 
 /// Why an observation does not fit its feasible set.
@@ -31,6 +36,10 @@ pub enum ObservationError {
     IndexOutOfRange { index: usize, len: usize },
     #[error("a region observation needs at least one configuration")]
     EmptyRegion,
+    #[error("a measured observation needs one finite log-density per configuration ({got} for {len})")]
+    MeasuredLength { got: usize, len: usize },
+    #[error("a measurement {0}")]
+    BadMeasurement(String),
 }
 
 impl Observation {
@@ -44,7 +53,58 @@ impl Observation {
                 Some(&index) => Err(ObservationError::IndexOutOfRange { index, len }),
                 None => Ok(()),
             },
+            Observation::Measured(g) if g.len() != len || !g.iter().all(|v| v.is_finite()) => {
+                Err(ObservationError::MeasuredLength { got: g.len(), len })
+            }
+            Observation::Measured(_) => Ok(()),
         }
+    }
+
+    /// A measured joint vector `q_m` (rad) of a person choosing from `set`, with independent
+    /// Gaussian noise of standard deviation `sigma[d]` (rad) per joint: the log-density
+    /// log N(q_m; q_j, diag σ²) of every configuration q_j.
+    pub fn measured(set: &ConfigSet, q_m: &[f64], sigma: &[f64]) -> Result<Self, ObservationError> {
+        let dim = set.dim();
+        if q_m.len() != dim || sigma.len() != dim {
+            return Err(ObservationError::BadMeasurement(format!(
+                "has {} angles and {} noise levels, expected {dim} of each",
+                q_m.len(),
+                sigma.len()
+            )));
+        }
+        if !q_m.iter().all(|v| v.is_finite() && v.abs() <= 10.0) {
+            return Err(ObservationError::BadMeasurement(format!(
+                "{q_m:?} is not a vector of finite angles (|q| ≤ 10 rad)"
+            )));
+        }
+        if !sigma.iter().all(|s| s.is_finite() && *s >= 1e-9) {
+            return Err(ObservationError::BadMeasurement(format!(
+                "noise {sigma:?} is not a finite standard deviation ≥ 1e-9 rad per joint"
+            )));
+        }
+        let norm: f64 = sigma.iter().map(|s| (s * (2.0 * std::f64::consts::PI).sqrt()).ln()).sum();
+        let mut g = vec![-norm; set.len()];
+        for d in 0..dim {
+            let (m, s) = (q_m[d], sigma[d]);
+            for (gj, &q) in g.iter_mut().zip(set.joint(d)) {
+                let z = (m - q) / s;
+                *gj -= 0.5 * z * z;
+            }
+        }
+        Ok(Observation::Measured(g))
+    }
+
+    /// The configuration a measurement is nearest to (the highest density; the lowest index on
+    /// ties), which implies the region taken. None for other observations.
+    pub fn nearest(&self) -> Option<usize> {
+        let Observation::Measured(g) = self else { return None };
+        let mut best: Option<(usize, f64)> = None;
+        for (j, &v) in g.iter().enumerate() {
+            if best.is_none_or(|(_, b)| v > b) {
+                best = Some((j, v));
+            }
+        }
+        best.map(|(j, _)| j)
     }
 }
 
@@ -136,6 +196,13 @@ impl SetPass {
                     idx.iter().map(|&j| -alpha * (scratch.costs[j] - self.min_cost)).fold(f64::NEG_INFINITY, f64::max);
                 let s: f64 =
                     idx.iter().map(|&j| exp_nonpositive(-alpha * (scratch.costs[j] - self.min_cost) - max)).sum();
+                max + s.ln() - self.sum.ln()
+            }
+            Observation::Measured(g) => {
+                // log Σ_j exp(ℓ_j + g_j) − log S, by log-sum-exp over the costs.
+                let term = |j: usize| -alpha * (scratch.costs[j] - self.min_cost) + g[j];
+                let max = (0..g.len()).map(term).fold(f64::NEG_INFINITY, f64::max);
+                let s: f64 = (0..g.len()).map(|j| exp_nonpositive(term(j) - max)).sum();
                 max + s.ln() - self.sum.ln()
             }
         }
@@ -254,6 +321,41 @@ mod tests {
         assert!((p.config_entropy() - 4.0f64.ln()).abs() < 1e-14);
         assert_eq!(p.argmin, 0);
         assert_eq!(p.min_cost, 1.0);
+    }
+
+    #[test]
+    fn a_measurement_is_a_mixture_of_the_configurations_weighted_by_their_density() {
+        // q* = 0, w = 1, α = 1; configurations 0, 1, 2; q_m = 0.4, σ = 0.5.
+        let s = set(&[&[0.0], &[1.0], &[2.0]]);
+        let l = Lambda { q_star: vec![0.0], w: vec![1.0] };
+        let obs = Observation::measured(s.configs(), &[0.4], &[0.5]).unwrap();
+        let z: f64 = [0.0f64, -1.0, -4.0].iter().map(|c| c.exp()).sum();
+        let n = |q: f64| (-0.5 * ((0.4 - q) / 0.5f64).powi(2)).exp() / (0.5 * (2.0 * std::f64::consts::PI).sqrt());
+        let want = ((1.0 / z) * n(0.0) + ((-1.0f64).exp() / z) * n(1.0) + ((-4.0f64).exp() / z) * n(2.0)).ln();
+        let got = log_likelihood(&s, &l, 1.0, &obs).unwrap();
+        assert!((got - want).abs() < 1e-13, "{got} vs {want}");
+        assert_eq!(obs.nearest(), Some(0));
+        // Finite however far the measurement and however large the costs.
+        let far = Observation::measured(s.configs(), &[9.0], &[1e-6]).unwrap();
+        assert!(log_likelihood(&s, &Lambda { q_star: vec![9.0], w: vec![1e3] }, 50.0, &far).unwrap().is_finite());
+    }
+
+    #[test]
+    fn bad_measurements_are_refused() {
+        let s = set(&[&[0.0, 0.0]]);
+        for (q, sigma) in [
+            (vec![0.0], vec![0.1, 0.1]),
+            (vec![f64::NAN, 0.0], vec![0.1, 0.1]),
+            (vec![0.0, 0.0], vec![0.0, 0.1]),
+            (vec![0.0, 0.0], vec![0.1, f64::INFINITY]),
+        ] {
+            assert!(matches!(Observation::measured(s.configs(), &q, &sigma), Err(ObservationError::BadMeasurement(_))));
+        }
+        assert_eq!(
+            Observation::Measured(vec![0.0; 3]).check(1),
+            Err(ObservationError::MeasuredLength { got: 3, len: 1 })
+        );
+        assert!(Observation::Measured(vec![f64::NEG_INFINITY]).check(1).is_err());
     }
 
     #[test]

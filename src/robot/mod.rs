@@ -139,6 +139,8 @@ pub struct Robot {
     link: Box<dyn Link>,
     reports: Receiver<Report>,
     pending: Option<Pending>,
+    /// How long the last command took to its final report.
+    last_took: Option<Duration>,
     pub settings: RobotSettings,
 }
 
@@ -150,7 +152,7 @@ impl Robot {
     ) -> Result<Self, String> {
         let (tx, reports) = channel();
         let link = make(tx, &settings)?;
-        Ok(Self { link, reports, pending: None, settings })
+        Ok(Self { link, reports, pending: None, last_took: None, settings })
     }
 
     pub fn kind(&self) -> RobotLinkKind {
@@ -164,6 +166,7 @@ impl Robot {
     /// Sends a command (logged before: see [`RobotCommand::event`]).
     pub fn send(&mut self, command: &RobotCommand) -> Result<(), String> {
         self.pending = Some(Pending { query: command.query.clone(), sent: Instant::now() });
+        self.last_took = None;
         self.link.send(command)
     }
 
@@ -172,9 +175,9 @@ impl Robot {
         self.pending.is_some()
     }
 
-    /// How long the command under way has taken.
+    /// How long the command under way has taken, or the last one took.
     pub fn elapsed(&self) -> Option<Duration> {
-        self.pending.as_ref().map(|p| p.sent.elapsed())
+        self.pending.as_ref().map(|p| p.sent.elapsed()).or(self.last_took)
     }
 
     /// The next report, waiting at most `wait`; a command past its time is reported as a
@@ -184,8 +187,10 @@ impl Robot {
         let wait = deadline.map_or(wait, |d| wait.min(d.saturating_duration_since(Instant::now())));
         let got = if wait.is_zero() { self.reports.try_recv().ok() } else { self.reports.recv_timeout(wait).ok() };
         if let Some(report) = got {
-            if report.state.is_final() && self.pending.as_ref().is_some_and(|p| p.query == report.query) {
-                self.pending = None;
+            if report.state.is_final()
+                && let Some(p) = self.pending.take_if(|p| p.query == report.query)
+            {
+                self.last_took = Some(p.sent.elapsed());
             }
             return Some(report);
         }
@@ -196,6 +201,7 @@ impl Robot {
                     state: RobotState::Timeout,
                     detail: format!("no answer within {} s", self.settings.timeout_s),
                 };
+                self.last_took = Some(p.sent.elapsed());
                 self.pending = None;
                 self.link.cancel();
                 Some(report)
