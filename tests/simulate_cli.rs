@@ -111,6 +111,38 @@ fn active_learns_faster_and_passive_is_more_comfortable_over_seeds() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// The last iteration's distance to the truth of every algorithm × trial, in metrics.csv order.
+fn last_distances(dir: &Path) -> Vec<f64> {
+    let mut r = csv::Reader::from_path(dir.join("metrics.csv")).unwrap();
+    let h = r.headers().unwrap().clone();
+    let col = |name: &str| h.iter().position(|c| c == name).unwrap();
+    let (it, dist) = (col("iteration"), col("distance_to_truth"));
+    r.records().map(|x| x.unwrap()).filter(|x| &x[it] == "3").map(|x| x[dist].parse().unwrap()).collect()
+}
+
+#[test]
+fn a_precise_measurement_learns_as_the_configuration_does_and_a_noisy_one_less() {
+    let run = |name: &str, observation: &[&str]| {
+        let dir = tmp(name);
+        let mut args = vec!["simulate", "planar2", "--algorithms", "active,passive", "--out", dir.to_str().unwrap()];
+        args.extend(SMALL);
+        args.extend(observation);
+        let (code, out, err) = handover(&args);
+        assert_eq!(code, 0, "{err}");
+        (out, last_distances(&dir))
+    };
+    let (_, config) = run("obs-config", &[]);
+    let (out, precise) = run("obs-precise", &["--observation", "measured", "--sigma-deg", "0.01"]);
+    assert!(out.contains("observing the configuration measured with σ = 0.010° per joint"), "{out}");
+    let (_, noisy) = run("obs-noisy", &["--observation", "measured", "--sigma-deg", "50"]);
+    assert_eq!(config.len(), 8);
+    for (a, b) in config.iter().zip(&precise) {
+        assert!((a - b).abs() < 1e-6, "{config:?} vs {precise:?}");
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    assert!(mean(&noisy) > mean(&config), "σ = 50°: {noisy:?} vs the configuration: {config:?}");
+}
+
 #[test]
 fn two_sets_alternates() {
     let (code, out, _) = handover(&["simulate", "two-sets", "--particles", "1000"]);
@@ -131,6 +163,11 @@ fn bad_arguments_exit_2() {
         vec!["simulate", "planar2", "--seeds", "0"],
         vec!["simulate", "planar2", "--estimate", "median"],
         vec!["simulate", "hexapod"],
+        vec!["simulate", "planar2", "--observation", "measured"],
+        vec!["simulate", "planar2", "--sigma-deg", "5"],
+        vec!["simulate", "planar2", "--observation", "measured", "--sigma-deg", "0"],
+        vec!["simulate", "planar2", "--observation", "measured", "--sigma-deg", "90"],
+        vec!["simulate", "two-sets", "--observation", "measured", "--sigma-deg", "5"],
     ] {
         let (code, _, err) = handover(&args);
         assert_eq!(code, 2, "{args:?}: {err}");

@@ -137,6 +137,7 @@ pub fn run(a: FrontArgs) -> Result<()> {
             jitter_fraction: 0.01,
             bandwidth_fraction: 0.05,
             estimate: Estimate::Mean,
+            observation: handover::experiment::SimObservation::Configuration,
         };
         let p = pool.install(|| front(scenario.as_ref(), &base, a.seeds, &settings, &|| bar.inc(1)));
         panels_meta.push((scenario.name(), learn.to_string(), base.alpha, base.iterations));

@@ -10,7 +10,9 @@ use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use handover::belief::Estimate;
 use handover::ergo::LearnMask;
-use handover::experiment::{self, Arm7, PairedTest, Planar2, Scenario, Settings, SummaryRow, paired_tests, summarise};
+use handover::experiment::{
+    self, Arm7, PairedTest, Planar2, Scenario, Settings, SimObservation, SummaryRow, paired_tests, summarise,
+};
 use handover::plot::{LinePlot, Series, mean_se_plot};
 use handover::select::{DEFAULT_BUDGET_EPSILON, DEFAULT_HYBRID_BETA, SelectorKind, Tradeoff};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -68,6 +70,16 @@ pub struct SimulateArgs {
     /// gridded mode (to reproduce its figures; grid noise in 7-D).
     #[arg(long, default_value = "mean")]
     estimate: Estimate,
+    /// What the learner observes of each choice: the configuration (the paper's simulations)
+    /// or the configuration measured with Gaussian noise of --sigma-deg on every joint (a motion
+    /// capture or body tracker; queries are still scored by their information about the
+    /// configuration).
+    #[arg(long, value_enum, default_value = "configuration")]
+    observation: ObservationArg,
+    /// The measurement noise's standard deviation per joint, in degrees (with --observation
+    /// measured).
+    #[arg(long, value_name = "DEG")]
+    sigma_deg: Option<f64>,
     /// Seed of every random draw; the same seed gives byte-identical CSV for any --threads.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -82,6 +94,12 @@ pub struct SimulateArgs {
     /// Output directory for CSV and SVG (created if missing); without it only the table is printed.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq)]
+enum ObservationArg {
+    Configuration,
+    Measured,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum, PartialEq)]
@@ -138,6 +156,20 @@ fn check(a: &SimulateArgs) -> Result<Checked> {
     if a.threads == Some(0) {
         return Err(bad("--threads is 0, expected at least 1"));
     }
+    let observation = match (a.observation, a.sigma_deg) {
+        (ObservationArg::Configuration, None) => SimObservation::Configuration,
+        (ObservationArg::Configuration, Some(_)) => {
+            return Err(bad("--sigma-deg is given without --observation measured"));
+        }
+        (ObservationArg::Measured, None) => return Err(bad("--observation measured needs --sigma-deg")),
+        (ObservationArg::Measured, Some(deg)) => {
+            let max = experiment::MAX_SIGMA_RAD.to_degrees();
+            if !(deg.is_finite() && (0.01..=max).contains(&deg)) {
+                return Err(bad(format!("--sigma-deg is {deg}, expected 0.01 to {max:.1} degrees")));
+            }
+            SimObservation::Measured { sigma_rad: deg.to_radians() }
+        }
+    };
     let mut algorithms = a.algorithms.clone();
     algorithms.dedup();
     let settings = Settings {
@@ -155,11 +187,17 @@ fn check(a: &SimulateArgs) -> Result<Checked> {
         jitter_fraction: 0.01,
         bandwidth_fraction: 0.05,
         estimate: a.estimate,
+        observation,
     };
     Ok(Checked { scenario, settings })
 }
 
 pub fn run(args: SimulateArgs) -> Result<()> {
+    if args.scenario == ScenarioName::TwoSets
+        && (args.observation != ObservationArg::Configuration || args.sigma_deg.is_some())
+    {
+        return Err(bad("--observation measured and --sigma-deg are for planar2 and arm7, not two-sets"));
+    }
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start worker threads")?;
     if args.scenario == ScenarioName::TwoSets {
@@ -266,8 +304,13 @@ fn print_table(
     let seed_text =
         if seeds > 1 { format!("seeds {}–{}", s.seed, s.seed + seeds - 1) } else { format!("seed {}", s.seed) };
     outln!(
-        "{name}: learning {}, {} trials × {} iterations, {} particles, menu {}, test set {}, α = {}, estimate {}, {seed_text} ({seconds:.1} s on {threads} threads)",
+        "{name}: learning {}, observing {}, {} trials × {} iterations, {} particles, menu {}, test set {}, α = {}, estimate {}, {seed_text} ({seconds:.1} s on {threads} threads)",
         s.learn,
+        match s.observation {
+            SimObservation::Configuration => "the configuration".to_string(),
+            SimObservation::Measured { sigma_rad } =>
+                format!("the configuration measured with σ = {:.3}° per joint", sigma_rad.to_degrees()),
+        },
         s.trials,
         s.iterations,
         s.particles,

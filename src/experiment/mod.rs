@@ -21,6 +21,10 @@ pub use arm7::Arm7;
 pub use front::{FrontPoint, FrontSetting, front, front_settings};
 pub use planar2::Planar2;
 pub use summary::{MEASURES, PairedTest, SummaryRow, paired_tests, summarise};
+
+/// The largest measurement noise a simulation takes (rad): beyond it a measurement says
+/// nothing, and |q_m| stays within the 10 rad a measurement may have.
+pub const MAX_SIGMA_RAD: f64 = 1.0;
 pub use two_sets::{TwoSetsStep, two_sets};
 
 /// A simulated setting: an arm, a prior and a source of random queries.
@@ -58,6 +62,28 @@ pub struct Settings {
     pub bandwidth_fraction: f64,
     /// The point estimate that distance and test log-likelihood are measured on.
     pub estimate: Estimate,
+    /// What the learner observes of each choice.
+    pub observation: SimObservation,
+}
+
+/// What a simulated learner observes of the person's choice.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SimObservation {
+    /// The configuration chosen (the paper's simulations).
+    Configuration,
+    /// The chosen configuration measured with independent Gaussian noise of this standard
+    /// deviation (rad) on every joint. Queries are still selected by their information about
+    /// the configuration: the noiseless limit, an upper bound on a noisy measurement's.
+    Measured { sigma_rad: f64 },
+}
+
+impl SimObservation {
+    pub fn name(self) -> &'static str {
+        match self {
+            SimObservation::Configuration => "configuration",
+            SimObservation::Measured { .. } => "measured",
+        }
+    }
 }
 
 /// The measures of one algorithm in one trial after one iteration (0 = the prior).
@@ -89,6 +115,7 @@ mod purpose {
     pub const PERSON: u64 = 5;
     pub const RESAMPLE: u64 = 6;
     pub const SELECT: u64 = 7;
+    pub const MEASURE: u64 = 8;
 }
 
 fn rng(seed: u64, trial: usize, purpose: u64) -> SeededRng {
@@ -142,6 +169,7 @@ fn run_trial(scenario: &dyn Scenario, s: &Settings, prior: &Prior, trial: usize)
         let mut person_rng = rng(s.seed, trial, purpose::PERSON);
         let mut resample_rng = rng(s.seed, trial, purpose::RESAMPLE);
         let mut select_rng = rng(s.seed, trial, purpose::SELECT);
+        let mut measure_rng = rng(s.seed, trial, purpose::MEASURE);
         let mut history: Vec<(usize, Observation)> = Vec::new();
         let measure = |belief: &Belief,
                        history: &[(usize, Observation)],
@@ -181,7 +209,10 @@ fn run_trial(scenario: &dyn Scenario, s: &Settings, prior: &Prior, trial: usize)
             let set = &t.menu[chosen];
             let cost = true_cost(set, &t.truth, s.alpha);
             let choice = person.choose(set, &mut person_rng);
-            let observation = Observation::Config(choice);
+            let observation = match s.observation {
+                SimObservation::Configuration => Observation::Config(choice),
+                SimObservation::Measured { sigma_rad } => measure_choice(set, choice, sigma_rad, &mut measure_rng),
+            };
             belief.update(set, s.alpha, &observation).expect("a drawn choice has positive likelihood");
             belief.maybe_resample(ResamplePolicy::EveryUpdate, &jitter, &mut resample_rng);
             history.push((chosen, observation));
@@ -189,6 +220,16 @@ fn run_trial(scenario: &dyn Scenario, s: &Settings, prior: &Prior, trial: usize)
         }
     }
     rows
+}
+
+/// The configuration `choice` of `set` as a measuring system with Gaussian noise σ (rad) on
+/// every joint reports it, and the observation it makes.
+fn measure_choice(set: &FeasibleSet, choice: usize, sigma: f64, rng: &mut SeededRng) -> Observation {
+    let noise = rand_distr::Normal::new(0.0, sigma).expect("a positive, finite σ (checked by the caller)");
+    let q_m: Vec<f64> =
+        set.configs().config(choice).iter().map(|q| q + rand_distr::Distribution::sample(&noise, rng)).collect();
+    let sigmas = vec![sigma; q_m.len()];
+    Observation::measured(set.configs(), &q_m, &sigmas).expect("a finite measurement of a finite configuration")
 }
 
 /// Runs every trial (in parallel; the result does not depend on the number of threads),
