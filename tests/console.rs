@@ -411,6 +411,8 @@ fn the_operator_sends_the_pose_to_the_robot_and_confirms_it() {
     use handover::session::RobotState;
     let dir = tmpdir("robot-ok");
     let mut a = app_with_robot(&dir, "exit 0", "{}");
+    let setup = screen(&mut a, 100, 30);
+    assert!(setup.contains("robot.sh (presented on the operator's Enter)"), "{setup}");
     press(&mut a, KeyCode::Enter);
     let text = screen(&mut a, 100, 30);
     assert!(text.contains("robot        not sent yet: s sends the pose"), "{text}");
@@ -418,7 +420,7 @@ fn the_operator_sends_the_pose_to_the_robot_and_confirms_it() {
     keys(&mut a, "s");
     until_robot(&mut a, RobotState::AtPose);
     let text = screen(&mut a, 100, 30);
-    assert!(text.contains("robot        at_pose (attempt 1)"), "{text}");
+    assert!(text.contains("robot        at_pose (attempt 1, "), "with the seconds it took: {text}");
     assert!(!mode_is_grasp(&a), "the operator confirms (present_on: operator)");
     press(&mut a, KeyCode::Enter);
     assert!(mode_is_grasp(&a));
@@ -450,7 +452,7 @@ fn a_robot_failure_is_shown_and_the_operator_resends_voids_or_goes_on_by_hand() 
     until_robot(&mut a, RobotState::Failed);
     assert!(a.status.contains("The robot reported failed (exit status 2: joint 4 at its limit)"), "{}", a.status);
     let text = screen(&mut a, 100, 30);
-    assert!(text.contains("robot        failed (attempt 1)"), "{text}");
+    assert!(text.contains("robot        failed (attempt 1, "), "{text}");
     assert!(text.contains("The robot reported failed (exit status 2: joint 4 at its limit)"), "{text}");
     // Re-send: a second attempt, which fails too.
     keys(&mut a, "s");

@@ -23,6 +23,16 @@ pub enum PresentOn {
     AtPose,
 }
 
+impl PresentOn {
+    /// As the screen says it.
+    pub fn name(self) -> &'static str {
+        match self {
+            PresentOn::Operator => "the operator's Enter",
+            PresentOn::AtPose => "at_pose or Enter",
+        }
+    }
+}
+
 /// The robot's base frame, when poses are sent in it rather than the shoulder frame: the
 /// participant's shoulder frame as seen from the base (measured in the lab).
 #[derive(Clone, Debug, PartialEq, Deserialize)]

@@ -78,6 +78,11 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
         }
         None => lines.push(Line::from("No plan")),
     }
+    let robot = app.robot().map_or_else(
+        || "none: the operator commands it by hand".to_string(),
+        |r| format!("{} (presented on {})", r.describe(), r.settings.present_on.name()),
+    );
+    lines.push(Line::from(vec![Span::styled("Robot: ", theme::title()), Span::raw(robot)]));
     lines.push(Line::from(""));
     lines.push(Line::from(Span::styled("Press Enter to start the session.", theme::instruction())));
     frame.render_widget(
