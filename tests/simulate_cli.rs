@@ -144,6 +144,22 @@ fn a_precise_measurement_learns_as_the_configuration_does_and_a_noisy_one_less()
 }
 
 #[test]
+fn arm7_learns_from_the_grip_taken() {
+    let dir = tmp("obs-region");
+    let (code, out, err) = handover(
+        &[
+            &["simulate", "arm7", "--observation", "region", "--algorithms", "active,passive"][..],
+            &["--out", dir.to_str().unwrap(), "--menu", "4"][..],
+            &SMALL[..],
+        ]
+        .concat(),
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("observing the region (grip) taken"), "{out}");
+    assert_eq!(last_distances(&dir).len(), 8, "2 algorithms × 4 trials");
+}
+
+#[test]
 fn two_sets_alternates() {
     let (code, out, _) = handover(&["simulate", "two-sets", "--particles", "1000"]);
     assert_eq!(code, 0);
@@ -168,6 +184,8 @@ fn bad_arguments_exit_2() {
         vec!["simulate", "planar2", "--observation", "measured", "--sigma-deg", "0"],
         vec!["simulate", "planar2", "--observation", "measured", "--sigma-deg", "90"],
         vec!["simulate", "two-sets", "--observation", "measured", "--sigma-deg", "5"],
+        vec!["simulate", "planar2", "--observation", "region"],
+        vec!["simulate", "arm7", "--observation", "region", "--sigma-deg", "5"],
     ] {
         let (code, _, err) = handover(&args);
         assert_eq!(code, 2, "{args:?}: {err}");

@@ -70,10 +70,11 @@ pub struct SimulateArgs {
     /// gridded mode (to reproduce its figures; grid noise in 7-D).
     #[arg(long, default_value = "mean")]
     estimate: Estimate,
-    /// What the learner observes of each choice: the configuration (the paper's simulations)
-    /// or the configuration measured with Gaussian noise of --sigma-deg on every joint (a motion
-    /// capture or body tracker; queries are still scored by their information about the
-    /// configuration).
+    /// What the learner observes of each choice: the configuration (the paper's simulations),
+    /// the region (arm7: the grip taken, as in the user study; queries scored by their
+    /// information about the region), or the configuration measured with Gaussian noise of
+    /// --sigma-deg on every joint (a motion capture or body tracker; queries are still scored
+    /// by their information about the configuration).
     #[arg(long, value_enum, default_value = "configuration")]
     observation: ObservationArg,
     /// The measurement noise's standard deviation per joint, in degrees (with --observation
@@ -99,6 +100,7 @@ pub struct SimulateArgs {
 #[derive(Debug, Clone, Copy, ValueEnum, PartialEq)]
 enum ObservationArg {
     Configuration,
+    Region,
     Measured,
 }
 
@@ -158,7 +160,13 @@ fn check(a: &SimulateArgs) -> Result<Checked> {
     }
     let observation = match (a.observation, a.sigma_deg) {
         (ObservationArg::Configuration, None) => SimObservation::Configuration,
-        (ObservationArg::Configuration, Some(_)) => {
+        (ObservationArg::Region, None) if a.scenario == ScenarioName::Arm7 => SimObservation::Region,
+        (ObservationArg::Region, None) => {
+            return Err(bad(
+                "--observation region needs grip regions: arm7's objects have them, planar2's random shapes do not",
+            ));
+        }
+        (ObservationArg::Configuration | ObservationArg::Region, Some(_)) => {
             return Err(bad("--sigma-deg is given without --observation measured"));
         }
         (ObservationArg::Measured, None) => return Err(bad("--observation measured needs --sigma-deg")),
@@ -308,6 +316,7 @@ fn print_table(
         s.learn,
         match s.observation {
             SimObservation::Configuration => "the configuration".to_string(),
+            SimObservation::Region => "the region (grip) taken".to_string(),
             SimObservation::Measured { sigma_rad } =>
                 format!("the configuration measured with σ = {:.3}° per joint", sigma_rad.to_degrees()),
         },

@@ -71,6 +71,9 @@ pub struct Settings {
 pub enum SimObservation {
     /// The configuration chosen (the paper's simulations).
     Configuration,
+    /// Only the region (grip) the chosen configuration lies in, as in the user study; queries
+    /// are scored by their information about the region.
+    Region,
     /// The chosen configuration measured with independent Gaussian noise of this standard
     /// deviation (rad) on every joint. Queries are still selected by their information about
     /// the configuration: the noiseless limit, an upper bound on a noisy measurement's.
@@ -81,6 +84,7 @@ impl SimObservation {
     pub fn name(self) -> &'static str {
         match self {
             SimObservation::Configuration => "configuration",
+            SimObservation::Region => "region",
             SimObservation::Measured { .. } => "measured",
         }
     }
@@ -203,14 +207,18 @@ fn run_trial(scenario: &dyn Scenario, s: &Settings, prior: &Prior, trial: usize)
         };
         rows.push(measure(&belief, &history, 0, None, None));
         for iteration in 1..=s.iterations {
-            let problem =
-                Problem { belief: &belief, menu: &t.menu, alpha: s.alpha, outcomes: OutcomeModel::Configuration };
+            let outcomes = match s.observation {
+                SimObservation::Region => OutcomeModel::Region,
+                SimObservation::Configuration | SimObservation::Measured { .. } => OutcomeModel::Configuration,
+            };
+            let problem = Problem { belief: &belief, menu: &t.menu, alpha: s.alpha, outcomes };
             let chosen = selector.select(&problem, &mut select_rng).index;
             let set = &t.menu[chosen];
             let cost = true_cost(set, &t.truth, s.alpha);
             let choice = person.choose(set, &mut person_rng);
             let observation = match s.observation {
                 SimObservation::Configuration => Observation::Config(choice),
+                SimObservation::Region => Observation::Region(set.regions()[set.region_of(choice)].clone().collect()),
                 SimObservation::Measured { sigma_rad } => measure_choice(set, choice, sigma_rad, &mut measure_rng),
             };
             belief.update(set, s.alpha, &observation).expect("a drawn choice has positive likelihood");
