@@ -211,3 +211,17 @@ pub fn drive_with_robot(
     }
     Ok(RobotDrive::Completed)
 }
+
+/// A dry run's session driven to its end: through `robot` when there is one
+/// ([`drive_with_robot`]), else at `pace` ([`drive`]).
+pub fn drive_session(
+    rec: &mut RecordedSession,
+    participant: &ScriptedParticipant,
+    robot: Option<&mut Robot>,
+    pace: Duration,
+) -> Result<RobotDrive, SubmitError> {
+    match robot {
+        Some(robot) => drive_with_robot(rec, participant, robot),
+        None => drive(rec, participant, pace).map(|()| RobotDrive::Completed),
+    }
+}

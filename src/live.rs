@@ -68,11 +68,6 @@ impl LiveView {
         Ok(Self { context, shared, _server: Arc::new(server), addr })
     }
 
-    /// Where it listens.
-    pub fn addr(&self) -> SocketAddr {
-        self.addr
-    }
-
     /// What Foxglove's *Open connection…* takes.
     pub fn url(&self) -> String {
         format!("ws://{}", self.addr)

@@ -9,7 +9,7 @@ use clap::Args;
 use handover::analysis::{
     SEED_MEASURES, SeedRun, SessionAnalysis, analyse, object_shares, over_seeds, paired_across, paired_over_seeds,
 };
-use handover::dryrun::{BodyPopulation, RobotDrive, drive, drive_with_robot, now_ns, plan};
+use handover::dryrun::{BodyPopulation, RobotDrive, drive_session, now_ns, plan};
 use handover::ergo::Lambda;
 use handover::protocol::{LambdaSpec, Study, for_body};
 use handover::record::{RecordedSession, new_log_path, read_log};
@@ -206,18 +206,10 @@ fn run_seeds(
             if let Some(view) = live {
                 rec.set_tap(Box::new(view.clone()));
             }
-            let gave_up = match robot.as_deref_mut() {
-                Some(robot) => match drive_with_robot(&mut rec, &p.participant, robot)? {
-                    RobotDrive::Completed => None,
-                    RobotDrive::GaveUp(why) => Some(why),
-                },
-                None => {
-                    drive(&mut rec, &p.participant, Duration::from_millis(args.pace))?;
-                    None
-                }
-            };
+            let driven =
+                drive_session(&mut rec, &p.participant, robot.as_deref_mut(), Duration::from_millis(args.pace))?;
             let path = rec.finish()?;
-            if let Some(why) = gave_up {
+            if let RobotDrive::GaveUp(why) = driven {
                 anyhow::bail!("{}: the session was aborted: {why}; log: {}", p.start.participant, path.display());
             }
             let analysis = analysed(&path)?;

@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result};
 use clap::Args;
-use handover::dryrun::{RobotDrive, drive, drive_with_robot, now_ns};
+use handover::dryrun::{RobotDrive, drive_session, now_ns};
 use handover::participant::{ScriptedParticipant, SimulatedPerson};
 use handover::record::{
     LogContents, RecordedSession, continuation_path, is_over, lineage, log_folder, read_log, study_of,
@@ -105,6 +105,8 @@ pub fn run(args: ResumeArgs) -> Result<()> {
     };
     let study = study_of(&old).map_err(|e| bad(e.to_string()))?;
     let _lock = ParticipantLock::acquire(&log_folder(&old.path), &old.start.participant, "resume --dry-run")?;
+    // The robot first: a bad robot option is refused before the continuation's file exists.
+    let mut robot = args.robot.connect()?;
     let path = continuation_path(&old, chrono::Utc::now());
     let mut rec = RecordedSession::resume(&old, &path, now_ns())?;
     if let Some(view) = args.live.start()? {
@@ -113,18 +115,9 @@ pub fn run(args: ResumeArgs) -> Result<()> {
     eprintln!("resumed {} ({} events) into {}", old.path.display(), old.events.len(), rec.path().display());
     let person = SimulatedPerson { truth, alpha: study.protocol.learning.alpha };
     let participant = ScriptedParticipant { person };
-    let gave_up = match args.robot.connect()? {
-        Some(mut robot) => match drive_with_robot(&mut rec, &participant, &mut robot)? {
-            RobotDrive::Completed => None,
-            RobotDrive::GaveUp(why) => Some(why),
-        },
-        None => {
-            drive(&mut rec, &participant, Duration::from_millis(args.pace))?;
-            None
-        }
-    };
+    let driven = drive_session(&mut rec, &participant, robot.as_mut(), Duration::from_millis(args.pace))?;
     let path = rec.finish().context("cannot finish the log")?;
-    if let Some(why) = gave_up {
+    if let RobotDrive::GaveUp(why) = driven {
         anyhow::bail!("the session was aborted: {why}; log: {}", path.display());
     }
     let a = handover::analysis::analyse(&read_log(&path)?)?;

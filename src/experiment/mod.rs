@@ -80,16 +80,6 @@ pub enum SimObservation {
     Measured { sigma_rad: f64 },
 }
 
-impl SimObservation {
-    pub fn name(self) -> &'static str {
-        match self {
-            SimObservation::Configuration => "configuration",
-            SimObservation::Region => "region",
-            SimObservation::Measured { .. } => "measured",
-        }
-    }
-}
-
 /// The measures of one algorithm in one trial after one iteration (0 = the prior).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct MetricRow {

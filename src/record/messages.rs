@@ -86,6 +86,11 @@ pub fn start_messages(session: &Session, time_ns: u64) -> Vec<(Topic, Value)> {
     out
 }
 
+/// A query's commanded pose in the shoulder frame, as the log's messages carry it.
+fn shoulder_pose(q: &crate::protocol::ResolvedQuery) -> RobotPose {
+    RobotPose { frame: scene::SHOULDER.into(), position: q.pose.position, rpy_deg: q.pose.rpy_deg }
+}
+
 fn region_labels(session: &Session, view: &TrialView) -> Vec<(String, String)> {
     let q = session.query(view.query);
     let object = session.study().object(q);
@@ -103,11 +108,7 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
             let m = TrialQuery {
                 trial: trial_fields(index, view, session),
                 label: q.query.label.clone(),
-                robot_pose: RobotPose {
-                    frame: scene::SHOULDER.into(),
-                    position: q.pose.position,
-                    rpy_deg: q.pose.rpy_deg,
-                },
+                robot_pose: shoulder_pose(q),
                 regions,
                 region_labels,
                 scores: scores
@@ -246,11 +247,7 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                 link: *link,
                 pose: pose.clone(),
                 rpy_deg: [r, p, yaw].map(f64::to_degrees),
-                shoulder_pose: RobotPose {
-                    frame: scene::SHOULDER.into(),
-                    position: q.pose.position,
-                    rpy_deg: q.pose.rpy_deg,
-                },
+                shoulder_pose: shoulder_pose(q),
                 regions,
                 region_labels,
             };
