@@ -120,14 +120,14 @@ fn session_step_default_protocol(c: &mut Criterion) {
                         b.iter(|| {
                             pool.install(|| {
                                 let mut s = session.clone();
-                                s.apply(&Event::GraspRecorded { region: region.clone() }).unwrap();
+                                s.apply(&Event::GraspRecorded { region: region.clone(), measured: None }).unwrap();
                                 s.learners()[0].suggestion
                             })
                         })
                     });
                 }
             }
-            session.apply(&Event::GraspRecorded { region }).unwrap();
+            session.apply(&Event::GraspRecorded { region, measured: None }).unwrap();
         }
     }
     g.finish();

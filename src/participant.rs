@@ -269,9 +269,28 @@ impl ScriptedParticipant {
             Prompt::Present(view) => Event::QueryPresented { query: session.query(view.query).query.id.clone() },
             Prompt::Grasp(view) => {
                 let set = session.set(view.query);
-                let r = self.person.choose_region(set, &mut rng);
+                let chosen = self.person.choose(set, &mut rng);
                 let q = session.query(view.query);
-                Event::GraspRecorded { region: session.study().object(q).regions[q.regions[r]].id.clone() }
+                let region = session.study().object(q).regions[q.regions[set.region_of(chosen)]].id.clone();
+                // A measuring system sees the configuration taken with the protocol's noise.
+                let measured = session.study().protocol.learning.measurement.as_ref().map(|m| {
+                    let q_rad = set
+                        .configs()
+                        .config(chosen)
+                        .iter()
+                        .zip(m.sigma_rad())
+                        .map(|(q, sigma)| {
+                            let noise = rand_distr::Normal::new(0.0, sigma).expect("a validated, positive σ");
+                            q + rand_distr::Distribution::sample(&noise, &mut rng)
+                        })
+                        .collect();
+                    crate::session::ArmMeasurement {
+                        q_rad,
+                        source: crate::session::MeasurementSource::Simulated,
+                        offset_s: 0.0,
+                    }
+                });
+                Event::GraspRecorded { region, measured }
             }
             Prompt::Likert { program, item, .. } => {
                 let scale = &session.study().protocol.questionnaire.scale;

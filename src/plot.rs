@@ -142,6 +142,32 @@ pub fn mean_se_plot(path: &Path, plot: &LinePlot) -> Result<(), String> {
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     let root = SVGBackend::new(path, (760, 500)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
+    draw_lines(&root, plot, 17).map_err(|e| err(&e))?;
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}
+
+/// Line plots of means with bands (as [`mean_se_plot`]) in a grid of `cols` columns under a
+/// title.
+pub fn line_grid(path: &Path, title: &str, plots: &[LinePlot], cols: usize) -> Result<(), String> {
+    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let rows = plots.len().div_ceil(cols);
+    let root = SVGBackend::new(path, (560 * cols as u32, 400 * rows as u32 + 40)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let root = root.titled(title, ("sans-serif", 22)).map_err(|e| err(&e))?;
+    for (plot, area) in plots.iter().zip(root.split_evenly((rows, cols))) {
+        draw_lines(&area, plot, 15).map_err(|e| err(&e))?;
+    }
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}
+
+fn draw_lines<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    plot: &LinePlot,
+    caption: u32,
+) -> Result<(), String> {
+    let err = |e: &dyn std::fmt::Display| e.to_string();
     let finite = || plot.series.iter().flat_map(|s| &s.points).filter(|p| p.1.is_finite() && p.2.is_finite());
     let x_min = finite().map(|p| p.0).fold(f64::INFINITY, f64::min);
     let x_max = finite().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
@@ -157,8 +183,8 @@ pub fn mean_se_plot(path: &Path, plot: &LinePlot) -> Result<(), String> {
     let span = (hi - lo).max(1e-9);
     let top = hi + span * legend_headroom(plot.series.len() + 1);
     let bottom = lo - span * 0.05;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(plot.title, ("sans-serif", 17))
+    let mut chart = ChartBuilder::on(area)
+        .caption(plot.title, ("sans-serif", caption))
         .margin(12)
         .x_label_area_size(42)
         .y_label_area_size(72)
@@ -202,7 +228,6 @@ pub fn mean_se_plot(path: &Path, plot: &LinePlot) -> Result<(), String> {
         .border_style(BLACK)
         .draw()
         .map_err(|e| err(&e))?;
-    root.present().map_err(|e| err(&e))?;
     Ok(())
 }
 

@@ -3,6 +3,7 @@
 
 mod alpha;
 mod collect;
+mod measured;
 mod rows;
 mod seeds;
 mod summary;
@@ -21,6 +22,10 @@ pub use alpha::{
     SessionAlpha, alpha_grid, alpha_summary, fit_alpha,
 };
 pub use collect::{Analysed, most_complete};
+pub use measured::{
+    MAX_MEASUREMENT_BYTES, MAX_MEASUREMENT_SAMPLES, MeasuredRefit, MeasurementFileError, MeasurementSeries, RefitRun,
+    refit,
+};
 pub use rows::{NoteRow, RobotRow, RobotTimings, TrialRow, TrialStatus, rfc3339_ms, robot_timings, trial_columns};
 pub use seeds::{
     HEIGHT_BANDS_M, ObjectsByBody, OverSeeds, Paired, SEED_MEASURES, SeedRun, object_shares, objects_by_body,

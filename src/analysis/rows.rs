@@ -3,6 +3,7 @@
 //! the mapped configuration and the times.
 
 use crate::kinematics::{ArmConfig, JOINT_NAMES};
+use crate::protocol::ObservationModel;
 use crate::session::{Applied, Event, RobotState, Session, Stamped, program_letter};
 
 /// What became of one presentation of a query.
@@ -50,6 +51,20 @@ pub struct TrialRow {
     pub responded_ns: Option<u64>,
     pub void_reason: Option<&'static str>,
     pub void_detail: String,
+    /// With `measured` observations: what the trial learned from (`measured`, or `region` as
+    /// the fallback), and the measurement with the region it implies and whether that is
+    /// the one keyed.
+    pub learned_from: Option<&'static str>,
+    pub measured: Option<MeasuredColumns>,
+}
+
+/// A taken trial's arm measurement, as trials.csv has it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeasuredColumns {
+    pub q_rad: Vec<f64>,
+    pub offset_s: f64,
+    pub implied_region: String,
+    pub agrees: bool,
 }
 
 /// A note the experimenter added.
@@ -125,6 +140,8 @@ impl RowCollector {
                     responded_ns: None,
                     void_reason: None,
                     void_detail: String::new(),
+                    learned_from: None,
+                    measured: None,
                 });
                 self.open = Some(self.trials.len() - 1);
             }
@@ -137,6 +154,15 @@ impl RowCollector {
                     row.config_index = Some(record.config);
                     row.configuration = q.feasible.configs.get(record.config).map(|c| c.q);
                     row.responded_ns = Some(stamped.time_ns);
+                    if session.context().observation == ObservationModel::Measured {
+                        row.learned_from = Some(if record.measured.is_some() { "measured" } else { "region" });
+                    }
+                    row.measured = record.measured.as_ref().map(|g| MeasuredColumns {
+                        q_rad: g.measurement.q_rad.clone(),
+                        offset_s: g.measurement.offset_s,
+                        implied_region: session.study().object(q).regions[q.regions[g.implied_region]].id.clone(),
+                        agrees: g.agrees(record.region),
+                    });
                 }
             }
             Applied::Undone { .. } => {
@@ -147,6 +173,7 @@ impl RowCollector {
                     again.status = TrialStatus::Unanswered;
                     (again.region, again.config_index, again.configuration, again.responded_ns) =
                         (None, None, None, None);
+                    (again.learned_from, again.measured) = (None, None);
                     self.trials.push(again);
                     self.open = Some(self.trials.len() - 1);
                 }
@@ -233,7 +260,9 @@ pub fn trial_columns() -> Vec<String> {
     .map(String::from)
     .to_vec();
     h.extend(JOINT_NAMES.iter().map(|j| format!("q_{j}_rad")));
-    h.extend(["presented_at", "responded_at", "void_reason", "void_detail"].map(String::from));
+    h.extend(["presented_at", "responded_at", "void_reason", "void_detail", "learned_from"].map(String::from));
+    h.extend(JOINT_NAMES.iter().map(|j| format!("measured_{j}_rad")));
+    h.extend(["measurement_offset_s", "measurement_implied_region", "measurement_agrees"].map(String::from));
     h
 }
 
@@ -262,6 +291,14 @@ impl TrialRow {
             opt(self.responded_ns.map(rfc3339_ms)),
             opt(self.void_reason.map(String::from)),
             self.void_detail.clone(),
+            opt(self.learned_from.map(String::from)),
+        ]);
+        let m = self.measured.as_ref();
+        v.extend((0..JOINT_NAMES.len()).map(|j| opt(m.and_then(|m| m.q_rad.get(j)).map(|q| q.to_string()))));
+        v.extend([
+            opt(m.map(|m| m.offset_s.to_string())),
+            opt(m.map(|m| m.implied_region.clone())),
+            opt(m.map(|m| m.agrees.to_string())),
         ]);
         v
     }

@@ -1,4 +1,8 @@
 //! `handover analyze`: the paper's user-study results (Fig. 10, Table I) from session logs.
+//!
+//! Its length: the command's options, its one pass over the logs (read, count once, replay,
+//! verify, α, re-fit) and its JSON; the tables are in `analyze_report.rs`, the measured re-fit
+//! in `analyze_measured.rs`.
 
 use std::path::{Path, PathBuf};
 
@@ -15,6 +19,7 @@ use handover::session::program_letter;
 use handover::study_dir::StudyDirs;
 use serde::Serialize;
 
+use super::analyze_measured::{MeasuredArgs, RefitReport};
 use super::analyze_report::{table, table1_markdown};
 use super::input::bad;
 
@@ -55,6 +60,8 @@ pub struct AnalyzeArgs {
     /// Where participant records live (default: STUDY_DIR/participants).
     #[arg(long = "participants-dir", value_name = "DIR")]
     participants: Option<PathBuf>,
+    #[command(flatten)]
+    measured: MeasuredArgs,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum, PartialEq)]
@@ -108,6 +115,9 @@ struct JsonOut<'a> {
     real_alpha: Option<AlphaSummary>,
     pilot_alpha: Option<AlphaSummary>,
     withdrawn_left_out: WithdrawnLeftOut,
+    /// With --measurements: each session re-fitted with the measured arm.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    measured_refits: Vec<RefitReport>,
     skipped: Vec<String>,
     warnings: Vec<String>,
     differences: Vec<String>,
@@ -120,6 +130,7 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
             args.alpha_particles
         )));
     }
+    args.measured.check()?;
     let mut files = Vec::new();
     for p in &args.paths {
         if !p.exists() {
@@ -228,6 +239,10 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
     };
     let (real_alpha, pilot_alpha) = (alpha_of(false)?, alpha_of(true)?);
     bar.finish_and_clear();
+    let refits = args.measured.run(&analysed)?;
+    if let Some(dir) = &args.out {
+        super::analyze_measured::write_csv(dir, &refits)?;
+    }
     if let Some(dir) = &args.out {
         for (is_pilot, summary, alpha) in [(false, &real, &real_alpha), (true, &pilot, &pilot_alpha)] {
             let (Some(summary), Some(alpha)) = (summary, alpha) else { continue };
@@ -246,6 +261,7 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
                 real_alpha,
                 pilot_alpha,
                 withdrawn_left_out: left_out,
+                measured_refits: refits,
                 skipped: skipped.clone(),
                 warnings: warnings.clone(),
                 differences: differences.clone(),
@@ -261,6 +277,9 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
                 if let (Some(s), Some(alpha)) = (summary, alpha) {
                     out!("{}", table(label, &group, s, alpha));
                 }
+            }
+            if args.measured.given() {
+                out!("{}", super::analyze_measured::table(&refits));
             }
         }
     }

@@ -1,4 +1,7 @@
 //! `handover dry-run`: whole sessions answered by simulated participants, logged as pilot.
+//!
+//! Its length: the options, the runs over seeds and versus a second protocol, and the
+//! per-participant report.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -405,6 +408,17 @@ pub fn report(study: &Study, path: &std::path::Path, a: &SessionAnalysis) -> Res
             program_letter(r.program),
             objects.join(", "),
             ll.join(", ")
+        );
+    }
+    let taken: Vec<_> = a.trial_rows.iter().filter(|r| r.learned_from.is_some()).collect();
+    if !taken.is_empty() {
+        let measured: Vec<_> = taken.iter().filter_map(|r| r.measured.as_ref()).collect();
+        let disagree = measured.iter().filter(|m| !m.agrees).count();
+        outln!(
+            "  arm measured at {} of {} grasps ({} learned from the region); {disagree} measurement(s) implied another grip than the key",
+            measured.len(),
+            taken.len(),
+            taken.len() - measured.len()
         );
     }
     Ok(())

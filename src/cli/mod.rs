@@ -21,6 +21,7 @@ macro_rules! out {
 }
 
 mod analyze;
+mod analyze_measured;
 mod analyze_report;
 mod by_body;
 mod console;
@@ -29,6 +30,7 @@ mod feasible;
 mod front;
 mod input;
 mod live;
+mod observations;
 mod participant;
 mod protocol;
 mod resume;
@@ -87,6 +89,10 @@ enum Command {
     ///
     /// Writes: a table on stdout; with --out DIR, front.csv and front.svg into DIR.
     Front(front::FrontArgs),
+    /// Region, configuration and measured-arm observations side by side, over seeds.
+    ///
+    /// Writes: a table on stdout; with --out DIR, observations.csv and observations.svg into DIR.
+    Observations(observations::ObservationsArgs),
     /// Validate a protocol file.
     ///
     /// Writes: the problems or a summary on stdout; no file.
@@ -138,6 +144,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Feasible(args) => feasible::run(args),
         Command::Simulate(args) => simulate::run(args),
         Command::Front(args) => front::run(args),
+        Command::Observations(args) => observations::run(args),
         Command::Protocol(args) => protocol::run(args),
         Command::Participant(args) => participant::run(args),
         Command::DryRun(args) => dry_run::run(args),

@@ -5,8 +5,8 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::{Args, Subcommand};
 use handover::belief::ResamplePolicy;
+use handover::protocol::ObservationModel;
 use handover::protocol::Study;
-use handover::select::OutcomeModel;
 
 use handover::session::check_runs;
 
@@ -140,9 +140,15 @@ pub fn summary(s: &Study) -> String {
         ResamplePolicy::EveryUpdate => "after every update".to_string(),
         ResamplePolicy::EssBelow { fraction } => format!("when ESS < {fraction} N"),
     };
-    let observation = match l.observation {
-        OutcomeModel::Configuration => "the label model's configuration of the grip taken",
-        OutcomeModel::Region => "the grip region taken",
+    let observation = match (l.observation, &l.measurement) {
+        (ObservationModel::Configuration, _) => "the label model's configuration of the grip taken".to_string(),
+        (ObservationModel::Measured, Some(m)) => format!(
+            "the arm measured at the grasp (σ {}° per joint; joints {}; a sample within ±{} s, else the grip region taken)",
+            m.sigma_deg.iter().map(|s| s.to_string()).collect::<Vec<_>>().join("/"),
+            m.joint_names.join(", "),
+            m.window_s
+        ),
+        (ObservationModel::Region | ObservationModel::Measured, _) => "the grip region taken".to_string(),
     };
     out += &format!(
         "  learning: {} particles, α = {}, learns {}, observes {observation}, resamples {resampling}\n",

@@ -71,8 +71,8 @@ pub struct SimulateArgs {
     #[arg(long, default_value = "mean")]
     estimate: Estimate,
     /// What the learner observes of each choice: the configuration (the paper's simulations),
-    /// the region (arm7: the grip taken, as in the user study; queries scored by their
-    /// information about the region), or the configuration measured with Gaussian noise of
+    /// the region (arm7: the grip taken, as in the user study; planar2: the connected piece
+    /// of the object taken; queries scored by their information about the region), or the configuration measured with Gaussian noise of
     /// --sigma-deg on every joint (a motion capture or body tracker; queries are still scored
     /// by their information about the configuration).
     #[arg(long, value_enum, default_value = "configuration")]
@@ -160,20 +160,15 @@ fn check(a: &SimulateArgs) -> Result<Checked> {
     }
     let observation = match (a.observation, a.sigma_deg) {
         (ObservationArg::Configuration, None) => SimObservation::Configuration,
-        (ObservationArg::Region, None) if a.scenario == ScenarioName::Arm7 => SimObservation::Region,
-        (ObservationArg::Region, None) => {
-            return Err(bad(
-                "--observation region needs grip regions: arm7's objects have them, planar2's random shapes do not",
-            ));
-        }
+        (ObservationArg::Region, None) => SimObservation::Region,
         (ObservationArg::Configuration | ObservationArg::Region, Some(_)) => {
             return Err(bad("--sigma-deg is given without --observation measured"));
         }
         (ObservationArg::Measured, None) => return Err(bad("--observation measured needs --sigma-deg")),
         (ObservationArg::Measured, Some(deg)) => {
-            let max = experiment::MAX_SIGMA_RAD.to_degrees();
-            if !(deg.is_finite() && (0.01..=max).contains(&deg)) {
-                return Err(bad(format!("--sigma-deg is {deg}, expected 0.01 to {max:.1} degrees")));
+            let (min, max) = handover::ergo::SIGMA_DEG;
+            if !(deg.is_finite() && (min..=max).contains(&deg)) {
+                return Err(bad(format!("--sigma-deg is {deg}, expected {min} to {max:.1} degrees")));
             }
             SimObservation::Measured { sigma_rad: deg.to_radians() }
         }
@@ -316,6 +311,7 @@ fn print_table(
         s.learn,
         match s.observation {
             SimObservation::Configuration => "the configuration".to_string(),
+            SimObservation::Region if name == "planar2" => "the region (connected piece) taken".to_string(),
             SimObservation::Region => "the region (grip) taken".to_string(),
             SimObservation::Measured { sigma_rad } =>
                 format!("the configuration measured with σ = {:.3}° per joint", sigma_rad.to_degrees()),

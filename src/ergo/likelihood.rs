@@ -1,5 +1,8 @@
 //! Cost and Boltzmann likelihood of a person's choice (eq. 1–3), and the per-particle pass
 //! over a feasible set that the belief update and the selectors share.
+//!
+//! Its length: the three observations (configuration, region, measured) with their checks,
+//! and the one vectorised pass every likelihood is read from, with its tests.
 
 use super::config_set::ConfigSet;
 use super::numeric::{LANES, exp_nonpositive, sum_lanes};
@@ -28,6 +31,11 @@ pub enum Observation {
     /// system saw it with noise.
     Measured(Vec<f64>),
 }
+
+/// The measurement noise σ a study or a simulation may state, degrees: from 0.01° (a
+/// measurement that pins the configuration) to one radian (beyond it a measurement says
+/// nothing of a joint, and |q_m| stays within the 10 rad a measurement may have).
+pub const SIGMA_DEG: (f64, f64) = (0.01, 1.0f64.to_degrees());
 
 /// Why an observation does not fit its feasible set.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -12,5 +12,7 @@ pub(crate) mod numeric;
 
 pub use config_set::{ConfigSet, ConfigSetError, FeasibleSet};
 pub use lambda::{Lambda, LearnMask};
-pub use likelihood::{Observation, ObservationError, Scratch, SetPass, cost, log_likelihood, most_likely_in_region};
+pub use likelihood::{
+    Observation, ObservationError, SIGMA_DEG, Scratch, SetPass, cost, log_likelihood, most_likely_in_region,
+};
 pub use numeric::{exp_nonpositive, log_sum_exp, xlogx};

@@ -53,7 +53,7 @@ impl Scenario for Arm7 {
         10
     }
 
-    fn random_query(&self, rng: &mut SeededRng) -> FeasibleSet {
+    fn random_query(&self, rng: &mut SeededRng, _regions: bool) -> FeasibleSet {
         let objects = &self.study.protocol.objects;
         loop {
             let object = &objects[rng.random_range(0..objects.len())];

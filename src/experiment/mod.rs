@@ -4,6 +4,7 @@
 
 mod arm7;
 mod front;
+mod observations;
 mod planar2;
 mod summary;
 mod two_sets;
@@ -19,12 +20,13 @@ use crate::{SeededRng, derive_seed};
 
 pub use arm7::Arm7;
 pub use front::{FrontPoint, FrontSetting, front, front_settings};
+pub use observations::{
+    OBSERVATION_MEASURES, ObservationRow, iterations_to_match_region, observation_label, observation_settings,
+    observation_sweep,
+};
 pub use planar2::Planar2;
 pub use summary::{MEASURES, PairedTest, SummaryRow, paired_tests, summarise};
 
-/// The largest measurement noise a simulation takes (rad): beyond it a measurement says
-/// nothing, and |q_m| stays within the 10 rad a measurement may have.
-pub const MAX_SIGMA_RAD: f64 = 1.0;
 pub use two_sets::{TwoSetsStep, two_sets};
 
 /// A simulated setting: an arm, a prior and a source of random queries.
@@ -36,8 +38,11 @@ pub trait Scenario: Sync {
     fn default_alpha(&self, learn: LearnMask) -> f64;
     /// The default number of iterations.
     fn default_iterations(&self) -> usize;
-    /// One random query's feasible set.
-    fn random_query(&self, rng: &mut SeededRng) -> FeasibleSet;
+    /// One random query's feasible set. With `regions`, its configurations are grouped into
+    /// the regions a region observation reports (arm7's always are: its grips; planar2's then
+    /// are ordered by connected piece, which changes the order the simulated person draws in,
+    /// so runs observing the configuration keep the outline's order).
+    fn random_query(&self, rng: &mut SeededRng, regions: bool) -> FeasibleSet;
 }
 
 /// Settings of one simulation run.
@@ -71,8 +76,10 @@ pub struct Settings {
 pub enum SimObservation {
     /// The configuration chosen (the paper's simulations).
     Configuration,
-    /// Only the region (grip) the chosen configuration lies in, as in the user study; queries
-    /// are scored by their information about the region.
+    /// Only the region the chosen configuration lies in, and queries scored by their
+    /// information about the region: arm7's grip taken, as in the user study; planar2's
+    /// connected piece of the object taken (one elbow branch along a reachable stretch of the
+    /// outline).
     Region,
     /// The chosen configuration measured with independent Gaussian noise of this standard
     /// deviation (rad) on every joint. Queries are still selected by their information about
@@ -131,12 +138,14 @@ fn supports(prior: &Prior) -> Vec<(f64, f64)> {
 fn setup(scenario: &dyn Scenario, s: &Settings, prior: &Prior, trial: usize) -> Trial {
     let truth = Lambda::from_slice(&prior.sample(&mut rng(s.seed, trial, purpose::TRUTH)));
     let mut menu_rng = rng(s.seed, trial, purpose::MENU);
-    let menu = (0..s.menu).map(|_| scenario.random_query(&mut menu_rng)).collect();
+    let regions = s.observation == SimObservation::Region;
+    let menu = (0..s.menu).map(|_| scenario.random_query(&mut menu_rng, regions)).collect();
     let person = SimulatedPerson { truth: truth.clone(), alpha: s.alpha };
     let mut test_rng = rng(s.seed, trial, purpose::TEST);
     let tests = (0..s.test_size)
         .map(|_| {
-            let set = scenario.random_query(&mut test_rng);
+            // Test choices are scored as configurations: the same test set for every model.
+            let set = scenario.random_query(&mut test_rng, false);
             let choice = person.choose(&set, &mut test_rng);
             TestExample { set, observation: Observation::Config(choice) }
         })

@@ -42,7 +42,7 @@ impl Scenario for Planar2 {
         5
     }
 
-    fn random_query(&self, rng: &mut SeededRng) -> FeasibleSet {
+    fn random_query(&self, rng: &mut SeededRng, regions: bool) -> FeasibleSet {
         loop {
             let object = if rng.random::<bool>() {
                 let r: f64 = rng.random_range(0.2..0.45);
@@ -54,11 +54,21 @@ impl Scenario for Planar2 {
                 let a: f64 = rng.random_range(-1.2..1.6);
                 shape.placed(rng.random_range(0.0..std::f64::consts::TAU), Vector2::new(r * a.cos(), r * a.sin()))
             };
-            let configs = object.feasible_set(&self.arm);
-            if configs.len() >= 2 {
+            let mut configs = object.feasible_set(&self.arm);
+            if configs.len() < 2 {
+                continue;
+            }
+            if !regions {
                 let rows: Vec<[f64; 2]> = configs.iter().map(|c| c.q).collect();
                 return FeasibleSet::new(ConfigSet::from_rows(&rows).expect("finite IK solutions"));
             }
+            // The region taken is the connected piece: grouped contiguously, outline order kept
+            // within a piece.
+            configs.sort_by_key(|c| c.piece);
+            let rows: Vec<[f64; 2]> = configs.iter().map(|c| c.q).collect();
+            let labels: Vec<usize> = configs.iter().map(|c| c.piece).collect();
+            return FeasibleSet::with_regions(ConfigSet::from_rows(&rows).expect("finite IK solutions"), &labels)
+                .expect("pieces numbered 0.. and grouped by the sort");
         }
     }
 }

@@ -1,5 +1,8 @@
 //! Protocol files: the study as data (arm, objects, handover poses), parsed into typed
 //! values and validated with precise errors; the default protocol is embedded.
+//!
+//! Its length: every section of a protocol file as a typed value, with the study built from
+//! it; the checks are in `validate.rs`.
 
 mod validate;
 
@@ -10,7 +13,7 @@ use crate::ergo::{Lambda, LearnMask};
 use nalgebra::{Isometry3, UnitQuaternion};
 
 use crate::kinematics::{ArmFeasibleSet, Discretisation, Hand, HumanArm, JOINTS, Object, Pose, mirror};
-use crate::select::{OutcomeModel, SelectorKind};
+use crate::select::SelectorKind;
 
 pub use validate::{Problem, ProtocolError, limits};
 
@@ -140,8 +143,13 @@ pub struct LearningSpec {
     /// Cells per prior range for the gridded entropy and the mode.
     pub grid_boxes: usize,
     /// What the robot learns from: `configuration` (the handle mapped to its most likely
-    /// configuration by the label model, as in the paper) or `region` (the handle itself).
-    pub observation: OutcomeModel,
+    /// configuration by the label model, as in the paper), `region` (the handle itself) or
+    /// `measured` (the arm's joint angles as a measuring system reports them; see
+    /// `measurement`).
+    pub observation: ObservationModel,
+    /// The measuring system of `measured` observations (required with it, refused without).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measurement: Option<MeasurementSpec>,
     /// The stated cost model that maps a grabbed handle to a configuration.
     pub label_model: LambdaSpec,
     /// β of the `hybrid` selector (I − β·E[cost]).
@@ -151,6 +159,65 @@ pub struct LearningSpec {
     /// the passive query's).
     #[serde(default = "default_epsilon")]
     pub budget_epsilon: f64,
+}
+
+/// What a session learns from when the participant takes the object.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ObservationModel {
+    /// The label model's most likely configuration of the grip taken (the paper's user study
+    /// as published).
+    Configuration,
+    /// The grip region taken.
+    Region,
+    /// The arm's joint angles measured at the grasp, with Gaussian noise per joint; a trial
+    /// without a measurement in time learns from the grip region taken.
+    Measured,
+}
+
+impl ObservationModel {
+    /// The protocol's name for it.
+    pub fn name(self) -> &'static str {
+        match self {
+            ObservationModel::Configuration => "configuration",
+            ObservationModel::Region => "region",
+            ObservationModel::Measured => "measured",
+        }
+    }
+}
+
+/// A measuring system of the arm (motion capture, a body tracker).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeasurementSpec {
+    /// The standard deviation of its error per joint, degrees, in the arm model's joint order:
+    /// the system's documented joint-angle accuracy (there is no default: it is the
+    /// system's).
+    pub sigma_deg: Vec<f64>,
+    /// Its names of the model's joints, in the model's order (the `name`s of a ROS 2
+    /// `sensor_msgs/msg/JointState`, the columns of a measurements CSV) [default: the model's
+    /// own joint names].
+    #[serde(default = "default_joint_names")]
+    pub joint_names: Vec<String>,
+    /// A sample counts for a grasp when it lies within this many seconds of it (the nearest
+    /// one is taken) [default: 0.5].
+    #[serde(default = "default_window_s")]
+    pub window_s: f64,
+}
+
+fn default_joint_names() -> Vec<String> {
+    crate::kinematics::JOINT_NAMES.iter().map(|n| n.to_string()).collect()
+}
+
+fn default_window_s() -> f64 {
+    0.5
+}
+
+impl MeasurementSpec {
+    /// σ per joint in radians.
+    pub fn sigma_rad(&self) -> Vec<f64> {
+        self.sigma_deg.iter().map(|d| d.to_radians()).collect()
+    }
 }
 
 fn default_beta() -> f64 {

@@ -7,8 +7,8 @@ use std::collections::HashSet;
 use std::fmt;
 
 use super::{
-    ArmSpec, LambdaSpec, LearningSpec, Protocol, Query, QuestionnaireSpec, ResolvedQuery, SessionSpec, Study,
-    commanded_pose,
+    ArmSpec, LambdaSpec, LearningSpec, ObservationModel, Protocol, Query, QuestionnaireSpec, ResolvedQuery,
+    SessionSpec, Study, commanded_pose,
 };
 use crate::belief::{Prior, ResamplePolicy};
 use crate::kinematics::{HumanArm, JOINT_NAMES, JOINTS, Object, Pose, feasible_set};
@@ -76,6 +76,10 @@ pub mod limits {
     pub const REGIONS: usize = 9;
     /// Queries in the training menu, and in the test set.
     pub const QUERIES: usize = 200;
+    /// σ of a measuring system's joint-angle error, degrees.
+    pub const SIGMA_DEG: (f64, f64) = crate::ergo::SIGMA_DEG;
+    /// How far a measurement may lie from its grasp, s.
+    pub const MEASUREMENT_WINDOW_S: (f64, f64) = (0.001, 5.0);
     /// Samples of one region's TSR.
     pub const GRASPS_PER_REGION: f64 = 20_000.0;
     /// Inverse-kinematics evaluations (grasps × swivel angles) for one query, and for the
@@ -314,8 +318,62 @@ fn learning(l: &LearningSpec, p: &mut Problems) {
             format!("is {}, expected 1 to {} cells per prior range", l.grid_boxes, limits::GRID_BOXES),
         );
     }
+    measurement(l, p);
     p.range("learning.hybrid_beta", l.hybrid_beta, (0.0, limits::HYBRID_BETA), "a number");
     p.range("learning.budget_epsilon", l.budget_epsilon, (0.0, limits::BUDGET_EPSILON), "a fraction");
+}
+
+fn measurement(l: &LearningSpec, p: &mut Problems) {
+    let m = match (l.observation, &l.measurement) {
+        (ObservationModel::Measured, Some(m)) => m,
+        (ObservationModel::Measured, None) => {
+            p.add(
+                "learning.measurement",
+                "is missing, expected the measuring system (sigma_deg per joint) with observation 'measured'",
+            );
+            return;
+        }
+        (other, Some(_)) => {
+            p.add(
+                "learning.measurement",
+                format!("is given but learning.observation is '{}', expected it only with 'measured'", other.name()),
+            );
+            return;
+        }
+        (_, None) => return,
+    };
+    if m.sigma_deg.len() != JOINTS {
+        p.add(
+            "learning.measurement.sigma_deg",
+            format!("has {} entries, expected {JOINTS} (one per joint)", m.sigma_deg.len()),
+        );
+    }
+    for (d, &s) in m.sigma_deg.iter().enumerate() {
+        p.range(&format!("learning.measurement.sigma_deg[{d}]"), s, limits::SIGMA_DEG, "degrees");
+    }
+    if m.joint_names.len() != JOINTS {
+        p.add(
+            "learning.measurement.joint_names",
+            format!("has {} entries, expected {JOINTS} (one per joint, in the model's order)", m.joint_names.len()),
+        );
+    }
+    let mut seen = HashSet::new();
+    for (d, name) in m.joint_names.iter().enumerate() {
+        let ok = (1..=64).contains(&name.len())
+            && name.bytes().all(|b| b.is_ascii_alphanumeric() || matches!(b, b'_' | b'/' | b'.' | b'-'));
+        if !ok {
+            p.add(
+                format!("learning.measurement.joint_names[{d}]"),
+                format!(
+                    "is '{}', expected 1 to 64 characters from A–Z, a–z, 0–9, '_', '/', '.', '-'",
+                    name.escape_debug()
+                ),
+            );
+        } else if !seen.insert(name.as_str()) {
+            p.add(format!("learning.measurement.joint_names[{d}]"), format!("'{name}' is named twice"));
+        }
+    }
+    p.range("learning.measurement.window_s", m.window_s, limits::MEASUREMENT_WINDOW_S, "seconds");
 }
 
 fn resolve(

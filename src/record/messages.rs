@@ -6,12 +6,13 @@ use super::Topic;
 use super::foxglove::{self, PoseInFrame, SceneUpdate, Time};
 use super::scene;
 use super::types::{
-    BeliefMessage, EndStatus, ForcedChoice, Interval, JointAngles, LikertAnswer, QueryScore, RobotCommand, RobotPose,
-    RobotStatus, SessionEnd, SessionMark, SessionStartMessage, TestLogLikelihood, TrialFields, TrialQuery,
-    TrialResponse, TrialUndo, TrialVoid, program_index,
+    BeliefMessage, EndStatus, ForcedChoice, Interval, JointAngles, LearnedFrom, LikertAnswer, MeasuredResponse,
+    QueryScore, RobotCommand, RobotPose, RobotStatus, SessionEnd, SessionMark, SessionStartMessage, TestLogLikelihood,
+    TrialFields, TrialQuery, TrialResponse, TrialUndo, TrialVoid, program_index,
 };
 use crate::kinematics::ArmConfig;
-use crate::session::{Applied, BeliefSummary, Event, Session, Stamped, TrialView, program_letter};
+use crate::protocol::ObservationModel;
+use crate::session::{Applied, ArmMeasurement, BeliefSummary, Event, Session, Stamped, TrialView, program_letter};
 
 /// The topic an event is logged on.
 pub fn topic_of(e: &Event) -> Topic {
@@ -131,16 +132,31 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
             out.push((Topic::Transforms, value(&scene::query_transforms(s.time_ns, &study.arm, q))));
             out.push((Topic::ObjectScene, value(&scene::object(s.time_ns, study.object(q), q))));
         }
-        (Event::GraspRecorded { region }, Applied::Responded { view, record, belief }) => {
+        (Event::GraspRecorded { region, .. }, Applied::Responded { view, record, belief }) => {
             let configuration = session.set(view.query).configs().config(record.config);
             let q: ArmConfig = std::array::from_fn(|j| configuration.get(j).copied().unwrap_or(0.0));
-            let label = region_labels(session, view).into_iter().find(|(id, _)| id == region).map(|(_, l)| l);
+            let labels = region_labels(session, view);
+            let label = labels.iter().find(|(id, _)| id == region).map(|(_, l)| l.clone());
+            let measuring = session.context().observation == ObservationModel::Measured;
             let m = TrialResponse {
                 trial: trial_fields(index, view, session),
                 region: region.clone(),
                 region_label: label,
                 config_index: record.config as u32,
                 configuration: configuration.to_vec(),
+                learned_from: measuring.then_some(if record.measured.is_some() {
+                    LearnedFrom::Measured
+                } else {
+                    LearnedFrom::Region
+                }),
+                measured: record.measured.as_ref().map(|g| MeasuredResponse {
+                    q_rad: g.measurement.q_rad.clone(),
+                    source: g.measurement.source,
+                    offset_s: g.measurement.offset_s,
+                    nearest_config_index: g.nearest as u32,
+                    implied_region: labels[g.implied_region].0.clone(),
+                    agrees: g.agrees(record.region),
+                }),
             };
             out.push((Topic::TrialResponse, value(&m)));
             out.push((Topic::HumanArm, value(&scene::arm(s.time_ns, &study.arm, &q))));
@@ -281,7 +297,12 @@ fn typed<T: serde::de::DeserializeOwned>(v: &Value) -> Option<T> {
 pub fn event_from_message(topic: Topic, v: &Value) -> Option<Event> {
     Some(match topic {
         Topic::TrialQuery => Event::QueryPresented { query: typed::<TrialQuery>(v)?.trial.query },
-        Topic::TrialResponse => Event::GraspRecorded { region: typed::<TrialResponse>(v)?.region },
+        Topic::TrialResponse => {
+            let m = typed::<TrialResponse>(v)?;
+            let measured =
+                m.measured.map(|g| ArmMeasurement { q_rad: g.q_rad, source: g.source, offset_s: g.offset_s });
+            Event::GraspRecorded { region: m.region, measured }
+        }
         Topic::TrialVoid => {
             let m = typed::<TrialVoid>(v)?;
             Event::TrialVoided { reason: m.reason, detail: m.detail }

@@ -114,6 +114,14 @@ fn validate_event(event: &Event) -> Result<(), String> {
         Event::Aborted { reason } => long("reason", reason),
         Event::RobotReported { detail, .. } => long("detail", detail),
         Event::RobotCommanded { pose, .. } => crate::session::validate_sent_pose(pose),
+        Event::GraspRecorded { measured: Some(m), .. } if m.source == crate::session::MeasurementSource::File => {
+            Err("measured.source is 'file', expected 'simulated' or 'ros2' (a file is aligned after a session, never logged)"
+                .into())
+        }
+        // The session checks a measurement against its set and the protocol; here its size.
+        Event::GraspRecorded { measured: Some(m), .. } if m.q_rad.len() > crate::kinematics::JOINTS => {
+            Err(format!("measured.q_rad has {} angles, expected {}", m.q_rad.len(), crate::kinematics::JOINTS))
+        }
         _ => Ok(()),
     }
 }

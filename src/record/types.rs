@@ -6,7 +6,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::ergo::Lambda;
-use crate::session::{RobotLinkKind, RobotState, SentPose, SessionStart, VoidReason};
+use crate::session::{MeasurementSource, RobotLinkKind, RobotState, SentPose, SessionStart, VoidReason};
 
 /// `/session/start`: the session's fixed settings.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -109,6 +109,38 @@ pub struct TrialResponse {
     pub config_index: u32,
     /// Its 7 joint angles (rad).
     pub configuration: Vec<f64>,
+    /// With `measured` observations: what the trial learned from, `measured`, or `region` when
+    /// no measurement came within the protocol's window (the fallback). Absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub learned_from: Option<LearnedFrom>,
+    /// The measurement, when there was one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measured: Option<MeasuredResponse>,
+}
+
+/// What a trial of a `measured` protocol learned from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum LearnedFrom {
+    Measured,
+    Region,
+}
+
+/// A grasp's arm measurement and the region it implies.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct MeasuredResponse {
+    /// The measured joint angles (rad), in the model's order.
+    pub q_rad: Vec<f64>,
+    pub source: MeasurementSource,
+    /// The sample's time minus the grasp's (s).
+    pub offset_s: f64,
+    /// The feasible configuration nearest to it (highest measurement density).
+    pub nearest_config_index: u32,
+    /// Its region (id): the region the measurement implies.
+    pub implied_region: String,
+    /// Whether that is the region the operator keyed; when not, the belief still learns from
+    /// the measurement and the trial is flagged here and on screen.
+    pub agrees: bool,
 }
 
 /// `/trial/void`: the trial did not count. An event.

@@ -198,7 +198,7 @@ fn a_command_to_the_next_pose_makes_the_last_grasp_final() {
     let Prompt::Grasp(v) = s.prompt() else { panic!() };
     let q = s.query(v.query);
     let region = s.study().object(q).regions[q.regions[0]].id.clone();
-    s.apply(&Event::GraspRecorded { region }).unwrap();
+    s.apply(&Event::GraspRecorded { region, measured: None }).unwrap();
     assert!(s.can_undo());
     let c = command_for(&s, &RobotSettings::default()).unwrap();
     assert_eq!(c.trial, 2);

@@ -2,11 +2,10 @@
 //! the state before it changes anything, so that on error the state is unchanged.
 
 use super::{
-    Applied, BeliefSummary, Event, Prompt, QueryRef, RobotTrack, Session, SessionError, Stage, TrialCursor,
-    TrialRecord, TrialSlot, UndoPoint,
+    Applied, ArmMeasurement, BeliefSummary, Event, MeasuredGrasp, Prompt, QueryRef, RobotTrack, Session, SessionError,
+    Stage, TrialCursor, TrialRecord, TrialSlot, UndoPoint,
 };
 use crate::ergo::{FeasibleSet, Observation, most_likely_in_region};
-use crate::select::OutcomeModel;
 
 impl Event {
     /// The event as the operator would name it (in errors).
@@ -47,7 +46,7 @@ impl Session {
         }
         let applied = match event {
             Event::QueryPresented { query } => self.present(name, query)?,
-            Event::GraspRecorded { region } => self.record_grasp(name, region)?,
+            Event::GraspRecorded { region, measured } => self.record_grasp(name, region, measured.as_ref())?,
             Event::GraspUndone => self.undo_grasp(name)?,
             Event::TrialVoided { .. } => self.void(name)?,
             Event::Note { text } => {
@@ -140,7 +139,12 @@ impl Session {
         Ok(Applied::RobotCommanded { view, attempt: attempts })
     }
 
-    fn record_grasp(&mut self, name: &'static str, region: &str) -> Result<Applied, SessionError> {
+    fn record_grasp(
+        &mut self,
+        name: &'static str,
+        region: &str,
+        measured: Option<&ArmMeasurement>,
+    ) -> Result<Applied, SessionError> {
         let Some(cursor) = self.cursor().filter(|c| c.presented) else {
             return Err(not_now(name, "no query is presented"));
         };
@@ -164,6 +168,28 @@ impl Session {
         let degenerate = |why: String| SessionError::Degenerate { query: q.query.id.clone(), why };
         let config = most_likely_in_region(set, r, &self.ctx.label_model)
             .ok_or_else(|| degenerate(format!("region '{region}' has no feasible configuration")))?;
+        let measured = match measured {
+            None => None,
+            Some(m) => {
+                let refuse = |why: String| SessionError::BadMeasurement { query: q.query.id.clone(), why };
+                let Some(spec) = self.study.protocol.learning.measurement.as_ref() else {
+                    return Err(refuse(format!(
+                        "the protocol's observation is '{}', expected no measurement",
+                        self.ctx.observation.name()
+                    )));
+                };
+                if !(m.offset_s.is_finite() && m.offset_s.abs() <= spec.window_s) {
+                    return Err(refuse(format!(
+                        "offset_s is {}, expected a sample within the protocol's window of ±{} s of the grasp",
+                        m.offset_s, spec.window_s
+                    )));
+                }
+                let obs = Observation::measured(set.configs(), &m.q_rad, &self.ctx.sigma)
+                    .map_err(|e| refuse(format!("q_rad: {e}")))?;
+                let nearest = obs.nearest().expect("a measured observation of a non-empty set");
+                Some(MeasuredGrasp { measurement: m.clone(), nearest, implied_region: set.region_of(nearest) })
+            }
+        };
         let record = TrialRecord {
             phase: view.phase,
             run: view.program,
@@ -171,14 +197,12 @@ impl Session {
             query: view.query,
             region: r,
             config,
+            measured,
         };
         let mut undo = UndoPoint { cursor, learner: None };
         let belief = match cursor.slot {
             TrialSlot::Training { run, .. } => {
-                let obs = match self.ctx.observation {
-                    OutcomeModel::Configuration => Observation::Config(config),
-                    OutcomeModel::Region => Observation::Region(set.regions()[r].clone().collect()),
-                };
+                let obs = self.ctx.observation_of(set, &record);
                 // Learn on a copy: a degenerate update leaves the session unchanged.
                 let mut learner = self.learners[run].clone();
                 let menu_index = learner.suggestion;

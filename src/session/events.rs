@@ -155,6 +155,40 @@ pub fn validate_sent_pose(pose: &SentPose) -> Result<(), String> {
     Ok(())
 }
 
+/// Where a measurement of the arm came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum MeasurementSource {
+    /// A simulated participant's configuration plus the protocol's noise (dry runs).
+    Simulated,
+    /// A ROS 2 `sensor_msgs/msg/JointState` topic.
+    Ros2,
+    /// A measurements file aligned to the log afterwards (`analyze --measurements`); never in
+    /// a log.
+    File,
+}
+
+impl MeasurementSource {
+    pub fn name(self) -> &'static str {
+        match self {
+            MeasurementSource::Simulated => "simulated",
+            MeasurementSource::Ros2 => "ros2",
+            MeasurementSource::File => "file",
+        }
+    }
+}
+
+/// The arm's joint angles as a measuring system reported them at a grasp.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ArmMeasurement {
+    /// Joint angles (rad), in the arm model's joint order.
+    pub q_rad: Vec<f64>,
+    pub source: MeasurementSource,
+    /// The sample's time minus the grasp's (s); within the protocol's window.
+    pub offset_s: f64,
+}
+
 /// One thing that happened, as the operator (or a simulated participant) reports it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "kebab-case")]
@@ -163,9 +197,12 @@ pub enum Event {
     QueryPresented {
         query: String,
     },
-    /// The participant took the object by this grip region.
+    /// The participant took the object by this grip region (the operator's key), and, with
+    /// `measured` observations, the arm as measured at the grasp (none: no sample in time).
     GraspRecorded {
         region: String,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        measured: Option<ArmMeasurement>,
     },
     /// The current trial does not count and is repeated; a grasp just recorded is retracted.
     TrialVoided {

@@ -4,14 +4,18 @@ use crate::SeededRng;
 use crate::belief::Observed;
 use crate::belief::{Belief, CellIndex, Grid, Prior, ResamplePolicy};
 use crate::ergo::{FeasibleSet, Lambda, Observation};
+use crate::protocol::ObservationModel;
 use crate::select::{OutcomeModel, Problem, QueryValue, SelectorKind, Tradeoff, menu_values};
 
 /// Settings shared by both learners of a session.
 #[derive(Clone, Debug)]
 pub struct LearningContext {
     pub alpha: f64,
-    /// How a grabbed region updates the belief: its label-model configuration, or the region.
-    pub observation: OutcomeModel,
+    /// How a grasp updates the belief: the label-model configuration of the region taken,
+    /// the region, or the measured arm.
+    pub observation: ObservationModel,
+    /// σ per joint (rad) of `measured` observations (empty otherwise).
+    pub sigma: Vec<f64>,
     pub grid: Grid,
     pub jitter: Vec<f64>,
     pub policy: ResamplePolicy,
@@ -21,6 +25,24 @@ pub struct LearningContext {
     pub label_model: Lambda,
     /// The prior (for the MAP estimate, recomputed from it and every observation).
     pub prior: Prior,
+}
+
+impl LearningContext {
+    /// What the belief learns from a recorded trial of `set`: eq. 1 on the label model's
+    /// configuration, eq. 3 on the region, or the measured likelihood
+    /// Σ_q P(q | Q, λ) N(q_m; q, Σ) (docs/engine.md) — the region when no measurement came.
+    pub fn observation_of(&self, set: &FeasibleSet, t: &super::TrialRecord) -> Observation {
+        let region = || Observation::Region(set.regions()[t.region].clone().collect());
+        match (self.observation, &t.measured) {
+            (ObservationModel::Configuration, _) => Observation::Config(t.config),
+            (ObservationModel::Measured, Some(m)) => {
+                Observation::measured(set.configs(), &m.measurement.q_rad, &self.sigma)
+                    // Checked when the grasp was recorded.
+                    .unwrap_or_else(|_| region())
+            }
+            (ObservationModel::Region | ObservationModel::Measured, _) => region(),
+        }
+    }
 }
 
 /// A summary of a belief, as logged on `/belief`: the well-defined estimates (posterior
@@ -110,8 +132,10 @@ impl Learner {
     }
 
     fn suggest(&mut self, menu: &[FeasibleSet], ctx: &LearningContext) {
-        // Only the handle taken is observed in a session, so selection scores the
-        // information and cost of region outcomes, whatever the observation model.
+        // Selection scores the information and cost of region outcomes, whatever the
+        // observation model: the region is what every trial yields (the operator's key, and
+        // the fallback of a trial without a measurement). For a measurement it is an
+        // approximation: I(λ; q_m) ≤ I(λ; q) always, and tends to it as σ → 0 (docs/engine.md).
         let problem = Problem { belief: &self.belief, menu, alpha: ctx.alpha, outcomes: OutcomeModel::Region };
         self.scores = menu_values(&problem);
         self.suggestion = match crate::select::choose_from_values(self.condition, &self.scores, ctx.tradeoff) {

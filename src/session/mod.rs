@@ -16,15 +16,15 @@ use rand::SeedableRng;
 use rand::seq::SliceRandom;
 
 use crate::belief::{Belief, Grid, TestExample, test_log_likelihood};
-use crate::ergo::{ConfigSet, FeasibleSet, Observation};
+use crate::ergo::{ConfigSet, FeasibleSet};
 use crate::kinematics::ArmFeasibleSet;
 use crate::protocol::{ResolvedQuery, Study};
-use crate::select::{OutcomeModel, QueryValue, SelectorKind};
+use crate::select::{QueryValue, SelectorKind};
 use crate::{SeededRng, derive_seed};
 
 pub use events::{
-    Event, RobotLinkKind, RobotState, SentPose, SessionStart, Stamped, VoidReason, program_letter, validate_frame_id,
-    validate_sent_pose,
+    ArmMeasurement, Event, MeasurementSource, RobotLinkKind, RobotState, SentPose, SessionStart, Stamped, VoidReason,
+    program_letter, validate_frame_id, validate_sent_pose,
 };
 pub use learner::{BeliefSummary, Learner, LearningContext};
 
@@ -63,6 +63,8 @@ pub enum SessionError {
     BadStart(String),
     #[error("the belief cannot learn from this grasp at query '{query}': {why}")]
     Degenerate { query: String, why: String },
+    #[error("the arm measurement at query '{query}' is refused: {why}")]
+    BadMeasurement { query: String, why: String },
 }
 
 /// The two phases with trials.
@@ -135,6 +137,29 @@ pub struct TrialRecord {
     pub region: usize,
     /// Index of the mapped configuration in the query's feasible set (label model).
     pub config: usize,
+    /// With `measured` observations: the measurement and what it implies (none: no sample in
+    /// time, and the trial learned from the region).
+    pub measured: Option<MeasuredGrasp>,
+}
+
+/// A grasp's measurement and the configuration it is nearest to.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeasuredGrasp {
+    pub measurement: ArmMeasurement,
+    /// The feasible configuration of highest measurement density (the nearest in the
+    /// σ-scaled metric; the lowest index on ties).
+    pub nearest: usize,
+    /// Its region, as an index into the query's offered regions: the region the measurement
+    /// implies. When it differs from the operator's key the trial is flagged, never
+    /// resolved silently: the belief learns from the measurement, the record keeps the key.
+    pub implied_region: usize,
+}
+
+impl MeasuredGrasp {
+    /// Whether the measurement and the operator's key name the same region.
+    pub fn agrees(&self, record_region: usize) -> bool {
+        self.implied_region == record_region
+    }
 }
 
 /// What applying an event derived, for the recorder.
@@ -256,6 +281,7 @@ impl Session {
         let ctx = LearningContext {
             alpha: learning.alpha,
             observation: learning.observation,
+            sigma: learning.measurement.as_ref().map_or_else(Vec::new, |m| m.sigma_rad()),
             grid: Grid::over_supports(&supports, learning.grid_boxes),
             jitter: learning.jitter(prior.dim()),
             policy: learning.resampling,
@@ -367,10 +393,7 @@ impl Session {
             .filter(|t| t.phase == Phase::Test)
             .map(|t| {
                 let set = self.set(t.query).clone();
-                let observation = match self.ctx.observation {
-                    OutcomeModel::Configuration => Observation::Config(t.config),
-                    OutcomeModel::Region => Observation::Region(set.regions()[t.region].clone().collect()),
-                };
+                let observation = self.ctx.observation_of(&set, t);
                 TestExample { set, observation }
             })
             .collect()
@@ -499,7 +522,7 @@ pub fn check_runs(study: Arc<Study>) -> Result<(), SessionError> {
     let query = q.query.id.clone();
     let region = session.study().object(q).regions[q.regions[0]].id.clone();
     session.apply(&Event::QueryPresented { query })?;
-    session.apply(&Event::GraspRecorded { region })?;
+    session.apply(&Event::GraspRecorded { region, measured: None })?;
     Ok(())
 }
 

@@ -49,7 +49,7 @@ fn first_region(s: &Session, view: &TrialView) -> String {
 fn grasp_first(s: &mut Session) {
     let view = present(s);
     let r = first_region(s, &view);
-    s.apply(&Event::GraspRecorded { region: r }).unwrap();
+    s.apply(&Event::GraspRecorded { region: r, measured: None }).unwrap();
 }
 
 #[test]
@@ -92,7 +92,7 @@ fn training_runs_follow_the_counterbalanced_order_and_test_is_shuffled() {
             .map(|_| {
                 let v = present(&mut s);
                 let r = first_region(&s, &v);
-                s.apply(&Event::GraspRecorded { region: r }).unwrap();
+                s.apply(&Event::GraspRecorded { region: r, measured: None }).unwrap();
                 match v.query {
                     QueryRef::Test(i) => i,
                     _ => panic!("a test query"),
@@ -116,7 +116,7 @@ fn undo_restores_previous_belief() {
     let view = present(&mut s);
     assert!(!s.can_undo(), "presenting a query closes the undo window");
     let r = first_region(&s, &view);
-    s.apply(&Event::GraspRecorded { region: r }).unwrap();
+    s.apply(&Event::GraspRecorded { region: r, measured: None }).unwrap();
     assert!(s.can_undo());
     s.apply(&Event::GraspUndone).unwrap();
     assert_eq!(s.learners()[0].belief, before.belief);
@@ -137,7 +137,7 @@ fn a_voided_trial_is_repeated_and_not_learned_from() {
     // Voiding right after a grasp retracts it.
     let v = present(&mut s);
     let r = first_region(&s, &v);
-    s.apply(&Event::GraspRecorded { region: r }).unwrap();
+    s.apply(&Event::GraspRecorded { region: r, measured: None }).unwrap();
     let applied = s.apply(&Event::TrialVoided { reason: VoidReason::RobotFault, detail: "slipped".into() }).unwrap();
     assert!(matches!(applied, Applied::Voided { retracted: true, .. }));
     assert_eq!(s.trials().len(), 0);
@@ -149,10 +149,13 @@ fn a_voided_trial_is_repeated_and_not_learned_from() {
 fn wrong_input_is_refused_and_changes_nothing() {
     let mut s = session();
     assert!(matches!(s.apply(&Event::QueryPresented { query: "nope".into() }), Err(SessionError::WrongQuery { .. })));
-    assert!(s.apply(&Event::GraspRecorded { region: "left-grip".into() }).is_err(), "nothing presented yet");
+    assert!(
+        s.apply(&Event::GraspRecorded { region: "left-grip".into(), measured: None }).is_err(),
+        "nothing presented yet"
+    );
     let view = present(&mut s);
     assert!(matches!(
-        s.apply(&Event::GraspRecorded { region: "saddle".into() }),
+        s.apply(&Event::GraspRecorded { region: "saddle".into(), measured: None }),
         Err(SessionError::UnknownRegion { .. })
     ));
     assert!(s.apply(&Event::LikertAnswered { program: 0, item: "prefer".into(), value: 3 }).is_err());
@@ -207,7 +210,7 @@ fn likert_values_must_be_on_the_scale() {
 fn region_observations_update_by_the_handle_taken() {
     let mut st = Study::default_study();
     st.protocol.learning.particles = 300;
-    st.protocol.learning.observation = OutcomeModel::Region;
+    st.protocol.learning.observation = crate::protocol::ObservationModel::Region;
     let st = Arc::new(st);
     let mut s = Session::new(Arc::clone(&st), start(&st, 0, 3)).unwrap();
     let prior = s.learners()[0].belief.clone();
@@ -218,4 +221,107 @@ fn region_observations_update_by_the_handle_taken() {
     // The label model still maps the handle to a configuration for the log.
     let t = &s.trials()[0];
     assert_eq!(s.set(t.query).region_of(t.config), t.region);
+}
+
+fn measured_session(sigma_deg: f64) -> Session {
+    let mut st = Study::default_study();
+    st.protocol.learning.particles = 300;
+    st.protocol.learning.observation = crate::protocol::ObservationModel::Measured;
+    st.protocol.learning.measurement = Some(crate::protocol::MeasurementSpec {
+        sigma_deg: vec![sigma_deg; 7],
+        joint_names: crate::kinematics::JOINT_NAMES.iter().map(|n| n.to_string()).collect(),
+        window_s: 0.5,
+    });
+    let st = Arc::new(st);
+    Session::new(Arc::clone(&st), start(&st, 0, 3)).unwrap()
+}
+
+fn measurement(q_rad: Vec<f64>, offset_s: f64) -> ArmMeasurement {
+    ArmMeasurement { q_rad, source: MeasurementSource::Simulated, offset_s }
+}
+
+/// The first offered region's id and its first configuration, and the last region's first
+/// configuration, of the trial waiting for its grasp.
+fn grips(s: &Session, view: &TrialView) -> (String, Vec<f64>, Vec<f64>) {
+    let set = s.set(view.query);
+    let last = set.regions().len() - 1;
+    (
+        first_region(s, view),
+        set.configs().config(set.regions()[0].start),
+        set.configs().config(set.regions()[last].start),
+    )
+}
+
+#[test]
+fn a_measured_grasp_updates_by_the_measured_likelihood() {
+    let mut s = measured_session(5.0);
+    let mut expected = s.learners()[0].clone();
+    let view = present(&mut s);
+    let (region, q, _) = grips(&s, &view);
+    let set = s.set(view.query).clone();
+    let m = measurement(q.iter().map(|v| v + 0.01).collect(), 0.1);
+    s.apply(&Event::GraspRecorded { region, measured: Some(m.clone()) }).unwrap();
+    let obs = crate::ergo::Observation::measured(set.configs(), &m.q_rad, &[5f64.to_radians(); 7]).unwrap();
+    let QueryRef::Training(menu_index) = view.query else { panic!("training first") };
+    let menu: Vec<FeasibleSet> = (0..s.study().training.len()).map(|i| s.set(QueryRef::Training(i)).clone()).collect();
+    expected.learn(menu_index, &obs, &menu, s.context()).unwrap();
+    assert_eq!(s.learners()[0].belief, expected.belief);
+    let t = &s.trials()[0];
+    let g = t.measured.as_ref().expect("recorded");
+    assert_eq!((g.nearest, g.implied_region), (set.regions()[0].start, 0));
+    assert!(g.agrees(t.region));
+}
+
+#[test]
+fn a_measurement_that_implies_another_grip_is_flagged_and_the_key_kept() {
+    let mut s = measured_session(2.0);
+    let view = present(&mut s);
+    let (region, _, other) = grips(&s, &view);
+    s.apply(&Event::GraspRecorded { region, measured: Some(measurement(other, 0.0)) }).unwrap();
+    let t = &s.trials()[0];
+    let g = t.measured.as_ref().unwrap();
+    assert_eq!(t.region, 0, "the operator's key is the record's region");
+    assert_ne!(g.implied_region, 0);
+    assert!(!g.agrees(t.region));
+}
+
+#[test]
+fn a_grasp_without_a_measurement_learns_from_the_region() {
+    let mut measured = measured_session(5.0);
+    let mut region = {
+        let mut st = measured.study().clone();
+        st.protocol.learning.observation = crate::protocol::ObservationModel::Region;
+        st.protocol.learning.measurement = None;
+        let st = Arc::new(st);
+        Session::new(Arc::clone(&st), start(&st, 0, 3)).unwrap()
+    };
+    grasp_first(&mut measured);
+    grasp_first(&mut region);
+    assert_eq!(measured.learners()[0].belief, region.learners()[0].belief, "the fallback is the region update");
+    assert!(measured.trials()[0].measured.is_none());
+}
+
+#[test]
+fn bad_measurements_are_refused_and_change_nothing() {
+    let mut s = measured_session(5.0);
+    let view = present(&mut s);
+    let (region, q, _) = grips(&s, &view);
+    let before = (s.trials().to_vec(), s.learners()[0].belief.clone(), s.prompt(), s.event_count());
+    let state = |s: &Session| (s.trials().to_vec(), s.learners()[0].belief.clone(), s.prompt(), s.event_count());
+    for (m, what) in [
+        (measurement(q.clone(), 0.7), "offset_s"),
+        (measurement(q[..6].to_vec(), 0.0), "q_rad"),
+        (measurement(vec![f64::NAN; 7], 0.0), "q_rad"),
+        (measurement(q.clone(), f64::INFINITY), "offset_s"),
+    ] {
+        let e = s.apply(&Event::GraspRecorded { region: region.clone(), measured: Some(m) }).unwrap_err();
+        assert!(matches!(e, SessionError::BadMeasurement { .. }) && e.to_string().contains(what), "{e}");
+        assert!(state(&s) == before, "unchanged after {e}");
+    }
+    // A protocol without measured observations expects none.
+    let mut r = session();
+    let view = present(&mut r);
+    let region = first_region(&r, &view);
+    let e = r.apply(&Event::GraspRecorded { region, measured: Some(measurement(q, 0.0)) }).unwrap_err();
+    assert!(e.to_string().contains("expected no measurement"), "{e}");
 }

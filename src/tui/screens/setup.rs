@@ -83,6 +83,14 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
         |r| format!("{} (presented on {})", r.describe(), r.settings.present_on.name()),
     );
     lines.push(Line::from(vec![Span::styled("Robot: ", theme::title()), Span::raw(robot)]));
+    if app.config.study.protocol.learning.observation == crate::protocol::ObservationModel::Measured {
+        let measuring = if app.config.simulate {
+            "simulated: the participant's configuration with the protocol's noise"
+        } else {
+            "no live source in the console yet: every grasp learns from the handle taken (logged as the fallback)"
+        };
+        lines.push(Line::from(vec![Span::styled("Arm measurement: ", theme::title()), Span::raw(measuring)]));
+    }
     lines.push(Line::from(""));
     lines.push(Line::from(Span::styled("Press Enter to start the session.", theme::instruction())));
     frame.render_widget(

@@ -1,0 +1,228 @@
+//! Post-hoc arm measurements (`analyze --measurements FILE`): a CSV of time-stamped joint
+//! angles from a motion-capture system, aligned to a session's grasps by time, and the
+//! session re-fitted with the measured observation model beside its logged fit.
+//!
+//! The file is untrusted: its size, its number of samples and every value are bounded, and
+//! a bad field is named with its row and column.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use crate::ergo::{FeasibleSet, Observation};
+use crate::kinematics::JOINTS;
+use crate::protocol::{MeasurementSpec, ObservationModel};
+use crate::record::{LogContents, RecordError, replay_with, study_of};
+use crate::session::{
+    Applied, ArmMeasurement, BeliefSummary, Learner, MeasurementSource, QueryRef, Session, TrialRecord,
+};
+
+/// The largest measurements file read, bytes.
+pub const MAX_MEASUREMENT_BYTES: u64 = 256 << 20;
+/// The most samples read from one file (≈ 11 h at 50 Hz).
+pub const MAX_MEASUREMENT_SAMPLES: usize = 2_000_000;
+
+/// Why a measurements file was refused.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {why}", path.display())]
+pub struct MeasurementFileError {
+    pub path: PathBuf,
+    pub why: String,
+}
+
+/// Time-stamped joint angles (rad) in the arm model's joint order, in increasing time.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeasurementSeries {
+    pub path: PathBuf,
+    /// (ns since the Unix epoch, angles).
+    pub samples: Vec<(u64, [f64; JOINTS])>,
+}
+
+/// Parses a sample time: seconds since the Unix epoch (a decimal number) or RFC 3339.
+fn parse_time(text: &str) -> Option<u64> {
+    if let Ok(s) = text.parse::<f64>() {
+        return (s.is_finite() && (0.0..=4.0e9).contains(&s)).then(|| (s * 1e9).round() as u64);
+    }
+    let t = chrono::DateTime::parse_from_rfc3339(text).ok()?;
+    u64::try_from(t.timestamp_nanos_opt()?).ok()
+}
+
+impl MeasurementSeries {
+    /// Reads a CSV with a `time` column (seconds since the Unix epoch, or RFC 3339) and, for
+    /// each of `joint_names` (the protocol's measuring-system names, in the model's order), a
+    /// column `<name>_deg` or `<name>_rad`; other columns are ignored. Rows in increasing time.
+    pub fn read_csv(path: &Path, joint_names: &[String]) -> Result<Self, MeasurementFileError> {
+        let fail = |why: String| MeasurementFileError { path: path.to_path_buf(), why };
+        let len = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?.len();
+        if len > MAX_MEASUREMENT_BYTES {
+            return Err(fail(format!("is {len} bytes, expected at most {MAX_MEASUREMENT_BYTES} (the file budget)")));
+        }
+        let mut reader = csv::ReaderBuilder::new().from_path(path).map_err(|e| fail(e.to_string()))?;
+        let header = reader.headers().map_err(|e| fail(format!("header: {e}")))?.clone();
+        let column = |name: &str| header.iter().position(|h| h.trim() == name);
+        let time = column("time").ok_or_else(|| fail("header: no 'time' column".into()))?;
+        let mut joints = Vec::with_capacity(JOINTS);
+        for name in joint_names {
+            let (deg, rad) = (format!("{name}_deg"), format!("{name}_rad"));
+            match (column(&deg), column(&rad)) {
+                (Some(c), None) => joints.push((c, true, deg)),
+                (None, Some(c)) => joints.push((c, false, rad)),
+                (Some(_), Some(_)) => return Err(fail(format!("header: both '{deg}' and '{rad}', expected one"))),
+                (None, None) => return Err(fail(format!("header: no '{deg}' or '{rad}' column for joint '{name}'"))),
+            }
+        }
+        if joints.len() != JOINTS {
+            return Err(fail(format!("{} joint names, expected {JOINTS}", joints.len())));
+        }
+        let mut samples: Vec<(u64, [f64; JOINTS])> = Vec::new();
+        for (i, record) in reader.records().enumerate() {
+            let row = i + 2;
+            let record = record.map_err(|e| fail(format!("row {row}: {e}")))?;
+            if samples.len() == MAX_MEASUREMENT_SAMPLES {
+                return Err(fail(format!("has more than {MAX_MEASUREMENT_SAMPLES} samples (the sample budget)")));
+            }
+            let field = |c: usize| record.get(c).unwrap_or("").trim();
+            let t = parse_time(field(time)).ok_or_else(|| {
+                fail(format!(
+                    "row {row}, column 'time': '{}' is not seconds since the Unix epoch or an RFC 3339 time",
+                    field(time).escape_debug()
+                ))
+            })?;
+            if samples.last().is_some_and(|(last, _)| t <= *last) {
+                return Err(fail(format!(
+                    "row {row}, column 'time': not after the previous row's (rows in time order)"
+                )));
+            }
+            let mut q = [0.0; JOINTS];
+            for (d, (c, degrees, name)) in joints.iter().enumerate() {
+                let v: f64 = field(*c).parse().map_err(|_| {
+                    fail(format!("row {row}, column '{name}': '{}' is not a number", field(*c).escape_debug()))
+                })?;
+                let rad = if *degrees { v.to_radians() } else { v };
+                if !(rad.is_finite() && rad.abs() <= 10.0) {
+                    return Err(fail(format!("row {row}, column '{name}': {v} is not an angle within ±10 rad")));
+                }
+                q[d] = rad;
+            }
+            samples.push((t, q));
+        }
+        if samples.is_empty() {
+            return Err(fail("has no samples".into()));
+        }
+        Ok(Self { path: path.to_path_buf(), samples })
+    }
+
+    /// The sample nearest `time_ns` within ±`window_s`, as a measurement at that time.
+    pub fn at(&self, time_ns: u64, window_s: f64) -> Option<ArmMeasurement> {
+        let i = self.samples.partition_point(|(t, _)| *t < time_ns);
+        let offset = |j: usize| (self.samples[j].0 as f64 - time_ns as f64) / 1e9;
+        let best = [i.checked_sub(1), (i < self.samples.len()).then_some(i)]
+            .into_iter()
+            .flatten()
+            .min_by(|&a, &b| offset(a).abs().total_cmp(&offset(b).abs()))?;
+        (offset(best).abs() <= window_s).then(|| ArmMeasurement {
+            q_rad: self.samples[best].1.to_vec(),
+            source: MeasurementSource::File,
+            offset_s: offset(best),
+        })
+    }
+}
+
+/// One program's belief after its last update, by the logged model and by the measured one.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RefitRun {
+    pub program: usize,
+    pub condition: &'static str,
+    pub logged: BeliefSummary,
+    pub measured: BeliefSummary,
+}
+
+/// A session re-fitted with measured observations.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeasuredRefit {
+    /// The observation model the session was logged with.
+    pub logged_observation: ObservationModel,
+    /// Standing grasps (not undone or voided) of the session, and how many had a sample
+    /// within the window.
+    pub grasps: usize,
+    pub measured: usize,
+    /// Measurements whose nearest configuration lies in another region than the one keyed.
+    pub disagreements: usize,
+    pub runs: Vec<RefitRun>,
+}
+
+/// Re-fits a logged session with the measured observation model: every standing grasp takes
+/// the sample of `series` nearest its logged time within the window of `spec` (without one,
+/// it learns from the region taken, as a live session would). Each program's learner starts
+/// from the session's own prior draw and learns from the queries the session asked, in
+/// order (an active learner would have asked others had it learned otherwise; the re-fit
+/// answers what the same handovers say when the arm is measured).
+pub fn refit(
+    log: &LogContents,
+    series: &MeasurementSeries,
+    spec: &MeasurementSpec,
+) -> Result<MeasuredRefit, RecordError> {
+    let logged_study = Arc::new(study_of(log)?);
+    let logged_observation = logged_study.protocol.learning.observation;
+    // The standing trials with the times of their grasps.
+    let mut standing: Vec<(TrialRecord, u64)> = Vec::new();
+    let logged = replay_with(Arc::clone(&logged_study), log, |_, step| match step {
+        Some((_, s, Applied::Responded { record, .. })) => standing.push((record.clone(), s.time_ns)),
+        Some((_, _, Applied::Undone { .. } | Applied::Voided { retracted: true, .. })) => {
+            standing.pop();
+        }
+        _ => {}
+    })?;
+    let mut study = (*logged_study).clone();
+    study.protocol.learning.observation = ObservationModel::Measured;
+    study.protocol.learning.measurement = Some(spec.clone());
+    let fresh = Session::new(Arc::new(study), log.start.clone()).map_err(|e| RecordError::Replay {
+        path: log.path.clone(),
+        index: 0,
+        topic: "/session/start".into(),
+        source: Box::new(e),
+    })?;
+    let ctx = fresh.context();
+    let menu: Vec<FeasibleSet> =
+        (0..fresh.study().training.len()).map(|i| fresh.set(QueryRef::Training(i)).clone()).collect();
+    let mut learners: Vec<Learner> = fresh.learners().to_vec();
+    let (mut measured, mut disagreements) = (0, 0);
+    for (t, time_ns) in &standing {
+        let set = fresh.set(t.query);
+        let m = series.at(*time_ns, spec.window_s);
+        let obs = match &m {
+            Some(m) => {
+                measured += 1;
+                let obs = Observation::measured(set.configs(), &m.q_rad, &ctx.sigma)
+                    .expect("a file's samples are 7 finite angles within ±10 rad and σ is validated");
+                let nearest = obs.nearest().expect("a measured observation of a non-empty set");
+                disagreements += usize::from(set.region_of(nearest) != t.region);
+                obs
+            }
+            None => Observation::Region(set.regions()[t.region].clone().collect()),
+        };
+        if let (Some(run), QueryRef::Training(i)) = (t.run, t.query) {
+            learners[run].learn(i, &obs, &menu, ctx).map_err(|e| RecordError::Replay {
+                path: log.path.clone(),
+                index: 0,
+                topic: "/trial/response".into(),
+                source: Box::new(crate::session::SessionError::Degenerate {
+                    query: fresh.query(t.query).query.id.clone(),
+                    why: e.to_string(),
+                }),
+            })?;
+        }
+    }
+    let runs = logged
+        .learners()
+        .iter()
+        .zip(&learners)
+        .enumerate()
+        .map(|(program, (a, b))| RefitRun {
+            program,
+            condition: a.condition.name(),
+            logged: a.summary.clone(),
+            measured: b.summary.clone(),
+        })
+        .collect();
+    Ok(MeasuredRefit { logged_observation, grasps: standing.len(), measured, disagreements, runs })
+}

@@ -1,0 +1,262 @@
+//! A study with `measured` observations, as a lab runs it: dry runs that measure the arm,
+//! logs that replay and verify bit for bit, and the measurement in `/trial/response`.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use handover::record::read_log;
+use handover::session::{Event, MeasurementSource};
+
+fn handover(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_handover")).args(args).output().unwrap();
+    (out.status.code().unwrap_or(-1), String::from_utf8(out.stdout).unwrap(), String::from_utf8(out.stderr).unwrap())
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("handover-measured-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// The default protocol observing the measured arm with noise `sigma_deg` on every joint.
+fn measured_protocol(dir: &Path, sigma_deg: f64) -> PathBuf {
+    let mut v: serde_json::Value = serde_json::from_str(handover::protocol::DEFAULT_PROTOCOL).unwrap();
+    v["learning"]["particles"] = 300.into();
+    v["learning"]["observation"] = "measured".into();
+    let names = handover::kinematics::JOINT_NAMES;
+    v["learning"]["measurement"] =
+        serde_json::json!({ "sigma_deg": vec![sigma_deg; 7], "joint_names": names, "window_s": 0.5 });
+    let p = dir.join("measured.json");
+    std::fs::write(&p, v.to_string()).unwrap();
+    p
+}
+
+fn responses(path: &Path) -> Vec<serde_json::Value> {
+    read_log(path).unwrap().messages.into_iter().filter(|m| m.topic == "/trial/response").map(|m| m.value).collect()
+}
+
+#[test]
+fn a_measured_dry_run_logs_every_measurement_and_verifies_bit_for_bit() {
+    let dir = tmpdir("dry");
+    let protocol = measured_protocol(&dir, 3.0);
+    let logs = dir.join("logs");
+    let (code, _, err) = handover(&[
+        "dry-run",
+        "--protocol",
+        protocol.to_str().unwrap(),
+        "--logs",
+        logs.to_str().unwrap(),
+        "--participants",
+        "2",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let files = handover::record::mcap_files(&logs);
+    assert_eq!(files.len(), 2);
+    let log = read_log(&files[0]).unwrap();
+    let grasps: Vec<_> = log
+        .events
+        .iter()
+        .filter_map(|s| match &s.event {
+            Event::GraspRecorded { measured, .. } => Some(measured.clone()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(grasps.len(), 26);
+    for m in &grasps {
+        let m = m.as_ref().expect("a dry run measures every grasp");
+        assert_eq!((m.q_rad.len(), m.source), (7, MeasurementSource::Simulated));
+    }
+    let rs = responses(&files[0]);
+    assert_eq!(rs.len(), 26);
+    let mut agree = 0;
+    for r in &rs {
+        assert_eq!(r["learned_from"], "measured", "{r}");
+        assert_eq!(r["measured"]["q_rad"].as_array().unwrap().len(), 7);
+        if r["measured"]["agrees"] == true {
+            assert_eq!(r["measured"]["implied_region"], r["region"]);
+            agree += 1;
+        }
+    }
+    // With 3° of noise the nearest configuration nearly always lies in the grip taken.
+    assert!(agree >= 23, "{agree} of 26 agree");
+
+    // Replaying every event recomputes every derived value exactly.
+    let (code, _, err) = handover(&["analyze", "--alpha-particles", "300", logs.to_str().unwrap(), "--verify"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("every derived value matches"), "{err}");
+
+    // A derived number of the measurement edited (same length) is found.
+    let mut bytes = std::fs::read(&files[0]).unwrap();
+    let key = b"\"nearest_config_index\":";
+    let at = (0..bytes.len() - key.len())
+        .find(|&i| &bytes[i..i + key.len()] == key && bytes[i + key.len()].is_ascii_digit())
+        .unwrap()
+        + key.len();
+    bytes[at] = if bytes[at] == b'1' { b'2' } else { b'1' };
+    std::fs::write(&files[0], &bytes).unwrap();
+    let (code, _, err) = handover(&["analyze", "--alpha-particles", "300", logs.to_str().unwrap(), "--verify"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("/trial/response") && err.contains("nearest_config_index"), "{err}");
+
+    if let Ok(python) = std::env::var("HANDOVER_PYTHON") {
+        let out = Command::new(python)
+            .arg("../shared/tools/check_mcap.py")
+            .arg("--expect=/trial/response=26")
+            .arg(&files[1])
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+}
+
+#[test]
+fn a_protocol_measuring_badly_is_refused_naming_the_field() {
+    let dir = tmpdir("bad");
+    let base: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(measured_protocol(&dir, 5.0)).unwrap()).unwrap();
+    use serde_json::json;
+    // (JSON pointer, new value or none to remove it, the field the error names)
+    let cases = [
+        ("/learning/measurement", None, "learning.measurement"),
+        ("/learning/measurement/sigma_deg", Some(json!([5, 5])), "sigma_deg"),
+        ("/learning/measurement/sigma_deg/3", Some(json!(0.0)), "sigma_deg[3]"),
+        ("/learning/measurement/sigma_deg/0", Some(json!(90)), "sigma_deg[0]"),
+        ("/learning/measurement/window_s", Some(json!(60)), "window_s"),
+        ("/learning/measurement/joint_names", Some(json!(["a", "b", "c", "d", "e", "f", "a"])), "joint_names[6]"),
+        ("/learning/measurement/joint_names", Some(json!(["a b", "b", "c", "d", "e", "f", "g"])), "joint_names[0]"),
+        ("/learning/observation", Some(json!("region")), "learning.measurement"),
+    ];
+    for (pointer, value, field) in cases {
+        let mut v = base.clone();
+        match value {
+            Some(value) => *v.pointer_mut(pointer).unwrap_or_else(|| panic!("{pointer}")) = value,
+            None => {
+                v["learning"].as_object_mut().unwrap().remove("measurement");
+            }
+        }
+        let p = dir.join("edited.json");
+        std::fs::write(&p, v.to_string()).unwrap();
+        let (code, out, err) = handover(&["protocol", "check", p.to_str().unwrap()]);
+        assert_eq!(code, 2, "{field}: {out}{err}");
+        assert!(format!("{out}{err}").contains(field), "{field}: {out}{err}");
+    }
+}
+
+/// Writes a measurements CSV with one sample per grasp of `log` (at the grasp's time, the
+/// logged measurement), in degrees or radians, with an extra column a capture system might
+/// add; `keep` picks the grasps that get a sample.
+fn measurements_csv(log: &Path, path: &Path, degrees: bool, keep: impl Fn(usize) -> bool) {
+    let contents = read_log(log).unwrap();
+    let mut w = csv::Writer::from_path(path).unwrap();
+    let mut header = vec!["time".to_string(), "frame".to_string()];
+    let unit = if degrees { "deg" } else { "rad" };
+    header.extend(handover::kinematics::JOINT_NAMES.iter().map(|j| format!("{j}_{unit}")));
+    w.write_record(&header).unwrap();
+    let grasps = contents.events.iter().filter_map(|s| match &s.event {
+        Event::GraspRecorded { measured: Some(m), .. } => Some((s.time_ns, m.q_rad.clone())),
+        _ => None,
+    });
+    for (k, (t, q)) in grasps.enumerate().filter(|(k, _)| keep(*k)) {
+        let time = chrono::DateTime::from_timestamp_nanos(t as i64).to_rfc3339_opts(chrono::SecondsFormat::Nanos, true);
+        let mut row = vec![time, k.to_string()];
+        row.extend(q.iter().map(|v| if degrees { v.to_degrees() } else { *v }.to_string()));
+        w.write_record(&row).unwrap();
+    }
+    w.flush().unwrap();
+}
+
+#[test]
+fn measurements_from_a_file_refit_a_session_beside_its_logged_fit() {
+    let dir = tmpdir("posthoc");
+    let logs = dir.join("logs");
+    let (code, _, err) = handover(&[
+        "dry-run",
+        "--protocol",
+        measured_protocol(&dir, 4.0).to_str().unwrap(),
+        "--logs",
+        logs.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let log = handover::record::mcap_files(&logs).remove(0);
+    let all = dir.join("all.csv");
+    measurements_csv(&log, &all, false, |_| true);
+    let out = dir.join("out");
+    let (code, stdout, err) = handover(&[
+        "analyze",
+        "--alpha-particles",
+        "50",
+        logs.to_str().unwrap(),
+        "--measurements",
+        all.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(stdout.contains("MEASURED RE-FIT") && stdout.contains("26 of 26 grasps measured"), "{stdout}");
+    // The same measurements from a file give the live session's fit, bit for bit: both fits
+    // side by side.
+    let mut r = csv::Reader::from_path(out.join("pilot/measured_fit.csv")).unwrap();
+    let rows: Vec<csv::StringRecord> = r.records().map(|x| x.unwrap()).collect();
+    let h = r.headers().unwrap().clone();
+    let col = |name: &str| h.iter().position(|c| c == name).unwrap();
+    assert_eq!(rows.len(), 2 * 2 * 2 * 7, "2 programs × 2 fits × (q*, w) × 7 joints");
+    for row in rows.iter().filter(|x| &x[col("fit")] == "logged") {
+        let twin = rows
+            .iter()
+            .find(|x| {
+                &x[col("fit")] == "measured"
+                    && x[col("program")] == row[col("program")]
+                    && x[col("parameter")] == row[col("parameter")]
+                    && x[col("joint")] == row[col("joint")]
+            })
+            .unwrap();
+        for c in ["mean", "ci_low", "ci_high", "ess"] {
+            assert_eq!(row[col(c)], twin[col(c)], "{row:?} vs {twin:?}");
+        }
+        assert_eq!(&row[col("observation")], "measured");
+    }
+
+    // Samples for every other grasp: the rest learn from the region.
+    let half = dir.join("half.csv");
+    measurements_csv(&log, &half, true, |k| k % 2 == 0);
+    let (code, stdout, err) = handover(&[
+        "analyze",
+        "--alpha-particles",
+        "50",
+        logs.to_str().unwrap(),
+        "--measurements",
+        half.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(stdout.contains("13 of 26 grasps measured"), "{stdout}");
+
+    // Bad files and options are refused, naming the row and column (exit 2).
+    let text = std::fs::read_to_string(&all).unwrap();
+    let mut lines: Vec<&str> = text.lines().collect();
+    lines.swap(2, 3);
+    let unordered = dir.join("unordered.csv");
+    std::fs::write(&unordered, lines.join("\n")).unwrap();
+    let renamed = dir.join("renamed.csv");
+    std::fs::write(&renamed, text.replace("elbow_flexion_rad", "elbow_rad")).unwrap();
+    let garbled = dir.join("garbled.csv");
+    std::fs::write(&garbled, text.replacen(",0,", ",0,x", 1)).unwrap();
+    for (args, says) in [
+        (vec!["--measurements", unordered.to_str().unwrap()], "row 4, column 'time'"),
+        (vec!["--measurements", renamed.to_str().unwrap()], "'elbow_flexion_rad'"),
+        (vec!["--measurements", garbled.to_str().unwrap()], "row 2, column 'shoulder_flexion_rad'"),
+        (vec!["--measurements", all.to_str().unwrap(), "--sigma-deg", "1,2"], "--sigma-deg has 2 values"),
+        (vec!["--sigma-deg", "3"], "are for --measurements"),
+    ] {
+        let mut a = vec!["analyze", logs.to_str().unwrap()];
+        a.extend(args);
+        let (code, _, err) = handover(&a);
+        assert_eq!(code, 2, "{a:?}: {err}");
+        assert!(err.contains(says), "{a:?}: {err}");
+    }
+}
