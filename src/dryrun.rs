@@ -9,8 +9,9 @@ use crate::kinematics::Hand;
 use crate::participant::{ScriptedParticipant, SimulatedPerson};
 use crate::protocol::{Body, Study};
 use crate::record::{RecordedSession, SubmitError};
+use crate::robot::joint_states::JointStateSource;
 use crate::robot::{Report, Robot, command_for};
-use crate::session::{Event, RobotState, SessionStart, Stamped, VoidReason, condition_order};
+use crate::session::{Event, RobotState, Session, SessionStart, Stamped, VoidReason, condition_order};
 use crate::{SeededRng, derive_seed};
 
 mod purpose {
@@ -108,10 +109,7 @@ pub fn plan(study: &Study, seed: u64, index: usize, truth: Option<&Lambda>, star
     DryRunPlan { start, participant: ScriptedParticipant { person } }
 }
 
-/// Nanoseconds since the Unix epoch.
-pub fn now_ns() -> u64 {
-    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64)
-}
+pub use crate::now_ns;
 
 /// How long each action takes in a dry run's log time (seconds): the robot moving the object
 /// to the pose and the participant taking it, reading and answering a statement, choosing.
@@ -164,8 +162,12 @@ pub fn drive_with_robot(
     rec: &mut RecordedSession,
     participant: &ScriptedParticipant,
     robot: &mut Robot,
+    arm: Option<&JointStateSource>,
 ) -> Result<RobotDrive, SubmitError> {
-    let stamp = |rec: &RecordedSession, event: Event| Stamped { time_ns: now_ns().max(rec.last_time_ns() + 1), event };
+    let stamp = |rec: &RecordedSession, event: Event| {
+        let time_ns = now_ns().max(rec.last_time_ns() + 1);
+        Stamped { time_ns, event: measured_live(event, time_ns, arm, rec.session()) }
+    };
     let mut failures = 0;
     while let Some(event) = participant.respond(rec.session()) {
         if !matches!(event, Event::QueryPresented { .. }) {
@@ -212,16 +214,46 @@ pub fn drive_with_robot(
     Ok(RobotDrive::Completed)
 }
 
+/// A grasp measured by a live source instead of the simulated measuring system: the sample
+/// nearest its time within the protocol's window (none: the trial learns from the region).
+fn measured_live(event: Event, time_ns: u64, arm: Option<&JointStateSource>, session: &Session) -> Event {
+    match (event, arm, session.study().protocol.learning.measurement.as_ref()) {
+        (Event::GraspRecorded { region, .. }, Some(arm), Some(m)) => {
+            Event::GraspRecorded { region, measured: arm.at(time_ns, m.window_s) }
+        }
+        (event, _, _) => event,
+    }
+}
+
+/// [`drive`] stamped with the clock at `pace`, every grasp measured by `arm`.
+fn drive_measured(
+    rec: &mut RecordedSession,
+    participant: &ScriptedParticipant,
+    arm: &JointStateSource,
+    pace: Duration,
+) -> Result<(), SubmitError> {
+    while let Some(event) = participant.respond(rec.session()) {
+        std::thread::sleep(pace);
+        let time_ns = now_ns().max(rec.last_time_ns() + 1);
+        let event = measured_live(event, time_ns, Some(arm), rec.session());
+        rec.submit(Stamped { time_ns, event })?;
+    }
+    Ok(())
+}
+
 /// A dry run's session driven to its end: through `robot` when there is one
-/// ([`drive_with_robot`]), else at `pace` ([`drive`]).
+/// ([`drive_with_robot`]), else at `pace` ([`drive`]); with `arm`, every grasp is measured by
+/// it (stamped with the clock, as the samples are).
 pub fn drive_session(
     rec: &mut RecordedSession,
     participant: &ScriptedParticipant,
     robot: Option<&mut Robot>,
+    arm: Option<&JointStateSource>,
     pace: Duration,
 ) -> Result<RobotDrive, SubmitError> {
-    match robot {
-        Some(robot) => drive_with_robot(rec, participant, robot),
-        None => drive(rec, participant, pace).map(|()| RobotDrive::Completed),
+    match (robot, arm) {
+        (Some(robot), arm) => drive_with_robot(rec, participant, robot, arm),
+        (None, Some(arm)) => drive_measured(rec, participant, arm, pace).map(|()| RobotDrive::Completed),
+        (None, None) => drive(rec, participant, pace).map(|()| RobotDrive::Completed),
     }
 }

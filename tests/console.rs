@@ -488,3 +488,27 @@ fn a_robot_that_does_not_answer_times_out() {
     assert!(a.status.contains("The robot reported timeout (no answer within 1 s)"), "{}", a.status);
     assert!(!a.robot().unwrap().busy());
 }
+
+#[test]
+fn a_measured_protocol_without_a_measuring_system_learns_from_the_handle_and_says_so() {
+    let dir = tmpdir("measured");
+    let mut c = config(&dir, false);
+    let mut v: serde_json::Value = serde_json::from_str(&c.protocol_text).unwrap();
+    v["learning"]["observation"] = "measured".into();
+    v["learning"]["measurement"] = serde_json::json!({"sigma_deg": vec![5; 7]});
+    c.protocol_text = v.to_string();
+    c.study = Arc::new(Study::from_json(&c.protocol_text, "measured").unwrap());
+    let mut a = App::new(c);
+    a.tick(T0);
+    let setup = screen(&mut a, 160, 40);
+    assert!(setup.contains("Arm measurement: none (--measure ros2"), "{setup}");
+    press(&mut a, KeyCode::Enter);
+    trials(&mut a, 1, '1');
+    assert!(a.status.contains("No arm sample within ±0.5 s of the grasp"), "{}", a.status);
+    let t = &a.session().unwrap().trials()[0];
+    assert!(t.measured.is_none());
+    // Every event is on disk before the console goes on.
+    let log = read_log(&a.log_path().unwrap()).unwrap();
+    let response = log.messages.iter().find(|m| m.topic == "/trial/response").unwrap();
+    assert_eq!(response.value["learned_from"], "region", "{:?}", response.value);
+}

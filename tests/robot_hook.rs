@@ -203,7 +203,10 @@ fn a_bad_robot_option_is_bad_input() {
     assert!(err.contains("lab.json: ros2.domain_id is 999, expected 0 to 232"), "{err}");
     let (code, err) = dry_run(&dir, "logs", &["--robot-config", settings.to_str().unwrap()]);
     assert_eq!(code, 2);
-    assert!(err.contains("--robot-config is given without --robot or --robot-command"), "{err}");
+    assert!(err.contains("--robot-config is given without --robot, --robot-command or --measure"), "{err}");
+    let (code, err) = dry_run(&dir, "logs", &["--measure", "ros2"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("--measure needs a protocol with \"observation\": \"measured\""), "{err}");
     let not_exec = dir.join("plain.txt");
     std::fs::write(&not_exec, "exit 0").unwrap();
     let (code, err) = dry_run(&dir, "logs", &["--robot-command", not_exec.to_str().unwrap()]);

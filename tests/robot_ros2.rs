@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use handover::record::{LogContents, mcap_files, read_log};
-use handover::session::{Event, RobotLinkKind, RobotState, VoidReason};
+use handover::session::{Event, MeasurementSource, RobotLinkKind, RobotState, VoidReason};
 
 fn tmpdir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("handover-ros2-{}-{name}", std::process::id()));
@@ -38,6 +38,38 @@ fn prerequisites() -> Option<String> {
     Some(python)
 }
 
+/// Runs `body` (bash) in a new network namespace with only the loopback, multicast routed on
+/// it and Cyclone DDS bound to it, with `PY` (the Python), `DIR`, `HANDOVER` (the binary) and
+/// `vars` in its environment; its exit status, and its standard error with the stand-in's.
+fn in_namespace(python: &str, dir: &Path, body: &str, vars: &[(&str, String)]) -> (i32, String) {
+    let script = format!(
+        r#"
+set -u
+ip link set lo up
+ip link set lo multicast on
+ip route add 224.0.0.0/4 dev lo
+export CYCLONEDDS_URI='<CycloneDDS><Domain><General><Interfaces><NetworkInterface name="lo" multicast="true"/></Interfaces></General></Domain></CycloneDDS>'
+{body}"#
+    );
+    let mut cmd = Command::new("unshare");
+    cmd.args(["--net", "bash", "-c", &script])
+        .env("PY", python)
+        .env("DIR", dir)
+        .env("HANDOVER", env!("CARGO_BIN_EXE_handover"));
+    for (k, v) in vars {
+        cmd.env(k, v);
+    }
+    let out = cmd.output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).into_owned()
+        + &std::fs::read_to_string(dir.join("standin.err")).unwrap_or_default();
+    (out.status.code().unwrap_or(-1), err)
+}
+
+/// A stand-in script of `tests/robot/`.
+fn standin(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/robot").join(name).display().to_string()
+}
+
 /// Runs the stand-in robot and a dry run together in a new network namespace; the dry run's
 /// exit status.
 fn dry_run_with_standin(python: &str, dir: &Path, answer: &str, timeout_s: f64) -> (i32, String) {
@@ -46,12 +78,7 @@ fn dry_run_with_standin(python: &str, dir: &Path, answer: &str, timeout_s: f64) 
     std::fs::write(dir.join("small.json"), v.to_string()).unwrap();
     let lab = serde_json::json!({"timeout_s": timeout_s, "ros2": {"networks": ["127.0.0.1"], "resend_s": 1.0}});
     std::fs::write(dir.join("lab.json"), lab.to_string()).unwrap();
-    let script = r#"
-set -u
-ip link set lo up
-ip link set lo multicast on
-ip route add 224.0.0.0/4 dev lo
-export CYCLONEDDS_URI='<CycloneDDS><Domain><General><Interfaces><NetworkInterface name="lo" multicast="true"/></Interfaces></General></Domain></CycloneDDS>'
+    let body = r#"
 "$PY" "$STANDIN" --answer "$ANSWER" --out "$DIR/received.jsonl" --seconds 120 > "$DIR/standin.out" 2> "$DIR/standin.err" &
 robot=$!
 for _ in $(seq 100); do grep -q ready "$DIR/standin.out" 2>/dev/null && break; sleep 0.1; done
@@ -62,18 +89,7 @@ kill $robot
 wait $robot 2>/dev/null
 exit $code
 "#;
-    let out = Command::new("unshare")
-        .args(["--net", "bash", "-c", script])
-        .env("PY", python)
-        .env("STANDIN", Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/robot/standin_robot.py"))
-        .env("ANSWER", answer)
-        .env("DIR", dir)
-        .env("HANDOVER", env!("CARGO_BIN_EXE_handover"))
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr).into_owned()
-        + &std::fs::read_to_string(dir.join("standin.err")).unwrap_or_default();
-    (out.status.code().unwrap_or(-1), err)
+    in_namespace(python, dir, body, &[("STANDIN", standin("standin_robot.py")), ("ANSWER", answer.to_string())])
 }
 
 fn the_log(dir: &Path) -> LogContents {
@@ -170,4 +186,92 @@ fn a_ros2_robot_that_fails_or_says_nothing_voids_the_trial_and_ends_the_dry_run(
         assert!(received(&dir, "/handover/target_pose").len() >= 3, "{answer}");
         let _ = std::fs::remove_dir_all(&dir);
     }
+}
+
+/// A dry run of a measured protocol whose arm is measured over ROS 2 (`--measure ros2`),
+/// with the stand-in measuring system publishing (or not) in the same network namespace.
+fn measured_dry_run(python: &str, dir: &Path, publish: bool) -> (i32, String) {
+    let mut v: serde_json::Value = serde_json::from_str(handover::protocol::DEFAULT_PROTOCOL).unwrap();
+    v["learning"]["particles"] = 300.into();
+    v["learning"]["observation"] = "measured".into();
+    let names: Vec<String> = (0..7).map(|d| format!("mocap_r_{d}")).collect();
+    v["learning"]["measurement"] = serde_json::json!({"sigma_deg": vec![5; 7], "joint_names": names, "window_s": 0.25});
+    std::fs::write(dir.join("measured.json"), v.to_string()).unwrap();
+    let lab = serde_json::json!({"ros2": {"networks": ["127.0.0.1"]}});
+    std::fs::write(dir.join("lab.json"), lab.to_string()).unwrap();
+    // Published in reverse order: the names, not the order, say which joint is which.
+    let published: Vec<String> = names.iter().rev().cloned().collect();
+    let positions: Vec<String> = (0..7).rev().map(|d| format!("{}", 0.1 * (d as f64 + 1.0))).collect();
+    let body = r#"
+pub=""
+if [ "$PUBLISH" = yes ]; then
+  "$PY" "$PUBLISHER" --names "$NAMES" --positions "$POSITIONS" --seconds 120 > "$DIR/pub.out" 2> "$DIR/standin.err" &
+  pub=$!
+  for _ in $(seq 100); do grep -q ready "$DIR/pub.out" 2>/dev/null && break; sleep 0.1; done
+  sleep 1
+fi
+"$HANDOVER" dry-run --seed 4 --protocol "$DIR/measured.json" --logs "$DIR/logs" --pace 5 \
+  --measure ros2 --robot-config "$DIR/lab.json"
+code=$?
+[ -n "$pub" ] && kill $pub && wait $pub 2>/dev/null
+exit $code
+"#;
+    let vars = [
+        ("PUBLISHER", standin("joint_state_publisher.py")),
+        ("PUBLISH", if publish { "yes" } else { "no" }.to_string()),
+        ("NAMES", published.join(",")),
+        ("POSITIONS", positions.join(",")),
+    ];
+    in_namespace(python, dir, body, &vars)
+}
+
+#[test]
+fn a_joint_state_topic_measures_every_grasp_and_its_silence_falls_back_to_the_region() {
+    let Some(python) = prerequisites() else { return };
+    let dir = tmpdir("joint-states");
+    let (code, err) = measured_dry_run(&python, &dir, true);
+    assert_eq!(code, 0, "{err}");
+    let log = the_log(&dir);
+    let measured: Vec<_> = log
+        .events
+        .iter()
+        .filter_map(|e| match &e.event {
+            Event::GraspRecorded { measured, .. } => Some(measured.clone()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(measured.len(), 26);
+    for m in &measured {
+        let m = m.as_ref().expect("a sample within the window of every grasp");
+        assert_eq!(m.source, MeasurementSource::Ros2);
+        // Mapped by name: model joint d is mocap_r_d, published at 0.1 (d + 1).
+        let expected: Vec<f64> = (0..7).map(|d| 0.1 * (d as f64 + 1.0)).collect();
+        assert_eq!(m.q_rad, expected);
+        assert!(m.offset_s.abs() <= 0.25, "{}", m.offset_s);
+    }
+    let (code, _, verify) = {
+        let out = Command::new(env!("CARGO_BIN_EXE_handover"))
+            .args(["analyze", "--alpha-particles", "50", "--verify"])
+            .arg(dir.join("logs"))
+            .output()
+            .unwrap();
+        (out.status.code(), (), String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    assert_eq!(code, Some(0), "{verify}");
+
+    // Nothing published: every grasp learns from the region, each logged as the fallback.
+    let quiet = tmpdir("joint-states-quiet");
+    let (code, err) = measured_dry_run(&python, &quiet, false);
+    assert_eq!(code, 0, "{err}");
+    let log = the_log(&quiet);
+    let fallbacks = log
+        .messages
+        .iter()
+        .filter(|m| m.topic == "/trial/response")
+        .inspect(|m| assert!(m.value.get("measured").is_none(), "{:?}", m.value))
+        .filter(|m| m.value["learned_from"] == "region")
+        .count();
+    assert_eq!(fallbacks, 26);
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&quiet);
 }

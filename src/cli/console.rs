@@ -112,8 +112,9 @@ pub fn run(args: RunArgs) -> Result<()> {
         return Err(bad(format!("--participant: {e}")));
     }
     require_terminal()?;
+    let arm = robot.connect_arm(&app.config.study)?;
     let robot = robot.connect()?;
-    let mut app = app.with_robot(robot);
+    let mut app = app.with_robot(robot).with_arm(arm);
     if let Some(view) = live.start()? {
         app.config.tap = Some(SharedTap(Box::new(view.clone())));
         app.status = format!("Live view: {}", view.url());
@@ -146,10 +147,11 @@ pub fn resume(
     let (robot, live) = extra;
     let mut config = config_of(&old, dirs, simulate, pace)?;
     require_terminal()?;
+    let arm = robot.connect_arm(&config.study)?;
     let robot = robot.connect()?;
     let view = live.start()?;
     config.tap = view.as_ref().map(|v| SharedTap(Box::new(v.clone())));
-    let mut app = App::resume(config, &old)?.with_robot(robot);
+    let mut app = App::resume(config, &old)?.with_robot(robot).with_arm(arm);
     if let Some(v) = view {
         app.status = format!("{}; live view: {}", app.status, v.url());
     }

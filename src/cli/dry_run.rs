@@ -139,9 +139,14 @@ pub fn run(args: DryRunArgs) -> Result<()> {
         indicatif::ProgressBar::hidden()
     };
     let report_each = args.seeds == 1 && versus.is_none();
+    if versus.is_some() && args.robot.measure.is_some() {
+        return Err(bad("--measure and --versus: the live arm is measured for one protocol's session at a time"));
+    }
     let mut robot = args.robot.connect()?;
+    let arm = args.robot.connect_arm(&study)?;
     let live = args.live.start()?;
     let ctx = RunContext {
+        arm: arm.as_ref(),
         args: &args,
         population: &population,
         logs: &dirs.logs,
@@ -179,6 +184,7 @@ struct RunContext<'a> {
     truth: Option<&'a Lambda>,
     bar: &'a indicatif::ProgressBar,
     live: Option<&'a handover::live::LiveView>,
+    arm: Option<&'a handover::robot::joint_states::JointStateSource>,
 }
 
 /// Every seed's participants under one protocol, each session logged, replayed and analysed,
@@ -190,7 +196,7 @@ fn run_seeds(
     mut robot: Option<&mut Robot>,
     report_each: bool,
 ) -> Result<Vec<SeedRun>> {
-    let RunContext { args, population, logs, truth, bar, live } = *ctx;
+    let RunContext { args, population, logs, truth, bar, live, arm } = *ctx;
     let mut runs = Vec::new();
     for k in 0..args.seeds {
         let seed = args.seed + k;
@@ -210,7 +216,7 @@ fn run_seeds(
                 rec.set_tap(Box::new(view.clone()));
             }
             let driven =
-                drive_session(&mut rec, &p.participant, robot.as_deref_mut(), Duration::from_millis(args.pace))?;
+                drive_session(&mut rec, &p.participant, robot.as_deref_mut(), arm, Duration::from_millis(args.pace))?;
             let path = rec.finish()?;
             if let RobotDrive::GaveUp(why) = driven {
                 anyhow::bail!("{}: the session was aborted: {why}; log: {}", p.start.participant, path.display());

@@ -4,15 +4,14 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use clap::{Args, ValueEnum};
-use handover::belief::Estimate;
+use clap::Args;
 use handover::ergo::LearnMask;
-use handover::experiment::{Arm7, FrontPoint, Planar2, Scenario, Settings, front, front_settings};
+use handover::experiment::{FrontPoint, Scenario, front, front_settings};
 use handover::plot::{FrontPanel, front_plot};
-use handover::select::Tradeoff;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::input::bad;
+use super::sweep::{SweepArgs, SweepScenario};
 
 /// The comfort–accuracy front (the paper's footnote 1): for sweeps of `hybrid`'s β
 /// (maximise I − β·E[cost]) and `budgeted`'s ε (the most informative query whose expected
@@ -24,7 +23,7 @@ use super::input::bad;
 pub struct FrontArgs {
     /// Scenarios, comma-separated.
     #[arg(long, value_enum, value_delimiter = ',', default_value = "planar2,arm7")]
-    scenarios: Vec<FrontScenario>,
+    scenarios: Vec<SweepScenario>,
     /// What is learned, comma-separated: q-star and/or weights (and both).
     #[arg(long, value_delimiter = ',', default_value = "q-star,weights")]
     learn: Vec<LearnMask>,
@@ -34,54 +33,18 @@ pub struct FrontArgs {
     /// ε values of `budgeted`.
     #[arg(long, value_delimiter = ',', default_value = "0,0.1,0.25,0.5,1")]
     epsilons: Vec<f64>,
-    /// Seeds (SEED, SEED+1, …); at least 2, for the intervals.
-    #[arg(long, default_value_t = 5)]
-    seeds: u64,
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-    /// Trials per seed (each with its own truth, menu and test set).
-    #[arg(long, default_value_t = 50)]
-    trials: usize,
-    /// Queries on each trial's menu.
-    #[arg(long, default_value_t = 8)]
-    menu: usize,
-    /// Queries per selector and trial [default: planar2 5, arm7 10].
-    #[arg(long)]
-    iterations: Option<usize>,
-    /// Test-set size per trial (the simulations measure distance here; kept for the rows).
-    #[arg(long, default_value_t = 50)]
-    test_size: usize,
-    /// Particles in the belief.
-    #[arg(long, default_value_t = 1000)]
-    particles: usize,
-    /// Worker threads [default: all cores].
-    #[arg(long)]
-    threads: Option<usize>,
+    #[command(flatten)]
+    sweep: SweepArgs,
     /// Output directory for front.csv and front.svg.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
-}
-
-#[derive(Debug, Clone, Copy, ValueEnum, PartialEq)]
-enum FrontScenario {
-    Planar2,
-    Arm7,
 }
 
 /// The cost ratio and gain the front is judged against (the target for q*).
 pub const TARGET: (f64, f64) = (1.25, 0.8);
 
 pub fn run(a: FrontArgs) -> Result<()> {
-    if !(2..=1000).contains(&a.seeds) {
-        return Err(bad(format!("--seeds is {}, expected 2 to 1000 (intervals are over seeds)", a.seeds)));
-    }
-    for (name, v) in
-        [("--trials", a.trials), ("--menu", a.menu), ("--test-size", a.test_size), ("--particles", a.particles)]
-    {
-        if v == 0 {
-            return Err(bad(format!("{name} is 0, expected a positive count")));
-        }
-    }
+    a.sweep.check()?;
     for (name, values) in [("--betas", &a.betas), ("--epsilons", &a.epsilons)] {
         if let Some(v) = values.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
             return Err(bad(format!("{name} has {v}, expected non-negative numbers")));
@@ -90,29 +53,14 @@ pub fn run(a: FrontArgs) -> Result<()> {
     if a.scenarios.is_empty() || a.learn.is_empty() {
         return Err(bad("--scenarios and --learn need at least one value each"));
     }
-    if a.iterations == Some(0) || a.threads == Some(0) {
-        return Err(bad("--iterations and --threads must be at least 1"));
-    }
-    let threads = a.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start worker threads")?;
+    let (pool, threads) = a.sweep.pool()?;
     if let Some(dir) = &a.out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
     let settings = front_settings(&a.betas, &a.epsilons);
-    let cases: Vec<(Box<dyn Scenario>, LearnMask)> = a
-        .scenarios
-        .iter()
-        .flat_map(|s| {
-            a.learn.iter().map(move |&l| {
-                let sc: Box<dyn Scenario> = match s {
-                    FrontScenario::Planar2 => Box::new(Planar2::default()),
-                    FrontScenario::Arm7 => Box::new(Arm7::default()),
-                };
-                (sc, l)
-            })
-        })
-        .collect();
-    let bar = ProgressBar::new(cases.len() as u64 * a.seeds * settings.len() as u64 * a.trials as u64);
+    let cases: Vec<(Box<dyn Scenario>, LearnMask)> =
+        a.scenarios.iter().flat_map(|s| a.learn.iter().map(move |&l| (s.build(), l))).collect();
+    let bar = ProgressBar::new(cases.len() as u64 * a.sweep.seeds * settings.len() as u64 * a.sweep.trials as u64);
     bar.set_style(
         ProgressStyle::with_template("front [{bar:40}] {pos}/{len} trials, {elapsed} elapsed, ETA {eta}")
             .expect("valid template")
@@ -122,24 +70,8 @@ pub fn run(a: FrontArgs) -> Result<()> {
     let mut points: Vec<FrontPoint> = Vec::new();
     let mut panels_meta = Vec::new();
     for (scenario, learn) in &cases {
-        let base = Settings {
-            learn: *learn,
-            trials: a.trials,
-            menu: a.menu,
-            iterations: a.iterations.unwrap_or_else(|| scenario.default_iterations()),
-            test_size: a.test_size,
-            particles: a.particles,
-            alpha: scenario.default_alpha(*learn),
-            algorithms: Vec::new(),
-            seed: a.seed,
-            tradeoff: Tradeoff::default(),
-            grid_boxes: 10,
-            jitter_fraction: 0.01,
-            bandwidth_fraction: 0.05,
-            estimate: Estimate::Mean,
-            observation: handover::experiment::SimObservation::Configuration,
-        };
-        let p = pool.install(|| front(scenario.as_ref(), &base, a.seeds, &settings, &|| bar.inc(1)));
+        let base = a.sweep.settings(scenario.as_ref(), *learn, Vec::new());
+        let p = pool.install(|| front(scenario.as_ref(), &base, a.sweep.seeds, &settings, &|| bar.inc(1)));
         panels_meta.push((scenario.name(), learn.to_string(), base.alpha, base.iterations));
         points.extend(p);
     }
@@ -182,7 +114,8 @@ pub fn run(a: FrontArgs) -> Result<()> {
                 }
             })
             .collect();
-        let title = format!("Comfort–accuracy front: {} seeds × {} trials, mean over seeds", a.seeds, a.trials);
+        let title =
+            format!("Comfort–accuracy front: {} seeds × {} trials, mean over seeds", a.sweep.seeds, a.sweep.trials);
         front_plot(&dir.join("front.svg"), &title, &panels).map_err(anyhow::Error::msg)?;
         eprintln!("wrote {}/front.csv and front.svg", dir.display());
     }
@@ -198,11 +131,11 @@ fn print_table(
 ) -> Result<()> {
     outln!(
         "comfort–accuracy front: seeds {}–{}, {} trials each, {} particles, menu {} ({seconds:.1} s on {threads} threads)",
-        a.seed,
-        a.seed + a.seeds - 1,
-        a.trials,
-        a.particles,
-        a.menu
+        a.sweep.seed,
+        a.sweep.seed + a.sweep.seeds - 1,
+        a.sweep.trials,
+        a.sweep.particles,
+        a.sweep.menu
     );
     outln!(
         "gain: fraction of active's distance gain over passive at the last iteration; cost: true cost relative to passive's; mean [95 % interval over seeds]"

@@ -37,6 +37,7 @@ mod resume;
 mod robot;
 mod score;
 mod simulate;
+mod sweep;
 
 use clap::{Parser, Subcommand};
 

@@ -4,18 +4,17 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use clap::{Args, ValueEnum};
-use handover::belief::Estimate;
+use clap::Args;
 use handover::ergo::LearnMask;
 use handover::experiment::{
-    Arm7, ObservationRow, Planar2, Scenario, Settings, SimObservation, iterations_to_match_region, observation_label,
-    observation_settings, observation_sweep,
+    ObservationRow, Scenario, iterations_to_match_region, observation_label, observation_settings, observation_sweep,
 };
 use handover::plot::{LinePlot, Series, line_grid};
-use handover::select::{SelectorKind, Tradeoff};
+use handover::select::SelectorKind;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::input::bad;
+use super::sweep::{SweepArgs, SweepScenario};
 
 /// Region, configuration and measured observations side by side (the paper's footnote 2:
 /// the user study observed only the grip taken). Every model learns on the same trials
@@ -38,51 +37,15 @@ pub struct ObservationsArgs {
     /// What is learned: q-star, weights or both.
     #[arg(long, default_value = "q-star")]
     learn: LearnMask,
-    /// Seeds (SEED, SEED+1, …); at least 2, for the intervals.
-    #[arg(long, default_value_t = 5)]
-    seeds: u64,
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-    /// Trials per seed (each with its own truth, menu and test set).
-    #[arg(long, default_value_t = 20)]
-    trials: usize,
-    /// Queries on each trial's menu.
-    #[arg(long, default_value_t = 8)]
-    menu: usize,
-    /// Queries per selector and trial [default: planar2 5, arm7 10].
-    #[arg(long)]
-    iterations: Option<usize>,
-    /// Test-set size per trial.
-    #[arg(long, default_value_t = 100)]
-    test_size: usize,
-    /// Particles in the belief.
-    #[arg(long, default_value_t = 1000)]
-    particles: usize,
-    /// Worker threads [default: all cores]; the numbers do not depend on it.
-    #[arg(long)]
-    threads: Option<usize>,
+    #[command(flatten)]
+    sweep: SweepArgs,
     /// Output directory for observations.csv and observations.svg.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
 }
 
-#[derive(Debug, Clone, Copy, ValueEnum, PartialEq)]
-enum SweepScenario {
-    Planar2,
-    Arm7,
-}
-
 pub fn run(a: ObservationsArgs) -> Result<()> {
-    if !(2..=1000).contains(&a.seeds) {
-        return Err(bad(format!("--seeds is {}, expected 2 to 1000 (intervals are over seeds)", a.seeds)));
-    }
-    for (name, v) in
-        [("--trials", a.trials), ("--menu", a.menu), ("--test-size", a.test_size), ("--particles", a.particles)]
-    {
-        if v == 0 {
-            return Err(bad(format!("{name} is 0, expected a positive count")));
-        }
-    }
+    a.sweep.check()?;
     let (min, max) = handover::ergo::SIGMA_DEG;
     if let Some(s) = a.sigmas_deg.iter().find(|s| !(s.is_finite() && (min..=max).contains(*s))) {
         return Err(bad(format!("--sigmas-deg has {s}, expected {min} to {max:.1} degrees")));
@@ -90,28 +53,16 @@ pub fn run(a: ObservationsArgs) -> Result<()> {
     if a.scenarios.is_empty() || a.algorithms.is_empty() {
         return Err(bad("--scenarios and --algorithms need at least one value each"));
     }
-    if a.iterations == Some(0) || a.threads == Some(0) {
-        return Err(bad("--iterations and --threads must be at least 1"));
-    }
     let mut algorithms = a.algorithms.clone();
     algorithms.dedup();
-    let threads = a.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start worker threads")?;
+    let (pool, threads) = a.sweep.pool()?;
     if let Some(dir) = &a.out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
     let observations = observation_settings(&a.sigmas_deg);
-    let scenarios: Vec<Box<dyn Scenario>> = a
-        .scenarios
-        .iter()
-        .map(|s| -> Box<dyn Scenario> {
-            match s {
-                SweepScenario::Planar2 => Box::new(Planar2::default()),
-                SweepScenario::Arm7 => Box::new(Arm7::default()),
-            }
-        })
-        .collect();
-    let bar = ProgressBar::new(scenarios.len() as u64 * a.seeds * observations.len() as u64 * a.trials as u64);
+    let scenarios: Vec<Box<dyn Scenario>> = a.scenarios.iter().map(|s| s.build()).collect();
+    let sw = &a.sweep;
+    let bar = ProgressBar::new(scenarios.len() as u64 * sw.seeds * observations.len() as u64 * sw.trials as u64);
     bar.set_style(
         ProgressStyle::with_template("observations [{bar:40}] {pos}/{len} trials, {elapsed} elapsed, ETA {eta}")
             .expect("valid template")
@@ -121,25 +72,9 @@ pub fn run(a: ObservationsArgs) -> Result<()> {
     let mut rows: Vec<ObservationRow> = Vec::new();
     let mut meta = Vec::new();
     for scenario in &scenarios {
-        let base = Settings {
-            learn: a.learn,
-            trials: a.trials,
-            menu: a.menu,
-            iterations: a.iterations.unwrap_or_else(|| scenario.default_iterations()),
-            test_size: a.test_size,
-            particles: a.particles,
-            alpha: scenario.default_alpha(a.learn),
-            algorithms: algorithms.clone(),
-            seed: a.seed,
-            tradeoff: Tradeoff::default(),
-            grid_boxes: 10,
-            jitter_fraction: 0.01,
-            bandwidth_fraction: 0.05,
-            estimate: Estimate::Mean,
-            observation: SimObservation::Configuration,
-        };
+        let base = sw.settings(scenario.as_ref(), a.learn, algorithms.clone());
         rows.extend(
-            pool.install(|| observation_sweep(scenario.as_ref(), &base, a.seeds, &observations, &|| bar.inc(1))),
+            pool.install(|| observation_sweep(scenario.as_ref(), &base, sw.seeds, &observations, &|| bar.inc(1))),
         );
         meta.push((scenario.name(), base.alpha, base.iterations));
     }
@@ -197,7 +132,7 @@ pub fn run(a: ObservationsArgs) -> Result<()> {
             .collect();
         let title = format!(
             "Learning from the region, the configuration, or the arm measured with noise σ: {} seeds × {} trials, learning {}",
-            a.seeds, a.trials, a.learn
+            sw.seeds, sw.trials, a.learn
         );
         line_grid(&dir.join("observations.svg"), &title, &plots, algorithms.len()).map_err(anyhow::Error::msg)?;
         eprintln!("wrote {}/observations.csv and observations.svg", dir.display());
@@ -215,12 +150,12 @@ fn print_table(
     outln!(
         "observation models: learning {}, seeds {}–{}, {} trials each, {} particles, menu {}, test set {} ({seconds:.1} s on {threads} threads)",
         a.learn,
-        a.seed,
-        a.seed + a.seeds - 1,
-        a.trials,
-        a.particles,
-        a.menu,
-        a.test_size
+        a.sweep.seed,
+        a.sweep.seed + a.sweep.seeds - 1,
+        a.sweep.trials,
+        a.sweep.particles,
+        a.sweep.menu,
+        a.sweep.test_size
     );
     outln!(
         "at the last query: mean [95 % interval over seeds]; − region: paired difference (same trials) [95 % interval], Wilcoxon p; queries: the first at which the mean distance is at most the region's after all of them"

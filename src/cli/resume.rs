@@ -107,6 +107,7 @@ pub fn run(args: ResumeArgs) -> Result<()> {
     let _lock = ParticipantLock::acquire(&log_folder(&old.path), &old.start.participant, "resume --dry-run")?;
     // The robot first: a bad robot option is refused before the continuation's file exists.
     let mut robot = args.robot.connect()?;
+    let arm = args.robot.connect_arm(&study)?;
     let path = continuation_path(&old, chrono::Utc::now());
     let mut rec = RecordedSession::resume(&old, &path, now_ns())?;
     if let Some(view) = args.live.start()? {
@@ -115,7 +116,7 @@ pub fn run(args: ResumeArgs) -> Result<()> {
     eprintln!("resumed {} ({} events) into {}", old.path.display(), old.events.len(), rec.path().display());
     let person = SimulatedPerson { truth, alpha: study.protocol.learning.alpha };
     let participant = ScriptedParticipant { person };
-    let driven = drive_session(&mut rec, &participant, robot.as_mut(), Duration::from_millis(args.pace))?;
+    let driven = drive_session(&mut rec, &participant, robot.as_mut(), arm.as_ref(), Duration::from_millis(args.pace))?;
     let path = rec.finish().context("cannot finish the log")?;
     if let RobotDrive::GaveUp(why) = driven {
         anyhow::bail!("the session was aborted: {why}; log: {}", path.display());

@@ -4,6 +4,8 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
+use handover::protocol::{ObservationModel, Study};
+use handover::robot::joint_states::JointStateSource;
 use handover::robot::{Robot, RobotSettings, hook::CommandHook, ros2::Ros2Link};
 
 use super::input::{bad, read_text};
@@ -12,6 +14,13 @@ use super::input::{bad, read_text};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum RobotKind {
     /// ROS 2 topics over DDS (no ROS install needed).
+    Ros2,
+}
+
+/// Where the participant's arm is measured live.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum MeasureKind {
+    /// A ROS 2 sensor_msgs/msg/JointState topic.
     Ros2,
 }
 
@@ -34,21 +43,25 @@ pub struct RobotArgs {
     /// trial_topic, status_topic, networks, resend_s}.
     #[arg(long, value_name = "FILE")]
     pub robot_config: Option<PathBuf>,
+    /// Measure the participant's arm live (a protocol with "observation": "measured"): a
+    /// measuring system publishes sensor_msgs/msg/JointState on
+    /// /handover/participant/joint_states (--robot-config's ros2.joint_states_topic), named
+    /// as the protocol's learning.measurement.joint_names; each grasp takes the sample nearest
+    /// its time within the protocol's window, else learns from the handle.
+    #[arg(long, value_enum)]
+    pub measure: Option<MeasureKind>,
 }
 
 impl RobotArgs {
     /// The robot, connected; none when no robot option is given.
     pub fn connect(&self) -> Result<Option<Robot>> {
         if self.robot.is_none() && self.robot_command.is_none() {
-            if self.robot_config.is_some() {
-                return Err(bad("--robot-config is given without --robot or --robot-command"));
+            if self.robot_config.is_some() && self.measure.is_none() {
+                return Err(bad("--robot-config is given without --robot, --robot-command or --measure"));
             }
             return Ok(None);
         }
-        let settings = match &self.robot_config {
-            Some(path) => RobotSettings::from_json(&read_text(path)?, &path.display().to_string()).map_err(bad)?,
-            None => RobotSettings::default(),
-        };
+        let settings = self.settings()?;
         let robot = match (&self.robot, &self.robot_command) {
             (Some(RobotKind::Ros2), _) => Robot::new(settings, |tx, s| Ok(Box::new(Ros2Link::new(tx, s)?)))
                 .map_err(|e| anyhow::anyhow!("cannot reach the robot: {e}"))?,
@@ -58,5 +71,28 @@ impl RobotArgs {
             (None, None) => return Ok(None),
         };
         Ok(Some(robot))
+    }
+
+    fn settings(&self) -> Result<RobotSettings> {
+        Ok(match &self.robot_config {
+            Some(path) => RobotSettings::from_json(&read_text(path)?, &path.display().to_string()).map_err(bad)?,
+            None => RobotSettings::default(),
+        })
+    }
+
+    /// The live arm measurement, subscribed; none without --measure.
+    pub fn connect_arm(&self, study: &Study) -> Result<Option<JointStateSource>> {
+        let Some(MeasureKind::Ros2) = self.measure else { return Ok(None) };
+        let learning = &study.protocol.learning;
+        let (ObservationModel::Measured, Some(m)) = (learning.observation, &learning.measurement) else {
+            return Err(bad(format!(
+                "--measure needs a protocol with \"observation\": \"measured\" (this one's is '{}')",
+                learning.observation.name()
+            )));
+        };
+        let settings = self.settings()?;
+        let source = JointStateSource::new(&settings.ros2, &m.joint_names)
+            .map_err(|e| anyhow::anyhow!("cannot subscribe to the arm's joint states: {e}"))?;
+        Ok(Some(source))
     }
 }

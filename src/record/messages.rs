@@ -159,7 +159,13 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                 }),
             };
             out.push((Topic::TrialResponse, value(&m)));
-            out.push((Topic::HumanArm, value(&scene::arm(s.time_ns, &study.arm, &q))));
+            let mut arm = scene::arm(s.time_ns, &study.arm, &q);
+            if measuring {
+                let measured: Option<ArmConfig> =
+                    record.measured.as_ref().and_then(|g| g.measurement.q_rad[..].try_into().ok());
+                scene::measured_arm(&mut arm, s.time_ns, &study.arm, measured.as_ref());
+            }
+            out.push((Topic::HumanArm, value(&arm)));
             let joints = JointAngles {
                 trial: trial_fields(index, view, session),
                 config_index: record.config as u32,

@@ -26,6 +26,8 @@ const CHIN_HEIGHT: f64 = 0.870;
 const HEAD_TOP: f64 = 1.0;
 
 const ARM: Color = Color { r: 0.9, g: 0.6, b: 0.2, a: 1.0 };
+/// The measured arm: cyan, against the mapped configuration's orange.
+const MEASURED: Color = Color { r: 0.1, g: 0.75, b: 0.85, a: 1.0 };
 const BODY: Color = Color { r: 0.55, g: 0.55, b: 0.6, a: 1.0 };
 const NOT_OFFERED: Color = Color { r: 0.6, g: 0.6, b: 0.6, a: 0.35 };
 const OBJECT_BODY: Color = Color { r: 0.2, g: 0.2, b: 0.2, a: 1.0 };
@@ -131,6 +133,23 @@ pub fn arm(time_ns: u64, arm: &HumanArm, q: &ArmConfig) -> SceneUpdate {
     let mut e = SceneEntity::new(time_ns, SHOULDER, "human_arm");
     e.lines.push(strip(arm.points(q).into_iter().map(point).collect(), 0.03, ARM));
     SceneUpdate { deletions: Vec::new(), entities: vec![e] }
+}
+
+/// The arm as a measuring system saw it, beside [`arm`]'s: entity `measured_arm`, thinner, in
+/// [`MEASURED`]; `None` deletes the last one (a grasp without a measurement).
+pub fn measured_arm(update: &mut SceneUpdate, time_ns: u64, arm: &HumanArm, q: Option<&ArmConfig>) {
+    match q {
+        Some(q) => {
+            let mut e = SceneEntity::new(time_ns, SHOULDER, "measured_arm");
+            e.lines.push(strip(arm.points(q).into_iter().map(point).collect(), 0.015, MEASURED));
+            update.entities.push(e);
+        }
+        None => update.deletions.push(super::foxglove::SceneEntityDeletion {
+            timestamp: Time::from_ns(time_ns),
+            kind: 0,
+            id: "measured_arm".into(),
+        }),
+    }
 }
 
 fn axes(length: f64) -> Vec<ArrowPrimitive> {

@@ -4,6 +4,7 @@
 //! sides as events (`/robot/command`, `/robot/status`); the operator keeps the last word.
 
 pub mod hook;
+pub mod joint_states;
 pub mod ros2;
 mod settings;
 

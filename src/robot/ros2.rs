@@ -18,7 +18,7 @@ use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions, QosProfile};
 use serde::{Deserialize, Serialize};
 
-use super::{Link, Report, RobotCommand, RobotSettings, parse_status};
+use super::{Link, Report, RobotCommand, RobotSettings, Ros2Settings, parse_status};
 use crate::session::RobotLinkKind;
 
 /// `builtin_interfaces/msg/Time`.
@@ -110,26 +110,40 @@ struct Endpoints {
     status: Subscription<String>,
 }
 
-fn endpoints(settings: &RobotSettings) -> Result<Endpoints, String> {
-    let r = &settings.ros2;
+/// A node of its own DDS participant in the settings' domain, on the settings' networks, its
+/// spinner (discovery, matching) on a thread of its own.
+pub(super) fn start_node(r: &Ros2Settings, node_name: &str) -> Result<Node, String> {
     let mut builder = DomainParticipantBuilder::new(r.domain_id);
     if !r.networks.is_empty() {
         builder = builder.with_only_networks(r.networks.clone());
     }
     let participant = builder.build().map_err(|e| format!("ROS 2 DDS participant: {e}"))?;
     let context = Context::from_domain_participant(participant).map_err(|e| format!("ROS 2 context: {e}"))?;
-    let name = NodeName::new("/", "handover_console").map_err(|e| format!("ROS 2 node name: {e}"))?;
+    let name = NodeName::new("/", node_name).map_err(|e| format!("ROS 2 node name: {e}"))?;
     let mut node =
         context.new_node(name, NodeOptions::new().enable_rosout(false)).map_err(|e| format!("ROS 2 node: {e:?}"))?;
     let spinner = node.spinner().map_err(|e| format!("ROS 2 spinner: {e}"))?;
     std::thread::spawn(move || {
         let _ = futures::executor::block_on(spinner.spin());
     });
-    let qos = default_qos();
-    let topic = |node: &mut Node, name: &str, package: &str, ty: &str| {
-        let n = Name::parse(name).map_err(|e| format!("ROS 2 topic {name}: {e}"))?;
-        node.create_topic(&n, MessageTypeName::new(package, ty), &qos).map_err(|e| format!("ROS 2 topic {name}: {e}"))
-    };
+    Ok(node)
+}
+
+/// A topic of a ROS 2 message type with the default QoS.
+pub(super) fn topic(
+    node: &mut Node,
+    name: &str,
+    package: &str,
+    ty: &str,
+) -> Result<ros2_client::dds::rustdds::Topic, String> {
+    let n = Name::parse(name).map_err(|e| format!("ROS 2 topic {name}: {e}"))?;
+    node.create_topic(&n, MessageTypeName::new(package, ty), &default_qos())
+        .map_err(|e| format!("ROS 2 topic {name}: {e}"))
+}
+
+fn endpoints(settings: &RobotSettings) -> Result<Endpoints, String> {
+    let r = &settings.ros2;
+    let mut node = start_node(r, "handover_console")?;
     let pose_topic = topic(&mut node, &r.pose_topic, "geometry_msgs", "PoseStamped")?;
     let trial_topic = topic(&mut node, &r.trial_topic, "std_msgs", "String")?;
     let status_topic = topic(&mut node, &r.status_topic, "std_msgs", "String")?;

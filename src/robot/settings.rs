@@ -67,6 +67,9 @@ pub struct Ros2Settings {
     pub trial_topic: String,
     /// `std_msgs/msg/String`: `moving`, `at_pose`, `failed` from the robot.
     pub status_topic: String,
+    /// `sensor_msgs/msg/JointState`: the participant's arm from a measuring system
+    /// (`--measure ros2`).
+    pub joint_states_topic: String,
     /// Local addresses whose interfaces DDS uses (all when empty).
     pub networks: Vec<IpAddr>,
     /// Seconds to wait for the robot's subscription before publishing anyway, and between
@@ -81,6 +84,7 @@ impl Default for Ros2Settings {
             pose_topic: "/handover/target_pose".into(),
             trial_topic: "/handover/trial".into(),
             status_topic: "/handover/robot_status".into(),
+            joint_states_topic: "/handover/participant/joint_states".into(),
             networks: Vec::new(),
             resend_s: 2.0,
         }
@@ -166,9 +170,12 @@ impl RobotSettings {
         if r.domain_id > 232 {
             return Err(format!("ros2.domain_id is {}, expected 0 to 232", r.domain_id));
         }
-        for (field, topic) in
-            [("pose_topic", &r.pose_topic), ("trial_topic", &r.trial_topic), ("status_topic", &r.status_topic)]
-        {
+        for (field, topic) in [
+            ("pose_topic", &r.pose_topic),
+            ("trial_topic", &r.trial_topic),
+            ("status_topic", &r.status_topic),
+            ("joint_states_topic", &r.joint_states_topic),
+        ] {
             validate_topic(topic).map_err(|e| format!("ros2.{field}: {e}"))?;
         }
         if r.networks.len() > 16 {

@@ -19,8 +19,9 @@ use crate::dryrun::now_ns;
 use crate::participant::{ScriptedParticipant, SimulatedPerson};
 use crate::protocol::Study;
 use crate::record::{LogContents, RecordError, RecordedSession, SharedTap, continuation_path, log_folder};
+use crate::robot::joint_states::JointStateSource;
 use crate::robot::{PresentOn, Report, Robot, RobotCommand, command_for};
-use crate::session::{Event, Prompt, RobotState, Session, Stamped};
+use crate::session::{ArmMeasurement, Event, Prompt, RobotState, Session, Stamped};
 use crate::setup::{Plan, SetupConfig, SetupError, lock_for, plan_session, start_session};
 use crate::study_dir::{ParticipantLock, StudyDirs};
 
@@ -125,6 +126,8 @@ pub struct App {
     pub(super) robot: Option<Robot>,
     /// The command whose event is being logged: sent once it is on disk.
     robot_outbox: Option<RobotCommand>,
+    /// The participant's arm measured live, if the lab measures it.
+    arm: Option<JointStateSource>,
 }
 
 impl App {
@@ -212,6 +215,7 @@ impl App {
             closed: None,
             exit_message: None,
             robot: None,
+            arm: None,
             robot_outbox: None,
         }
     }
@@ -220,6 +224,28 @@ impl App {
     pub fn with_robot(mut self, robot: Option<Robot>) -> Self {
         self.robot = robot;
         self
+    }
+
+    pub fn with_arm(mut self, arm: Option<JointStateSource>) -> Self {
+        self.arm = arm;
+        self
+    }
+
+    /// The live arm measurement, if one is subscribed.
+    pub fn arm(&self) -> Option<&JointStateSource> {
+        self.arm.as_ref()
+    }
+
+    /// A grasp keyed now, measured by the live source when there is one: the sample nearest
+    /// now within the protocol's window (none: the trial learns from the handle).
+    pub(super) fn grasp(&mut self, region: String, simulated: Option<ArmMeasurement>) {
+        let now = now_ns();
+        let window = self.config.study.protocol.learning.measurement.as_ref().map(|m| m.window_s);
+        let measured = match (&self.arm, window) {
+            (Some(arm), Some(w)) => arm.at(now, w),
+            _ => simulated,
+        };
+        self.submit_stamped(Stamped { time_ns: now, event: Event::GraspRecorded { region, measured } });
     }
 
     /// The robot, if one is connected.
@@ -339,6 +365,10 @@ impl App {
             match (&event, self.robot.is_some(), self.session().and_then(Session::robot)) {
                 (Event::QueryPresented { .. }, true, None) => self.send_robot(),
                 (Event::QueryPresented { .. }, true, Some(_)) => {}
+                (Event::GraspRecorded { .. }, _, _) if self.arm.is_some() => {
+                    let Event::GraspRecorded { region, measured } = event else { unreachable!() };
+                    self.grasp(region, measured)
+                }
                 _ => self.submit(event),
             }
         }
@@ -427,6 +457,7 @@ impl App {
                             self.overlay = None;
                         }
                         self.after_event();
+                        self.say_measurement(&event);
                         match event {
                             Event::RobotCommanded { .. } => self.dispatch_robot(),
                             Event::RobotReported {
@@ -473,6 +504,28 @@ impl App {
         if let Some(w) = self.worker.as_mut() {
             w.submit(stamped);
         }
+    }
+
+    /// After a grasp of a measured protocol: a measurement that implies another grip than the
+    /// key, or none in time, is said (and logged in `/trial/response`).
+    fn say_measurement(&mut self, event: &Event) {
+        let Event::GraspRecorded { region, measured } = event else { return };
+        let Some(session) = self.session() else { return };
+        let Some(m) = session.study().protocol.learning.measurement.as_ref() else { return };
+        let Some(t) = session.trials().last() else { return };
+        self.status = match (&t.measured, measured) {
+            (Some(g), _) if !g.agrees(t.region) => {
+                let q = session.query(t.query);
+                let implied = &session.study().object(q).regions[q.regions[g.implied_region]].id;
+                format!(
+                    "The measured arm is nearest a '{implied}' configuration, the key said '{region}': the belief learned from the measurement; u undoes the key if it was wrong"
+                )
+            }
+            (None, _) => {
+                format!("No arm sample within ±{} s of the grasp: this trial learned from the handle", m.window_s)
+            }
+            _ => return,
+        };
     }
 
     /// After an event took effect: keep the questionnaire cursor in step, and finish the

@@ -100,7 +100,7 @@ impl App {
                 match q.regions.get(k) {
                     Some(&r) => {
                         let region = s.study().object(q).regions[r].id.clone();
-                        self.submit(Event::GraspRecorded { region, measured: None });
+                        self.grasp(region, None);
                     }
                     None => self.status = format!("Only {} regions are offered", q.regions.len()),
                 }

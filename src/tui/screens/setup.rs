@@ -84,10 +84,10 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
     );
     lines.push(Line::from(vec![Span::styled("Robot: ", theme::title()), Span::raw(robot)]));
     if app.config.study.protocol.learning.observation == crate::protocol::ObservationModel::Measured {
-        let measuring = if app.config.simulate {
-            "simulated: the participant's configuration with the protocol's noise"
-        } else {
-            "no live source in the console yet: every grasp learns from the handle taken (logged as the fallback)"
+        let measuring = match (app.arm(), app.config.simulate) {
+            (Some(arm), _) => arm.describe(),
+            (None, true) => "simulated: the participant's configuration with the protocol's noise".to_string(),
+            (None, false) => "none (--measure ros2 subscribes to a measuring system): every grasp learns from the handle taken, logged as the fallback".to_string(),
         };
         lines.push(Line::from(vec![Span::styled("Arm measurement: ", theme::title()), Span::raw(measuring)]));
     }

@@ -1,0 +1,107 @@
+//! The options and checks shared by the commands that sweep a setting over seeds on the
+//! simulated scenarios (`front`, `observations`).
+
+use anyhow::{Context, Result};
+use clap::{Args, ValueEnum};
+use handover::belief::Estimate;
+use handover::ergo::LearnMask;
+use handover::experiment::{Arm7, Planar2, Scenario, Settings, SimObservation};
+use handover::select::{SelectorKind, Tradeoff};
+
+use super::input::bad;
+
+/// A scenario a sweep runs on.
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq)]
+pub enum SweepScenario {
+    Planar2,
+    Arm7,
+}
+
+impl SweepScenario {
+    pub fn build(self) -> Box<dyn Scenario> {
+        match self {
+            SweepScenario::Planar2 => Box::new(Planar2::default()),
+            SweepScenario::Arm7 => Box::new(Arm7::default()),
+        }
+    }
+}
+
+/// Seeds, trials and the learner's size.
+#[derive(Debug, Args)]
+pub struct SweepArgs {
+    /// Seeds (SEED, SEED+1, …); at least 2, for the intervals.
+    #[arg(long, default_value_t = 5)]
+    pub seeds: u64,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Trials per seed (each with its own truth, menu and test set).
+    #[arg(long, default_value_t = 20)]
+    pub trials: usize,
+    /// Queries on each trial's menu.
+    #[arg(long, default_value_t = 8)]
+    pub menu: usize,
+    /// Queries per selector and trial [default: planar2 5, arm7 10].
+    #[arg(long)]
+    pub iterations: Option<usize>,
+    /// Test-set size per trial.
+    #[arg(long, default_value_t = 100)]
+    pub test_size: usize,
+    /// Particles in the belief.
+    #[arg(long, default_value_t = 1000)]
+    pub particles: usize,
+    /// Worker threads [default: all cores]; the numbers do not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+impl SweepArgs {
+    /// Refuses counts the sweep cannot use (exit 2).
+    pub fn check(&self) -> Result<()> {
+        if !(2..=1000).contains(&self.seeds) {
+            return Err(bad(format!("--seeds is {}, expected 2 to 1000 (intervals are over seeds)", self.seeds)));
+        }
+        for (name, v) in [
+            ("--trials", self.trials),
+            ("--menu", self.menu),
+            ("--test-size", self.test_size),
+            ("--particles", self.particles),
+        ] {
+            if v == 0 {
+                return Err(bad(format!("{name} is 0, expected a positive count")));
+            }
+        }
+        if self.iterations == Some(0) || self.threads == Some(0) {
+            return Err(bad("--iterations and --threads must be at least 1"));
+        }
+        Ok(())
+    }
+
+    /// The worker threads, and their number.
+    pub fn pool(&self) -> Result<(rayon::ThreadPool, usize)> {
+        let threads = self.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+        let pool =
+            rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start worker threads")?;
+        Ok((pool, threads))
+    }
+
+    /// A scenario's settings for this sweep, with its default α and iterations.
+    pub fn settings(&self, scenario: &dyn Scenario, learn: LearnMask, algorithms: Vec<SelectorKind>) -> Settings {
+        Settings {
+            learn,
+            trials: self.trials,
+            menu: self.menu,
+            iterations: self.iterations.unwrap_or_else(|| scenario.default_iterations()),
+            test_size: self.test_size,
+            particles: self.particles,
+            alpha: scenario.default_alpha(learn),
+            algorithms,
+            seed: self.seed,
+            tradeoff: Tradeoff::default(),
+            grid_boxes: 10,
+            jitter_fraction: 0.01,
+            bandwidth_fraction: 0.05,
+            estimate: Estimate::Mean,
+            observation: SimObservation::Configuration,
+        }
+    }
+}
