@@ -260,3 +260,133 @@ fn measurements_from_a_file_refit_a_session_beside_its_logged_fit() {
         assert!(err.contains(says), "{a:?}: {err}");
     }
 }
+
+/// The C3D points (Vicon's angle outputs) and components the model's joints are read from.
+const C3D_JOINTS: [(&str, usize); 7] = [
+    ("RShoulderAngles", 0),
+    ("RShoulderAngles", 1),
+    ("RShoulderAngles", 2),
+    ("RElbowAngles", 0),
+    ("RElbowAngles", 2),
+    ("RWristAngles", 0),
+    ("RWristAngles", 1),
+];
+
+#[test]
+fn a_c3d_file_of_joint_angles_refits_as_the_same_samples_in_a_csv() {
+    let dir = tmpdir("c3d");
+    let logs = dir.join("logs");
+    let (code, _, err) = handover(&[
+        "dry-run",
+        "--protocol",
+        measured_protocol(&dir, 4.0).to_str().unwrap(),
+        "--logs",
+        logs.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let log = read_log(&handover::record::mcap_files(&logs)[0]).unwrap();
+    let grasps: Vec<(u64, Vec<f64>)> = log
+        .events
+        .iter()
+        .filter_map(|s| match &s.event {
+            Event::GraspRecorded { measured: Some(m), .. } => Some((s.time_ns, m.q_rad.clone())),
+            _ => None,
+        })
+        .collect();
+    // 10 frames a second from a second before the first grasp; the frame nearest each grasp
+    // holds its angles (degrees, as C3D's f32 has them), every other frame is invalid.
+    let start = grasps[0].0 - 1_000_000_000;
+    let frames = ((grasps.last().unwrap().0 - start) / 100_000_000 + 10) as usize;
+    let labels = ["RShoulderAngles", "RElbowAngles", "RWristAngles"];
+    let invalid = c3dio::MarkerPoint { point: [0.0; 3], residual: -1.0, cameras: [false; 7] };
+    let mut cells = vec![invalid; frames * labels.len()];
+    let mut csv_rows = Vec::new();
+    for (t, q) in &grasps {
+        let k = ((t - start) as f64 / 1e8).round() as usize;
+        for (d, (label, axis)) in C3D_JOINTS.iter().enumerate() {
+            let p = labels.iter().position(|l| l == label).unwrap();
+            let cell = &mut cells[k * labels.len() + p];
+            cell.residual = 0.0;
+            cell.point[*axis] = q[d].to_degrees() as f32;
+        }
+        let angles: Vec<f64> = C3D_JOINTS
+            .iter()
+            .map(|(label, axis)| {
+                f64::from(cells[k * labels.len() + labels.iter().position(|l| l == label).unwrap()].point[*axis])
+            })
+            .collect();
+        csv_rows.push((start + k as u64 * 100_000_000, angles));
+    }
+    let mut c3d = c3dio::C3d::new();
+    // The groups the writer writes parameters into.
+    for group in ["POINT", "ANALOG", "EVENT", "EVENT_CONTEXT", "FORCE_PLATFORM", "MANUFACTURER", "SEG"] {
+        c3d.parameters.insert_group(group, String::new());
+    }
+    c3d.points.labels = labels.iter().map(|l| l.to_string()).collect();
+    c3d.points.descriptions = labels.iter().map(|_| String::new()).collect();
+    c3d.points.units = ['d', 'e', 'g', ' '];
+    c3d.points.frame_rate = 10.0;
+    c3d.points.scale_factor = 1.0;
+    c3d.points.first_frame = 1;
+    c3d.points.last_frame = frames as u16;
+    c3d.points.points = grid::Grid::from_vec(cells, labels.len());
+    let c3d_path = dir.join("capture.c3d");
+    c3d.write_path(c3d_path.clone()).unwrap();
+    let names: Vec<String> = C3D_JOINTS.iter().map(|(l, a)| format!("{l}.{}", ["x", "y", "z"][*a])).collect();
+    let csv_path = dir.join("capture.csv");
+    let mut w = csv::Writer::from_path(&csv_path).unwrap();
+    let mut header = vec!["time".to_string()];
+    header.extend(names.iter().map(|n| format!("{n}_deg")));
+    w.write_record(&header).unwrap();
+    for (t, angles) in &csv_rows {
+        let mut row = vec![format!("{}.{:09}", t / 1_000_000_000, t % 1_000_000_000)];
+        row.extend(angles.iter().map(|a| a.to_string()));
+        w.write_record(&row).unwrap();
+    }
+    w.flush().unwrap();
+
+    let start_text =
+        chrono::DateTime::from_timestamp_nanos(start as i64).to_rfc3339_opts(chrono::SecondsFormat::Nanos, true);
+    let refit = |file: &Path, extra: &[&str], out: &str| {
+        let mut args = vec!["analyze", "--alpha-particles", "50", logs.to_str().unwrap()];
+        let out = dir.join(out);
+        let joint_names = names.join(",");
+        args.extend(["--measurements", file.to_str().unwrap(), "--joint-names", &joint_names]);
+        args.extend(["--out", out.to_str().unwrap()]);
+        args.extend(extra);
+        let (code, stdout, err) = handover(&args);
+        assert_eq!(code, 0, "{err}");
+        assert!(stdout.contains("26 of 26 grasps measured"), "{stdout}");
+        std::fs::read_to_string(out.join("pilot/measured_fit.csv")).unwrap()
+    };
+    let from_c3d = refit(&c3d_path, &["--c3d-start", &start_text], "out-c3d");
+    let from_csv = refit(&csv_path, &[], "out-csv");
+    assert_eq!(from_c3d, from_csv, "the same samples give the same fits");
+
+    // A C3D file without its start time, or with a name the file has no point for, is refused.
+    for (extra, says) in [
+        (vec![], "needs --c3d-start"),
+        (vec!["--c3d-start", &start_text, "--joint-names", "a.x,b.x,c.x,d.x,e.x,f.x,g.x"], "no point labelled 'a'"),
+    ] {
+        let mut args = vec!["analyze", logs.to_str().unwrap(), "--measurements", c3d_path.to_str().unwrap()];
+        args.extend(extra.iter().copied());
+        let (code, _, err) = handover(&args);
+        assert_eq!(code, 2, "{err}");
+        assert!(err.contains(says), "{err}");
+    }
+    // A file that only says it is one is refused, not read.
+    let fake = dir.join("fake.c3d");
+    std::fs::write(&fake, [0u8; 2048]).unwrap();
+    let (code, _, err) = handover(&[
+        "analyze",
+        logs.to_str().unwrap(),
+        "--measurements",
+        fake.to_str().unwrap(),
+        "--c3d-start",
+        &start_text,
+        "--joint-names",
+        &names.join(","),
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("not a C3D file the reader can take"), "{err}");
+}

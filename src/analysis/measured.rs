@@ -111,6 +111,66 @@ impl MeasurementSeries {
         Ok(Self { path: path.to_path_buf(), samples })
     }
 
+    /// Reads the joint angles of a C3D file (a maintained pure-Rust reader, `c3dio`): each joint
+    /// name is `<point label>.<x|y|z>`, the component of a point that holds angles in degrees
+    /// (as Vicon's Plug-in Gait writes `RShoulderAngles`, `RElbowAngles`, …). C3D has no
+    /// wall-clock time: frame k (from 0) is at `start_ns` + k / rate. A frame whose point is
+    /// invalid (a negative residual) gives no sample.
+    pub fn read_c3d(path: &Path, joint_names: &[String], start_ns: u64) -> Result<Self, MeasurementFileError> {
+        let fail = |why: String| MeasurementFileError { path: path.to_path_buf(), why };
+        let len = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?.len();
+        if len > MAX_MEASUREMENT_BYTES {
+            return Err(fail(format!("is {len} bytes, expected at most {MAX_MEASUREMENT_BYTES} (the file budget)")));
+        }
+        let bytes = std::fs::read(path).map_err(|e| fail(e.to_string()))?;
+        check_c3d_header(&bytes).map_err(|why| fail(format!("not a C3D file the reader can take: {why}")))?;
+        // The reader is not hardened against every malformed file: a panic is a refusal.
+        let c3d = std::panic::catch_unwind(|| c3dio::C3d::from_bytes(&bytes).map_err(|e| format!("{e:?}")))
+            .map_err(|_| fail("the C3D reader could not parse it".into()))?
+            .map_err(|e| fail(format!("not a C3D file: {e}")))?;
+        let points = &c3d.points;
+        let rate = f64::from(points.frame_rate);
+        if !(rate.is_finite() && (1.0..=10_000.0).contains(&rate)) {
+            return Err(fail(format!("POINT:RATE is {rate}, expected 1 to 10000 frames a second")));
+        }
+        let mut columns = Vec::with_capacity(JOINTS);
+        for name in joint_names {
+            let (label, axis) = name
+                .rsplit_once('.')
+                .and_then(|(l, a)| Some((l, ["x", "y", "z"].iter().position(|c| *c == a)?)))
+                .ok_or_else(|| fail(format!("joint name '{name}' is not '<point label>.<x|y|z>'")))?;
+            let column = points
+                .labels
+                .iter()
+                .position(|l| l.trim() == label)
+                .ok_or_else(|| fail(format!("no point labelled '{label}' (for joint '{name}')")))?;
+            columns.push((column, axis));
+        }
+        let frames = points.points.rows();
+        if frames > MAX_MEASUREMENT_SAMPLES {
+            return Err(fail(format!(
+                "has {frames} frames, expected at most {MAX_MEASUREMENT_SAMPLES} (the sample budget)"
+            )));
+        }
+        let mut samples = Vec::with_capacity(frames);
+        'frames: for k in 0..frames {
+            let mut q = [0.0; JOINTS];
+            for (d, &(column, axis)) in columns.iter().enumerate() {
+                let Some(p) = points.points.get(k, column) else { continue 'frames };
+                let v = f64::from(p.point[axis]).to_radians();
+                if p.residual < 0.0 || !(v.is_finite() && v.abs() <= 10.0) {
+                    continue 'frames;
+                }
+                q[d] = v;
+            }
+            samples.push((start_ns + (k as f64 / rate * 1e9).round() as u64, q));
+        }
+        if samples.is_empty() {
+            return Err(fail("has no frame with every joint's angle".into()));
+        }
+        Ok(Self { path: path.to_path_buf(), samples })
+    }
+
     /// The sample nearest `time_ns` within ±`window_s`, as a measurement at that time.
     pub fn at(&self, time_ns: u64, window_s: f64) -> Option<ArmMeasurement> {
         let i = self.samples.partition_point(|(t, _)| *t < time_ns);
@@ -125,6 +185,44 @@ impl MeasurementSeries {
             offset_s: offset(best),
         })
     }
+}
+
+/// The most points a C3D file may have.
+const MAX_C3D_POINTS: usize = 10_000;
+
+/// Checks what the C3D reader trusts before it reads: the parameter block's place, the
+/// processor type, and the frames × points the data section implies (a budget).
+fn check_c3d_header(bytes: &[u8]) -> Result<(), String> {
+    if bytes.len() < 1024 {
+        return Err(format!("{} bytes, shorter than a header and a parameter block", bytes.len()));
+    }
+    let block = usize::from(bytes[0]);
+    if block < 2 || bytes.len() < 512 * block {
+        return Err(format!(
+            "the parameter block is said to start at block {block}, expected 2 or more within the file"
+        ));
+    }
+    let processor = bytes[512 * (block - 1) + 3];
+    let big_endian = match processor {
+        84 | 85 => false,
+        86 => true,
+        other => return Err(format!("processor type {other}, expected 84, 85 or 86")),
+    };
+    let word = |i: usize| {
+        let b = [bytes[i], bytes[i + 1]];
+        usize::from(if big_endian { u16::from_be_bytes(b) } else { u16::from_le_bytes(b) })
+    };
+    let (points, first, last) = (word(2), word(6), word(8));
+    if first == 0 || last < first {
+        return Err(format!("frames {first} to {last}, expected 1 ≤ first ≤ last"));
+    }
+    if points > MAX_C3D_POINTS || (last - first + 1) > MAX_MEASUREMENT_SAMPLES {
+        return Err(format!(
+            "{points} points × {} frames, over the budget of {MAX_C3D_POINTS} points and {MAX_MEASUREMENT_SAMPLES} frames",
+            last - first + 1
+        ));
+    }
+    Ok(())
 }
 
 /// One program's belief after its last update, by the logged model and by the measured one.

@@ -19,11 +19,20 @@ use super::input::bad;
 pub struct MeasuredArgs {
     /// A CSV of time-stamped joint angles (a `time` column, seconds since the Unix epoch or
     /// RFC 3339, and `<joint>_deg` or `<joint>_rad` per joint, named as the protocol's
-    /// `learning.measurement.joint_names`, else the model's joint names): each session is
-    /// re-fitted with every grasp observed as the sample nearest its time, and both fits
-    /// are reported side by side (with --out, measured_fit.csv).
+    /// `learning.measurement.joint_names`, else the model's joint names), or a C3D file
+    /// (`.c3d`; joint names `<point label>.<x|y|z>` of angle points in degrees, with
+    /// --c3d-start): each session is re-fitted with every grasp observed as the sample nearest
+    /// its time, and both fits are reported side by side (with --out, measured_fit.csv).
     #[arg(long, value_name = "FILE")]
     measurements: Option<PathBuf>,
+    /// The measuring system's names of the model's 7 joints, in the model's order (a C3D
+    /// file's `<point label>.<x|y|z>`) [default: the protocol's
+    /// `learning.measurement.joint_names`, else the model's joint names].
+    #[arg(long, value_delimiter = ',', value_name = "NAME,…")]
+    joint_names: Option<Vec<String>>,
+    /// The wall-clock time of a C3D file's first frame (RFC 3339), which C3D does not record.
+    #[arg(long, value_name = "TIME")]
+    c3d_start: Option<String>,
     /// The measuring system's σ per joint, degrees: one value for every joint or one per
     /// joint [default: the protocol's `learning.measurement.sigma_deg`].
     #[arg(long, value_delimiter = ',', value_name = "DEG,…")]
@@ -73,8 +82,26 @@ impl MeasuredArgs {
 
     /// Refuses options without a file and bad values before any work (exit 2).
     pub fn check(&self) -> Result<()> {
-        if self.measurements.is_none() && (self.sigma_deg.is_some() || self.window_s.is_some()) {
-            return Err(bad("--sigma-deg and --window-s are for --measurements"));
+        if self.measurements.is_none()
+            && (self.sigma_deg.is_some() || self.window_s.is_some() || self.joint_names.is_some())
+        {
+            return Err(bad("--sigma-deg, --window-s and --joint-names are for --measurements"));
+        }
+        if let Some(names) = &self.joint_names {
+            if names.len() != JOINTS {
+                return Err(bad(format!("--joint-names has {} names, expected {JOINTS}", names.len())));
+            }
+            if let Some(n) = names.iter().find(|n| !(1..=64).contains(&n.len())) {
+                return Err(bad(format!("--joint-names has '{}', expected 1 to 64 characters", n.escape_debug())));
+            }
+        }
+        match (self.is_c3d(), &self.c3d_start) {
+            (true, None) => return Err(bad("--measurements FILE.c3d needs --c3d-start (its first frame's time)")),
+            (false, Some(_)) => return Err(bad("--c3d-start is for --measurements FILE.c3d")),
+            (true, Some(_)) => {
+                self.c3d_start_ns()?;
+            }
+            (false, None) => {}
         }
         if let Some(s) = &self.sigma_deg {
             if s.len() != 1 && s.len() != JOINTS {
@@ -94,6 +121,19 @@ impl MeasuredArgs {
         Ok(())
     }
 
+    fn is_c3d(&self) -> bool {
+        self.measurements.as_ref().and_then(|p| p.extension()).is_some_and(|e| e.eq_ignore_ascii_case("c3d"))
+    }
+
+    fn c3d_start_ns(&self) -> Result<u64> {
+        let text = self.c3d_start.as_deref().unwrap_or_default();
+        chrono::DateTime::parse_from_rfc3339(text)
+            .ok()
+            .and_then(|t| t.timestamp_nanos_opt())
+            .and_then(|n| u64::try_from(n).ok())
+            .ok_or_else(|| bad(format!("--c3d-start is '{text}', expected an RFC 3339 time after 1970")))
+    }
+
     /// The measuring system for a session: the options over the session's protocol.
     fn spec(&self, a: &Analysed) -> Result<MeasurementSpec> {
         let study = study_of(&a.log)?;
@@ -111,9 +151,11 @@ impl MeasuredArgs {
         };
         Ok(MeasurementSpec {
             sigma_deg,
-            joint_names: logged
-                .as_ref()
-                .map_or_else(|| JOINT_NAMES.iter().map(|n| n.to_string()).collect(), |m| m.joint_names.clone()),
+            joint_names: match (&self.joint_names, &logged) {
+                (Some(names), _) => names.clone(),
+                (None, Some(m)) => m.joint_names.clone(),
+                (None, None) => JOINT_NAMES.iter().map(|n| n.to_string()).collect(),
+            },
             window_s: self.window_s.or(logged.map(|m| m.window_s)).unwrap_or(0.5),
         })
     }
@@ -126,7 +168,12 @@ impl MeasuredArgs {
         for a in analysed {
             let spec = self.spec(a)?;
             if series.as_ref().is_none_or(|(names, _)| *names != spec.joint_names) {
-                let s = MeasurementSeries::read_csv(path, &spec.joint_names).map_err(|e| bad(e.to_string()))?;
+                let s = if self.is_c3d() {
+                    MeasurementSeries::read_c3d(path, &spec.joint_names, self.c3d_start_ns()?)
+                } else {
+                    MeasurementSeries::read_csv(path, &spec.joint_names)
+                }
+                .map_err(|e| bad(e.to_string()))?;
                 series = Some((spec.joint_names.clone(), s));
             }
             let (_, s) = series.as_ref().expect("read just above");
