@@ -171,19 +171,25 @@ fn measurements_csv(log: &Path, path: &Path, degrees: bool, keep: impl Fn(usize)
     w.flush().unwrap();
 }
 
-#[test]
-fn measurements_from_a_file_refit_a_session_beside_its_logged_fit() {
-    let dir = tmpdir("posthoc");
+/// One dry run of the measured protocol (σ = 4°): its logs folder and its log.
+fn one_measured_session(dir: &Path) -> (PathBuf, PathBuf) {
     let logs = dir.join("logs");
     let (code, _, err) = handover(&[
         "dry-run",
         "--protocol",
-        measured_protocol(&dir, 4.0).to_str().unwrap(),
+        measured_protocol(dir, 4.0).to_str().unwrap(),
         "--logs",
         logs.to_str().unwrap(),
     ]);
     assert_eq!(code, 0, "{err}");
     let log = handover::record::mcap_files(&logs).remove(0);
+    (logs, log)
+}
+
+#[test]
+fn measurements_from_a_file_refit_a_session_beside_its_logged_fit() {
+    let dir = tmpdir("posthoc");
+    let (logs, log) = one_measured_session(&dir);
     let all = dir.join("all.csv");
     measurements_csv(&log, &all, false, |_| true);
     let out = dir.join("out");
@@ -275,17 +281,9 @@ const C3D_JOINTS: [(&str, usize); 7] = [
 #[test]
 fn a_c3d_file_of_joint_angles_refits_as_the_same_samples_in_a_csv() {
     let dir = tmpdir("c3d");
-    let logs = dir.join("logs");
-    let (code, _, err) = handover(&[
-        "dry-run",
-        "--protocol",
-        measured_protocol(&dir, 4.0).to_str().unwrap(),
-        "--logs",
-        logs.to_str().unwrap(),
-    ]);
-    assert_eq!(code, 0, "{err}");
-    let log = read_log(&handover::record::mcap_files(&logs)[0]).unwrap();
-    let grasps: Vec<(u64, Vec<f64>)> = log
+    let (logs, log) = one_measured_session(&dir);
+    let grasps: Vec<(u64, Vec<f64>)> = read_log(&log)
+        .unwrap()
         .events
         .iter()
         .filter_map(|s| match &s.event {
