@@ -259,3 +259,81 @@ fn the_front_anchors_passive_and_active_and_writes_csv_and_svg() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--seeds is 1"), "{err}");
 }
+
+#[test]
+fn shards_merged_are_byte_for_byte_the_whole_run() {
+    let dir = tmp("shards");
+    let _ = std::fs::remove_dir_all(&dir);
+    let run = |extra: &[&str]| {
+        let mut args = vec!["simulate", "planar2", "--seeds", "2", "--algorithms", "active,passive,random"];
+        args.extend(SMALL);
+        args.extend(extra);
+        handover(&args)
+    };
+    let s = |name: &str| dir.join(name).to_str().unwrap().to_string();
+    let (code, _, err) = run(&["--out", &s("whole")]);
+    assert_eq!(code, 0, "{err}");
+    for k in 0..3 {
+        let (code, _, err) = run(&["--shard", &format!("{k}/3"), "--out", &s(&format!("shard{k}"))]);
+        assert_eq!(code, 0, "{err}");
+        assert!(dir.join(format!("shard{k}/shard.json")).exists());
+    }
+    // In any order of the directories.
+    let (code, _, err) = run(&["--merge", &s("shard2"), &s("shard0"), &s("shard1"), "--out", &s("merged")]);
+    assert_eq!(code, 0, "{err}");
+    for file in ["metrics.csv", "summary.csv", "tests.csv"] {
+        let (a, b) = (
+            std::fs::read(dir.join("whole").join(file)).unwrap(),
+            std::fs::read(dir.join("merged").join(file)).unwrap(),
+        );
+        assert!(a == b, "{file} differs");
+    }
+    // A shard missing, given twice, or of another run is refused (exit 2).
+    for (args, says) in [
+        (vec!["--merge", &s("shard0"), &s("shard1")], "shards 2 of 3 are missing"),
+        (vec!["--merge", &s("shard0"), &s("shard1"), &s("shard1"), &s("shard2")], "is given twice"),
+        (vec!["--beta", "0.5", "--merge", &s("shard0"), &s("shard1"), &s("shard2")], "a shard of another run"),
+        (vec!["--shard", "3/3", "--out", &s("x")], "expected K/N"),
+        (vec!["--shard", "0/2"], "--shard needs --out"),
+    ] {
+        let (code, _, err) = run(&args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_slurm_array_example_runs_its_shards_and_merges_them_without_a_cluster() {
+    let dir = tmp("slurm");
+    let _ = std::fs::remove_dir_all(&dir);
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/examples/simulate-array.sbatch");
+    let opts = format!("planar2 --seeds 2 --algorithms active,passive {}", SMALL.join(" "));
+    let task = |vars: &[(&str, String)]| {
+        let out = std::process::Command::new("bash")
+            .arg(&script)
+            .env("HANDOVER", env!("CARGO_BIN_EXE_handover"))
+            .env("OPTS", &opts)
+            .env("OUT", &dir)
+            .env("SLURM_ARRAY_TASK_COUNT", "3")
+            .envs(vars.iter().map(|(k, v)| (*k, v.as_str())))
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{vars:?}: {}", String::from_utf8_lossy(&out.stderr));
+    };
+    for k in 0..3 {
+        task(&[("SLURM_ARRAY_TASK_ID", k.to_string())]);
+    }
+    task(&[("MERGE", "1".to_string())]);
+    let (code, _, err) = handover(
+        &[
+            &["simulate", "planar2", "--seeds", "2", "--algorithms", "active,passive"][..],
+            &SMALL[..],
+            &["--out", dir.join("whole").to_str().unwrap()],
+        ]
+        .concat(),
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(std::fs::read(dir.join("metrics.csv")).unwrap() == std::fs::read(dir.join("whole/metrics.csv")).unwrap());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -95,6 +95,15 @@ pub struct SimulateArgs {
     /// Output directory for CSV and SVG (created if missing); without it only the table is printed.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Run only shard K of N (0-based) of the seeds × trials, as one task of a batch
+    /// scheduler's job array: writes DIR/metrics.csv and DIR/shard.json (--out DIR), to be
+    /// joined by --merge.
+    #[arg(long, value_name = "K/N", conflicts_with = "merge")]
+    shard: Option<String>,
+    /// Join the shard directories of this same command (the same options, each run with
+    /// --shard) into exactly what the whole run writes to --out, without running anything.
+    #[arg(long, value_name = "DIR", num_args = 1.., conflicts_with = "shard")]
+    merge: Vec<PathBuf>,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum, PartialEq)]
@@ -218,11 +227,45 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     );
     bar.set_prefix(format!("{} {}", scenario.name(), settings.learn));
     let started = Instant::now();
-    let mut rows = Vec::new();
-    for k in 0..args.seeds {
-        let run = Settings { seed: settings.seed + k, ..settings.clone() };
-        rows.extend(pool.install(|| experiment::simulate(scenario.as_ref(), &run, &|| bar.inc(1))));
+    let fingerprint = format!("{} {settings:?} seeds {}", scenario.name(), args.seeds);
+    if let Some(text) = &args.shard {
+        let (k, n) = parse_shard(text)?;
+        let dir = args.out.as_ref().ok_or_else(|| bad("--shard needs --out DIR for the shard's files"))?;
+        let units = experiment::shard_units(args.seeds, settings.trials, k, n);
+        bar.set_length(units.len() as u64);
+        let mut rows = Vec::new();
+        for seed in 0..args.seeds {
+            let trials: Vec<usize> = units.iter().filter(|u| u.0 == seed).map(|u| u.1).collect();
+            let run = Settings { seed: settings.seed + seed, ..settings.clone() };
+            rows.extend(pool.install(|| experiment::simulate_trials(scenario.as_ref(), &run, &trials, &|| bar.inc(1))));
+        }
+        bar.finish_and_clear();
+        write_csv(&dir.join("metrics.csv"), &rows)?;
+        let manifest = experiment::ShardManifest { run: fingerprint, shard: k, of: n, rows: rows.len() };
+        let path = dir.join(experiment::SHARD_MANIFEST);
+        std::fs::write(&path, serde_json::to_string_pretty(&manifest)? + "\n")
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        eprintln!(
+            "shard {k}/{n}: {} of {} trials × seeds, {} rows in {:.1} s; wrote {}/metrics.csv and {}",
+            units.len(),
+            settings.trials as u64 * args.seeds,
+            rows.len(),
+            started.elapsed().as_secs_f64(),
+            dir.display(),
+            experiment::SHARD_MANIFEST
+        );
+        return Ok(());
     }
+    let rows = if args.merge.is_empty() {
+        let mut rows = Vec::new();
+        for k in 0..args.seeds {
+            let run = Settings { seed: settings.seed + k, ..settings.clone() };
+            rows.extend(pool.install(|| experiment::simulate(scenario.as_ref(), &run, &|| bar.inc(1))));
+        }
+        rows
+    } else {
+        merge_shards(&args.merge, &fingerprint, &settings, args.seeds)?
+    };
     bar.finish_and_clear();
     let elapsed = started.elapsed();
     let summary = summarise(&rows);
@@ -270,6 +313,73 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         eprintln!("wrote {}/{{metrics,summary,tests}}.csv and one SVG per measure", dir.display());
     }
     Ok(())
+}
+
+/// `K/N` with N from 1 to 100000 shards and K below N.
+fn parse_shard(text: &str) -> Result<(usize, usize)> {
+    let parsed = text.split_once('/').and_then(|(k, n)| Some((k.trim().parse().ok()?, n.trim().parse().ok()?)));
+    match parsed {
+        Some((k, n)) if (1..=100_000).contains(&n) && k < n => Ok((k, n)),
+        _ => Err(bad(format!("--shard is '{text}', expected K/N with 1 ≤ N ≤ 100000 and 0 ≤ K < N"))),
+    }
+}
+
+/// The rows of every shard of this run, checked (the same run, each shard once, all there)
+/// and in the whole run's order.
+fn merge_shards(dirs: &[PathBuf], fingerprint: &str, s: &Settings, seeds: u64) -> Result<Vec<experiment::MetricRow>> {
+    let per_unit = s.algorithms.len() * (s.iterations + 1);
+    let expected = seeds as usize * s.trials * per_unit;
+    let mut seen: Vec<Option<&Path>> = Vec::new();
+    let mut rows = Vec::with_capacity(expected);
+    for dir in dirs {
+        let path = dir.join(experiment::SHARD_MANIFEST);
+        let text = super::input::read_text(&path)?;
+        let m: experiment::ShardManifest = super::input::parse_json(&text, &path.display().to_string())?;
+        if m.run != fingerprint {
+            return Err(bad(format!("{}: a shard of another run (other options than this command's)", dir.display())));
+        }
+        if seen.is_empty() {
+            seen = vec![None; m.of];
+        }
+        if m.of != seen.len() || m.shard >= m.of {
+            return Err(bad(format!(
+                "{}: shard {}/{}, expected one of {} shards",
+                dir.display(),
+                m.shard,
+                m.of,
+                seen.len()
+            )));
+        }
+        if let Some(first) = seen[m.shard].replace(dir) {
+            return Err(bad(format!(
+                "shard {}/{} is given twice: {} and {}",
+                m.shard,
+                m.of,
+                first.display(),
+                dir.display()
+            )));
+        }
+        let shard_rows = experiment::read_metrics(&dir.join("metrics.csv"), expected).map_err(bad)?;
+        if shard_rows.len() != m.rows {
+            return Err(bad(format!(
+                "{}: metrics.csv has {} rows, its manifest says {}",
+                dir.display(),
+                shard_rows.len(),
+                m.rows
+            )));
+        }
+        rows.extend(shard_rows);
+    }
+    let missing: Vec<String> =
+        seen.iter().enumerate().filter(|(_, d)| d.is_none()).map(|(k, _)| k.to_string()).collect();
+    if !missing.is_empty() {
+        return Err(bad(format!("shards {} of {} are missing", missing.join(", "), seen.len())));
+    }
+    if rows.len() != expected {
+        return Err(bad(format!("the shards hold {} rows, the run has {expected}", rows.len())));
+    }
+    experiment::merge_order(&mut rows, &s.algorithms);
+    Ok(rows)
 }
 
 fn write_csv<T: serde::Serialize>(path: &Path, rows: &[T]) -> Result<()> {

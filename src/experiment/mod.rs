@@ -6,6 +6,7 @@ mod arm7;
 mod front;
 mod observations;
 mod planar2;
+mod shards;
 mod summary;
 mod two_sets;
 
@@ -25,6 +26,7 @@ pub use observations::{
     observation_sweep,
 };
 pub use planar2::Planar2;
+pub use shards::{SHARD_MANIFEST, ShardManifest, merge_order, read_metrics, shard_units};
 pub use summary::{MEASURES, PairedTest, SummaryRow, paired_tests, summarise};
 
 pub use two_sets::{TwoSetsStep, two_sets};
@@ -242,10 +244,22 @@ fn measure_choice(set: &FeasibleSet, choice: usize, sigma: f64, rng: &mut Seeded
 /// Runs every trial (in parallel; the result does not depend on the number of threads),
 /// calling `progress` after each trial.
 pub fn simulate(scenario: &dyn Scenario, s: &Settings, progress: &(dyn Fn() + Sync)) -> Vec<MetricRow> {
+    let all: Vec<usize> = (0..s.trials).collect();
+    simulate_trials(scenario, s, &all, progress)
+}
+
+/// Runs the given trials of a run only (a shard of it): each trial's rows are those the
+/// whole run has for it, since a trial's draws depend only on the seed and the trial.
+pub fn simulate_trials(
+    scenario: &dyn Scenario,
+    s: &Settings,
+    trials: &[usize],
+    progress: &(dyn Fn() + Sync),
+) -> Vec<MetricRow> {
     let prior = scenario.prior(s.learn);
-    let per_trial: Vec<Vec<MetricRow>> = (0..s.trials)
-        .into_par_iter()
-        .map(|trial| {
+    let per_trial: Vec<Vec<MetricRow>> = trials
+        .par_iter()
+        .map(|&trial| {
             let rows = run_trial(scenario, s, &prior, trial);
             progress();
             rows
