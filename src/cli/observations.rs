@@ -188,11 +188,8 @@ fn print_table(
                 .map_or(String::new(), |x| format!("{:.2} [{:.2}, {:.2}]", x.mean, x.ci_low, x.ci_high));
             let diff = match (r.minus_region, r.minus_region_ci_low, r.minus_region_ci_high) {
                 (Some(d), Some(l), Some(h)) => format!(
-                    "{d:+.3} [{l:+.3}, {h:+.3}] p {}",
-                    r.minus_region_p.map_or("–".to_string(), |p| {
-                        // Below f64's resolution near 1 the normal tail reads 0.
-                        if p < 1e-15 { "< 1e-15".to_string() } else { format!("{p:.2e}") }
-                    })
+                    "{d:+.3} [{l:+.3}, {h:+.3}] {}",
+                    r.minus_region_p.map_or("p –".to_string(), super::simulate::format_p)
                 ),
                 _ => String::new(),
             };

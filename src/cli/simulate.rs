@@ -395,7 +395,7 @@ fn write_csv<T: serde::Serialize>(path: &Path, rows: &[T]) -> Result<()> {
 const COMPARED: [&str; 3] = ["distance_to_truth", "test_log_likelihood", "true_cost"];
 
 /// A p-value as printed: below what the normal approximation resolves, a bound.
-fn format_p(p: f64) -> String {
+pub(super) fn format_p(p: f64) -> String {
     if p < 1e-15 { "p<1e-15".to_string() } else { format!("p={p:.2e}") }
 }
 
