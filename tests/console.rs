@@ -489,16 +489,44 @@ fn a_robot_that_does_not_answer_times_out() {
     assert!(!a.robot().unwrap().busy());
 }
 
+/// The default protocol observing the measured arm with noise `sigma_deg` per joint.
+fn measured_config(dir: &Path, simulate: bool, sigma_deg: f64) -> AppConfig {
+    let mut c = config(dir, simulate);
+    let mut v: serde_json::Value = serde_json::from_str(&c.protocol_text).unwrap();
+    v["learning"]["observation"] = "measured".into();
+    v["learning"]["measurement"] = serde_json::json!({ "sigma_deg": vec![sigma_deg; 7] });
+    c.protocol_text = v.to_string();
+    c.study = Arc::new(Study::from_json(&c.protocol_text, "measured").unwrap());
+    c
+}
+
+#[test]
+fn a_rehearsal_says_when_the_measured_arm_implies_another_grip_than_the_key() {
+    let dir = tmpdir("measured-rehearsal");
+    // 40° of noise: some measurements lie nearer the other grip's configurations.
+    let mut a = App::new(measured_config(&dir, true, 40.0));
+    a.tick(T0);
+    press(&mut a, KeyCode::Enter);
+    let mut said = None;
+    for i in 0..200 {
+        a.tick(T0 + i);
+        a.wait_idle();
+        if a.status.contains("The measured arm is nearest") {
+            said = Some(a.status.clone());
+            break;
+        }
+    }
+    let said = said.expect("a disagreement within the session");
+    let t = a.session().unwrap().trials().last().unwrap().clone();
+    let g = t.measured.as_ref().expect("the rehearsal measures every grasp");
+    assert!(!g.agrees(t.region), "{said}");
+    assert!(said.contains("the belief learned from the measurement"), "{said}");
+}
+
 #[test]
 fn a_measured_protocol_without_a_measuring_system_learns_from_the_handle_and_says_so() {
     let dir = tmpdir("measured");
-    let mut c = config(&dir, false);
-    let mut v: serde_json::Value = serde_json::from_str(&c.protocol_text).unwrap();
-    v["learning"]["observation"] = "measured".into();
-    v["learning"]["measurement"] = serde_json::json!({"sigma_deg": vec![5; 7]});
-    c.protocol_text = v.to_string();
-    c.study = Arc::new(Study::from_json(&c.protocol_text, "measured").unwrap());
-    let mut a = App::new(c);
+    let mut a = App::new(measured_config(&dir, false, 5.0));
     a.tick(T0);
     let setup = screen(&mut a, 160, 40);
     assert!(setup.contains("Arm measurement: none (--measure ros2"), "{setup}");
