@@ -10,10 +10,11 @@ use std::sync::Arc;
 
 use crate::ergo::{FeasibleSet, Observation};
 use crate::kinematics::JOINTS;
+use crate::protocol::Study;
 use crate::protocol::{MeasurementSpec, ObservationModel};
-use crate::record::{LogContents, RecordError, replay_with, study_of};
+use crate::record::{LogContents, RecordError, replay_with};
 use crate::session::{
-    Applied, ArmMeasurement, BeliefSummary, Learner, MeasurementSource, QueryRef, Session, TrialRecord,
+    Applied, ArmMeasurement, BeliefSummary, Learner, MeasurementSource, QueryRef, Session, SessionError, TrialRecord,
 };
 
 /// The largest measurements file read, bytes.
@@ -254,12 +255,13 @@ pub struct MeasuredRefit {
 /// from the session's own prior draw and learns from the queries the session asked, in
 /// order (an active learner would have asked others had it learned otherwise; the re-fit
 /// answers what the same handovers say when the arm is measured).
+/// `logged_study` is the log's own (`record::study_of`), built once by the caller.
 pub fn refit(
     log: &LogContents,
+    logged_study: Arc<Study>,
     series: &MeasurementSeries,
     spec: &MeasurementSpec,
 ) -> Result<MeasuredRefit, RecordError> {
-    let logged_study = Arc::new(study_of(log)?);
     let logged_observation = logged_study.protocol.learning.observation;
     // The standing trials with the times of their grasps.
     let mut standing: Vec<(TrialRecord, u64)> = Vec::new();
@@ -290,10 +292,19 @@ pub fn refit(
         let obs = match &m {
             Some(m) => {
                 measured += 1;
-                let obs = Observation::measured(set.configs(), &m.q_rad, &ctx.sigma)
-                    .expect("a file's samples are 7 finite angles within ±10 rad and σ is validated");
-                let nearest = obs.nearest().expect("a measured observation of a non-empty set");
-                disagreements += usize::from(set.region_of(nearest) != t.region);
+                let obs =
+                    Observation::measured(set.configs(), &m.q_rad, &ctx.sigma).map_err(|e| RecordError::Replay {
+                        path: log.path.clone(),
+                        index: 0,
+                        topic: "/trial/response".into(),
+                        source: Box::new(SessionError::BadMeasurement {
+                            query: fresh.query(t.query).query.id.clone(),
+                            why: e.to_string(),
+                        }),
+                    })?;
+                if obs.nearest().is_some_and(|nearest| set.region_of(nearest) != t.region) {
+                    disagreements += 1;
+                }
                 obs
             }
             None => Observation::Region(set.regions()[t.region].clone().collect()),
@@ -303,7 +314,7 @@ pub fn refit(
                 path: log.path.clone(),
                 index: 0,
                 topic: "/trial/response".into(),
-                source: Box::new(crate::session::SessionError::Degenerate {
+                source: Box::new(SessionError::Degenerate {
                     query: fresh.query(t.query).query.id.clone(),
                     why: e.to_string(),
                 }),

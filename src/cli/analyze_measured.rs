@@ -2,12 +2,13 @@
 //! capture system, beside their logged fits.
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use anyhow::{Context, Result};
 use clap::Args;
 use handover::analysis::{Analysed, MeasuredRefit, MeasurementSeries, refit};
 use handover::kinematics::{JOINT_NAMES, JOINTS};
-use handover::protocol::{MeasurementSpec, limits};
+use handover::protocol::{MeasurementSpec, Study, limits};
 use handover::record::study_of;
 use handover::session::program_letter;
 use serde::Serialize;
@@ -135,8 +136,7 @@ impl MeasuredArgs {
     }
 
     /// The measuring system for a session: the options over the session's protocol.
-    fn spec(&self, a: &Analysed) -> Result<MeasurementSpec> {
-        let study = study_of(&a.log)?;
+    fn spec(&self, a: &Analysed, study: &Study) -> Result<MeasurementSpec> {
         let logged = study.protocol.learning.measurement.clone();
         let sigma_deg = match (&self.sigma_deg, &logged) {
             (Some(s), _) if s.len() == 1 => vec![s[0]; JOINTS],
@@ -163,21 +163,28 @@ impl MeasuredArgs {
     /// Re-fits every session; bad files and options are input errors (exit 2).
     pub fn run(&self, analysed: &[Analysed]) -> Result<Vec<RefitReport>> {
         let Some(path) = &self.measurements else { return Ok(Vec::new()) };
-        let mut series: Option<(Vec<String>, MeasurementSeries)> = None;
+        // The file is read once per set of joint names (once, when the sessions share a
+        // protocol).
+        let mut read: Vec<(Vec<String>, MeasurementSeries)> = Vec::new();
         let mut out = Vec::new();
         for a in analysed {
-            let spec = self.spec(a)?;
-            if series.as_ref().is_none_or(|(names, _)| *names != spec.joint_names) {
-                let s = if self.is_c3d() {
-                    MeasurementSeries::read_c3d(path, &spec.joint_names, self.c3d_start_ns()?)
-                } else {
-                    MeasurementSeries::read_csv(path, &spec.joint_names)
+            let study = Arc::new(study_of(&a.log)?);
+            let spec = self.spec(a, &study)?;
+            let k = match read.iter().position(|(names, _)| *names == spec.joint_names) {
+                Some(k) => k,
+                None => {
+                    let s = if self.is_c3d() {
+                        MeasurementSeries::read_c3d(path, &spec.joint_names, self.c3d_start_ns()?)
+                    } else {
+                        MeasurementSeries::read_csv(path, &spec.joint_names)
+                    }
+                    .map_err(|e| bad(e.to_string()))?;
+                    read.push((spec.joint_names.clone(), s));
+                    read.len() - 1
                 }
-                .map_err(|e| bad(e.to_string()))?;
-                series = Some((spec.joint_names.clone(), s));
-            }
-            let (_, s) = series.as_ref().expect("read just above");
-            let r = refit(&a.log, s, &spec).with_context(|| format!("cannot re-fit {}", a.log.path.display()))?;
+            };
+            let r = refit(&a.log, study, &read[k].1, &spec)
+                .with_context(|| format!("cannot re-fit {}", a.log.path.display()))?;
             out.push(report(a, &r));
         }
         Ok(out)

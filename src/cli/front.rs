@@ -8,7 +8,6 @@ use clap::Args;
 use handover::ergo::LearnMask;
 use handover::experiment::{FrontPoint, Scenario, front, front_settings};
 use handover::plot::{FrontPanel, front_plot};
-use indicatif::{ProgressBar, ProgressStyle};
 
 use super::input::bad;
 use super::sweep::{SweepArgs, SweepScenario};
@@ -60,12 +59,7 @@ pub fn run(a: FrontArgs) -> Result<()> {
     let settings = front_settings(&a.betas, &a.epsilons);
     let cases: Vec<(Box<dyn Scenario>, LearnMask)> =
         a.scenarios.iter().flat_map(|s| a.learn.iter().map(move |&l| (s.build(), l))).collect();
-    let bar = ProgressBar::new(cases.len() as u64 * a.sweep.seeds * settings.len() as u64 * a.sweep.trials as u64);
-    bar.set_style(
-        ProgressStyle::with_template("front [{bar:40}] {pos}/{len} trials, {elapsed} elapsed, ETA {eta}")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
+    let bar = a.sweep.progress("front", cases.len() as u64 * settings.len() as u64);
     let started = Instant::now();
     let mut points: Vec<FrontPoint> = Vec::new();
     let mut panels_meta = Vec::new();

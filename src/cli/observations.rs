@@ -11,7 +11,6 @@ use handover::experiment::{
 };
 use handover::plot::{LinePlot, Series, line_grid};
 use handover::select::SelectorKind;
-use indicatif::{ProgressBar, ProgressStyle};
 
 use super::input::bad;
 use super::sweep::{SweepArgs, SweepScenario};
@@ -62,12 +61,7 @@ pub fn run(a: ObservationsArgs) -> Result<()> {
     let observations = observation_settings(&a.sigmas_deg);
     let scenarios: Vec<Box<dyn Scenario>> = a.scenarios.iter().map(|s| s.build()).collect();
     let sw = &a.sweep;
-    let bar = ProgressBar::new(scenarios.len() as u64 * sw.seeds * observations.len() as u64 * sw.trials as u64);
-    bar.set_style(
-        ProgressStyle::with_template("observations [{bar:40}] {pos}/{len} trials, {elapsed} elapsed, ETA {eta}")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
+    let bar = sw.progress("observations", scenarios.len() as u64 * observations.len() as u64);
     let started = Instant::now();
     let mut rows: Vec<ObservationRow> = Vec::new();
     let mut meta = Vec::new();

@@ -84,6 +84,19 @@ impl SweepArgs {
         Ok((pool, threads))
     }
 
+    /// The progress bar of `runs` runs of every seed's trials, named `name`.
+    pub fn progress(&self, name: &str, runs: u64) -> indicatif::ProgressBar {
+        let bar = indicatif::ProgressBar::new(runs * self.seeds * self.trials as u64);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(&format!(
+                "{name} [{{bar:40}}] {{pos}}/{{len}} trials, {{elapsed}} elapsed, ETA {{eta}}"
+            ))
+            .expect("a valid template with a plain name")
+            .progress_chars("=> "),
+        );
+        bar
+    }
+
     /// A scenario's settings for this sweep, with its default α and iterations.
     pub fn settings(&self, scenario: &dyn Scenario, learn: LearnMask, algorithms: Vec<SelectorKind>) -> Settings {
         Settings {
