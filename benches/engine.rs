@@ -5,7 +5,7 @@
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use handover::SeededRng;
 use handover::belief::{Belief, ComponentPrior, Prior};
-use handover::ergo::{ConfigSet, FeasibleSet, Observation};
+use handover::ergo::{ConfigSet, FeasibleSet, Observation, SetPass};
 use handover::select::{Active, OutcomeModel, Problem, Selector};
 use rand::{RngExt, SeedableRng};
 
@@ -25,6 +25,29 @@ fn menu(queries: usize, configs: usize, rng: &mut SeededRng) -> Vec<FeasibleSet>
             FeasibleSet::new(ConfigSet::from_rows(&rows).unwrap())
         })
         .collect()
+}
+
+/// One particle's pass over one feasible set (costs, weights, sums): the kernel every
+/// likelihood and selector runs, per particle–configuration pair.
+fn set_pass(c: &mut Criterion) {
+    let mut g = c.benchmark_group("set_pass");
+    let mut rng = SeededRng::seed_from_u64(4);
+    let b = belief(256, &mut rng);
+    for m in [300, 2000] {
+        let set = &menu(1, m, &mut rng)[0];
+        let mut scratch = SetPass::scratch(m);
+        g.throughput(Throughput::Elements((256 * m) as u64));
+        g.bench_function(format!("256_particles_x_{m}_configs"), |bench| {
+            bench.iter(|| {
+                let mut total = 0.0;
+                for p in b.particles().chunks_exact(2 * D) {
+                    total += SetPass::run(set.configs(), &p[..D], &p[D..], 10.0, &mut scratch).sum;
+                }
+                total
+            })
+        });
+    }
+    g.finish();
 }
 
 fn select_active(c: &mut Criterion) {
@@ -133,5 +156,5 @@ fn session_step_default_protocol(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, select_active, console_step, session_step_default_protocol);
+criterion_group!(benches, set_pass, select_active, console_step, session_step_default_protocol);
 criterion_main!(benches);

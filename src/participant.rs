@@ -20,13 +20,13 @@ impl SimulatedPerson {
         let pass = SetPass::run(set.configs(), &self.truth.q_star, &self.truth.w, self.alpha, &mut scratch);
         let target = rng.random::<f64>() * pass.sum;
         let mut acc = 0.0;
-        for (j, e) in scratch.exps.iter().enumerate() {
+        for (j, e) in scratch.exps().iter().enumerate() {
             acc += e;
             if acc > target {
                 return j;
             }
         }
-        pass.argmin
+        pass.argmin(&scratch)
     }
 
     /// The region (handle) of a drawn configuration: what a person reports.

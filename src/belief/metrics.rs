@@ -39,6 +39,6 @@ pub fn posterior_predictive_log_likelihood(
 pub fn true_cost(set: &FeasibleSet, truth: &Lambda, alpha: f64) -> f64 {
     let mut scratch = SetPass::scratch(set.len());
     let pass = SetPass::run(set.configs(), &truth.q_star, &truth.w, alpha, &mut scratch);
-    let weighted: f64 = scratch.costs.iter().zip(&scratch.exps).map(|(c, e)| c * e).sum();
+    let weighted: f64 = scratch.costs().iter().zip(scratch.exps()).map(|(c, e)| c * e).sum();
     weighted / pass.sum
 }

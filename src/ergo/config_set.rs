@@ -2,6 +2,8 @@
 
 use std::ops::Range;
 
+use super::lanes::WIDTH;
+
 /// Why a set of configurations was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ConfigSetError {
@@ -22,8 +24,10 @@ pub enum ConfigSetError {
 pub struct ConfigSet {
     dim: usize,
     len: usize,
-    /// Joint-major: joint d of configuration j is `data[d * len + j]`.
+    /// Joint-major, each joint padded with zeros to whole blocks of [`WIDTH`] (the set
+    /// pass's): joint d of configuration j is `data[d * stride + j]`.
     data: Vec<f64>,
+    stride: usize,
 }
 
 impl ConfigSet {
@@ -32,7 +36,8 @@ impl ConfigSet {
         let first = rows.first().ok_or(ConfigSetError::Empty)?;
         let dim = first.as_ref().len();
         let len = rows.len();
-        let mut data = vec![0.0; dim * len];
+        let stride = len.div_ceil(WIDTH) * WIDTH;
+        let mut data = vec![0.0; dim * stride];
         for (j, row) in rows.iter().enumerate() {
             let row = row.as_ref();
             if row.len() != dim {
@@ -42,10 +47,10 @@ impl ConfigSet {
                 if !v.is_finite() {
                     return Err(ConfigSetError::NonFinite { index: j, joint: d, value: v });
                 }
-                data[d * len + j] = v;
+                data[d * stride + j] = v;
             }
         }
-        Ok(Self { dim, len, data })
+        Ok(Self { dim, len, data, stride })
     }
 
     /// Number of joints D.
@@ -65,12 +70,17 @@ impl ConfigSet {
 
     /// Joint d of every configuration.
     pub fn joint(&self, d: usize) -> &[f64] {
-        &self.data[d * self.len..(d + 1) * self.len]
+        &self.data[d * self.stride..d * self.stride + self.len]
+    }
+
+    /// Joint d of every configuration in blocks of [`WIDTH`], the last one padded with zeros.
+    pub(super) fn joint_blocks(&self, d: usize) -> &[[f64; WIDTH]] {
+        self.data[d * self.stride..(d + 1) * self.stride].as_chunks().0
     }
 
     /// Configuration j as a vector of D joint angles.
     pub fn config(&self, j: usize) -> Vec<f64> {
-        (0..self.dim).map(|d| self.data[d * self.len + j]).collect()
+        (0..self.dim).map(|d| self.data[d * self.stride + j]).collect()
     }
 }
 

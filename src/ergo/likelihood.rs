@@ -1,11 +1,9 @@
-//! Cost and Boltzmann likelihood of a person's choice (eq. 1–3), and the per-particle pass
-//! over a feasible set that the belief update and the selectors share.
-//!
-//! Its length: the three observations (configuration, region, measured) with their checks,
-//! and the one vectorised pass every likelihood is read from, with its tests.
+//! Cost and Boltzmann likelihood of a person's choice (eq. 1–3): the three observations
+//! (configuration, region, measured) with their checks, read from the one pass over a
+//! feasible set (`set_pass`).
 
 use super::config_set::ConfigSet;
-use super::numeric::{LANES, exp_nonpositive, sum_lanes};
+use super::set_pass::SetPass;
 use super::{FeasibleSet, Lambda};
 
 /// C(q; λ) = Σ_d w_d (q_d − q*_d)² (eq. 2 with W = diag(w)).
@@ -131,143 +129,6 @@ pub fn log_likelihood(
     Ok(pass.log_likelihood(obs, alpha, &scratch))
 }
 
-/// Below this, a region's sum of the pass's exponentials may have lost precision to
-/// underflow (each term is exact to a few ulps down to 1e-307), and the region likelihood is
-/// recomputed from the costs.
-const REGION_SUM_FLOOR: f64 = 1e-200;
-
-/// Buffers reused across particles: the costs and the shifted exponentials of one pass.
-#[derive(Clone, Debug)]
-pub struct Scratch {
-    pub costs: Vec<f64>,
-    pub exps: Vec<f64>,
-}
-
-/// One particle evaluated on one feasible set.
-///
-/// After [`SetPass::run`], `scratch.costs[j]` = C(q_j; λ) and
-/// `scratch.exps[j]` = exp(−α (C(q_j) − min C)), so P(q_j | Q, λ) = exps[j] / sum.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SetPass {
-    /// min_q C(q; λ) over the set (eq. 10's inner minimum).
-    pub min_cost: f64,
-    /// The lowest index attaining it: the maximum-likelihood configuration.
-    pub argmin: usize,
-    /// Σ_j exps[j] (≥ 1).
-    pub sum: f64,
-    /// Σ_j exps[j] · (−α (C_j − min C)), for the entropy of the choice.
-    pub sum_exp_logit: f64,
-}
-
-impl SetPass {
-    pub fn scratch(len: usize) -> Scratch {
-        Scratch { costs: vec![0.0; len], exps: vec![0.0; len] }
-    }
-
-    /// Evaluates every configuration's cost and Boltzmann weight under (q*, w, α).
-    pub fn run(set: &ConfigSet, q_star: &[f64], w: &[f64], alpha: f64, scratch: &mut Scratch) -> SetPass {
-        scratch.costs.resize(set.len(), 0.0);
-        scratch.exps.resize(set.len(), 0.0);
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU supports AVX2, checked just above.
-                return unsafe { run_avx2(set, q_star, w, alpha, scratch) };
-            }
-        }
-        run_body(set, q_star, w, alpha, scratch)
-    }
-
-    /// log Σ_j exp(−α C_j): the particle's own normaliser (eq. 5).
-    pub fn log_norm(&self, alpha: f64) -> f64 {
-        -alpha * self.min_cost + self.sum.ln()
-    }
-
-    /// Entropy (nats) of the person's choice among the configurations.
-    pub fn config_entropy(&self) -> f64 {
-        (self.sum.ln() - self.sum_exp_logit / self.sum).max(0.0)
-    }
-
-    /// log P(observation | Q, λ) from this pass.
-    pub fn log_likelihood(&self, obs: &Observation, alpha: f64, scratch: &Scratch) -> f64 {
-        match obs {
-            Observation::Config(j) => -alpha * (scratch.costs[*j] - self.min_cost) - self.sum.ln(),
-            Observation::Region(idx) => {
-                // log Σ_{j∈R} exp(ℓ_j) − log S, with ℓ_j = −α (C_j − min C): from the pass's
-                // exponentials while their sum is far from underflow, else from the costs so
-                // that it stays finite when every exps[j] of R underflows.
-                let s: f64 = idx.iter().map(|&j| scratch.exps[j]).sum();
-                if s > REGION_SUM_FLOOR {
-                    return s.ln() - self.sum.ln();
-                }
-                let max =
-                    idx.iter().map(|&j| -alpha * (scratch.costs[j] - self.min_cost)).fold(f64::NEG_INFINITY, f64::max);
-                let s: f64 =
-                    idx.iter().map(|&j| exp_nonpositive(-alpha * (scratch.costs[j] - self.min_cost) - max)).sum();
-                max + s.ln() - self.sum.ln()
-            }
-            Observation::Measured(g) => {
-                // log Σ_j exp(ℓ_j + g_j) − log S, by log-sum-exp over the costs.
-                let term = |j: usize| -alpha * (scratch.costs[j] - self.min_cost) + g[j];
-                let max = (0..g.len()).map(term).fold(f64::NEG_INFINITY, f64::max);
-                let s: f64 = (0..g.len()).map(|j| exp_nonpositive(term(j) - max)).sum();
-                max + s.ln() - self.sum.ln()
-            }
-        }
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn run_avx2(set: &ConfigSet, q_star: &[f64], w: &[f64], alpha: f64, scratch: &mut Scratch) -> SetPass {
-    run_body(set, q_star, w, alpha, scratch)
-}
-
-#[inline(always)]
-fn run_body(set: &ConfigSet, q_star: &[f64], w: &[f64], alpha: f64, scratch: &mut Scratch) -> SetPass {
-    let costs = &mut scratch.costs[..];
-    let exps = &mut scratch.exps[..];
-    costs.fill(0.0);
-    for d in 0..set.dim() {
-        let (qs, wd) = (q_star[d], w[d]);
-        for (c, &q) in costs.iter_mut().zip(set.joint(d)) {
-            let t = q - qs;
-            *c += wd * t * t;
-        }
-    }
-    let mut mins = [f64::INFINITY; LANES];
-    let mut chunks = costs.chunks_exact(LANES);
-    for chunk in &mut chunks {
-        for k in 0..LANES {
-            mins[k] = mins[k].min(chunk[k]);
-        }
-    }
-    let mut min_cost = chunks.remainder().iter().copied().fold(f64::INFINITY, f64::min);
-    for m in mins {
-        min_cost = min_cost.min(m);
-    }
-    let argmin = costs.iter().position(|&c| c == min_cost).unwrap_or(0);
-
-    for (e, &c) in exps.iter_mut().zip(costs.iter()) {
-        *e = exp_nonpositive(-alpha * (c - min_cost));
-    }
-    let mut sums = [0.0; LANES];
-    let mut sums_el = [0.0; LANES];
-    let mut cc = costs.chunks_exact(LANES);
-    let mut ee = exps.chunks_exact(LANES);
-    for (c, e) in (&mut cc).zip(&mut ee) {
-        for k in 0..LANES {
-            sums[k] += e[k];
-            sums_el[k] += e[k] * (-alpha * (c[k] - min_cost));
-        }
-    }
-    for (k, (c, e)) in cc.remainder().iter().zip(ee.remainder()).enumerate() {
-        sums[k] += e;
-        sums_el[k] += e * (-alpha * (c - min_cost));
-    }
-    SetPass { min_cost, argmin, sum: sum_lanes(sums), sum_exp_logit: sum_lanes(sums_el) }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -319,16 +180,6 @@ mod tests {
             assert!((region + c).abs() < 1e-9 * c, "cost {c}: {region}");
             assert!((region - config).abs() < 1e-9 * c, "cost {c}: {region} vs {config}");
         }
-    }
-
-    #[test]
-    fn pass_entropy_of_uniform_choice_is_log_n() {
-        let s = set(&[&[1.0], &[-1.0], &[1.0], &[-1.0]]);
-        let mut sc = SetPass::scratch(4);
-        let p = SetPass::run(s.configs(), &[0.0], &[1.0], 3.0, &mut sc);
-        assert!((p.config_entropy() - 4.0f64.ln()).abs() < 1e-14);
-        assert_eq!(p.argmin, 0);
-        assert_eq!(p.min_cost, 1.0);
     }
 
     #[test]

@@ -1,39 +1,48 @@
 //! Numerically stable building blocks: log-sum-exp, an exponential for non-positive
 //! arguments that the compiler can vectorise, and x·log x with 0·log 0 = 0.
 
-const LN2_HI: f64 = 6.931_471_803_691_238e-1;
-const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
-const LOG2_E: f64 = std::f64::consts::LOG2_E;
+pub(super) const LN2_HI: f64 = 6.931_471_803_691_238e-1;
+pub(super) const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
+pub(super) const LOG2_E: f64 = std::f64::consts::LOG2_E;
 /// 1.5 · 2^52: adding it rounds to the nearest integer and leaves that integer in the low
 /// bits of the mantissa.
-const ROUND_MAGIC: f64 = 6_755_399_441_055_744.0;
+pub(super) const ROUND_MAGIC: f64 = 6_755_399_441_055_744.0;
 /// Below this, exp(x) is under 1e-307 and is returned as exactly 0.
-const EXP_FLOOR: f64 = -708.0;
+pub(super) const EXP_FLOOR: f64 = -708.0;
+/// The Taylor coefficients of e^r from 1/12! down to 1, in the order Horner's rule takes them.
+pub(super) const EXP_TAYLOR: [f64; 13] = [
+    1.0 / 479_001_600.0,
+    1.0 / 39_916_800.0,
+    1.0 / 3_628_800.0,
+    1.0 / 362_880.0,
+    1.0 / 40_320.0,
+    1.0 / 5_040.0,
+    1.0 / 720.0,
+    1.0 / 120.0,
+    1.0 / 24.0,
+    1.0 / 6.0,
+    0.5,
+    1.0,
+    1.0,
+];
 
 /// e^x for x ≤ 0 (or −∞), to within a few units in the last place.
 ///
 /// Branch-free so that loops over it vectorise: Cody–Waite reduction x = n·ln 2 + r with
-/// |r| ≤ ln 2 / 2, a degree-12 Taylor polynomial for e^r (truncation error < 2e-16), and
-/// 2^n built from the exponent bits. Arguments below −708 give exactly 0; NaN gives NaN.
+/// |r| ≤ ln 2 / 2, a degree-12 Taylor polynomial for e^r (truncation error < 2e-16) by
+/// Horner's rule, and 2^n built from the exponent bits. Arguments below −708 give exactly
+/// 0; NaN gives NaN. (The set pass has a vector twin with fused multiply-adds,
+/// `lanes::exp_nonpositive`.)
 #[inline(always)]
 pub fn exp_nonpositive(x: f64) -> f64 {
     let xc = if x < EXP_FLOOR { EXP_FLOOR } else { x };
     let shifted = xc * LOG2_E + ROUND_MAGIC;
     let n = shifted - ROUND_MAGIC;
     let r = (xc - n * LN2_HI) - n * LN2_LO;
-    let mut p = 1.0 / 479_001_600.0;
-    p = p * r + 1.0 / 39_916_800.0;
-    p = p * r + 1.0 / 3_628_800.0;
-    p = p * r + 1.0 / 362_880.0;
-    p = p * r + 1.0 / 40_320.0;
-    p = p * r + 1.0 / 5_040.0;
-    p = p * r + 1.0 / 720.0;
-    p = p * r + 1.0 / 120.0;
-    p = p * r + 1.0 / 24.0;
-    p = p * r + 1.0 / 6.0;
-    p = p * r + 0.5;
-    p = p * r + 1.0;
-    p = p * r + 1.0;
+    let mut p = EXP_TAYLOR[0];
+    for c in &EXP_TAYLOR[1..] {
+        p = p * r + c;
+    }
     // The low 12 bits of `shifted` hold n (two's complement); n + 1023 is the biased exponent.
     let scale = f64::from_bits(shifted.to_bits().wrapping_add(1023) << 52);
     let e = p * scale;

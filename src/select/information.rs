@@ -50,15 +50,13 @@ pub fn query_value(belief: &Belief, set: &FeasibleSet, alpha: f64, outcomes: Out
                 let scale = w / pass.sum;
                 match outcomes {
                     OutcomeModel::Configuration => {
-                        for (m, e) in part.marginal.iter_mut().zip(&scratch.exps) {
-                            *m += scale * e;
-                        }
+                        scratch.add_scaled_weights(scale, &mut part.marginal);
                         part.conditional_entropy += w * pass.config_entropy();
                     }
                     OutcomeModel::Region => {
                         let mut h = 0.0;
                         for (r, range) in set.regions().iter().enumerate() {
-                            let pr = scratch.exps[range.clone()].iter().sum::<f64>() / pass.sum;
+                            let pr = scratch.exps()[range.clone()].iter().sum::<f64>() / pass.sum;
                             region_p[r] = pr;
                             h -= xlogx(pr);
                         }

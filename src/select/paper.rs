@@ -29,11 +29,11 @@ pub fn information_gain_paper(
                 .map(|p| {
                     let pass = SetPass::run(set.configs(), &p[..d], &p[d..], alpha, &mut scratch);
                     let outcome = match outcomes {
-                        OutcomeModel::Configuration => pass.argmin,
+                        OutcomeModel::Configuration => pass.argmin(&scratch),
                         OutcomeModel::Region => {
                             let mut best = (0, f64::NEG_INFINITY);
                             for (r, range) in set.regions().iter().enumerate() {
-                                let m: f64 = scratch.exps[range.clone()].iter().sum();
+                                let m: f64 = scratch.exps()[range.clone()].iter().sum();
                                 if m > best.1 {
                                     best = (r, m);
                                 }
