@@ -98,15 +98,20 @@ fn console_step(c: &mut Criterion) {
 /// One training trial of the default protocol's session (2000 particles, 8 queries of
 /// 300–450 configurations, region outcomes): the grasp's update, resampling and the next
 /// suggestion — what the console waits for after the operator presses a grip's key. Run with
-/// the default region observations and, side by side, the paper's configuration observations.
+/// the default region observations and, side by side, the paper's configuration
+/// observations; and at 20 000 particles learning q* and w together (14-D).
 fn session_step_default_protocol(c: &mut Criterion) {
     use handover::protocol::{DEFAULT_PROTOCOL, Study};
     use handover::session::{Event, Prompt, Session, SessionStart, condition_order};
     let mut g = c.benchmark_group("session_step_default_protocol");
     g.sample_size(10);
-    for observation in ["region", "configuration"] {
+    for (observation, particles, learn) in
+        [("region", 2000, "q-star"), ("configuration", 2000, "q-star"), ("region", 20_000, "both")]
+    {
         let mut v: serde_json::Value = serde_json::from_str(DEFAULT_PROTOCOL).unwrap();
         v["learning"]["observation"] = observation.into();
+        v["learning"]["particles"] = particles.into();
+        v["learning"]["learn"] = learn.into();
         let study = std::sync::Arc::new(Study::from_json(&v.to_string(), "bench").unwrap());
         let start = SessionStart {
             session_id: "bench".into(),
@@ -138,7 +143,9 @@ fn session_step_default_protocol(c: &mut Criterion) {
             if k == 1 || k == 5 {
                 for threads in [1, 2] {
                     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-                    let name = format!("{observation}/grasp_{k}_update_and_next_suggestion/{threads}-threads");
+                    let name = format!(
+                        "{observation}_{particles}_{learn}/grasp_{k}_update_and_next_suggestion/{threads}-threads"
+                    );
                     g.bench_function(name, |b| {
                         b.iter(|| {
                             pool.install(|| {

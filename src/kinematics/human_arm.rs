@@ -24,8 +24,6 @@
 use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::planar::wrap;
-
 /// Number of joints.
 pub const JOINTS: usize = 7;
 
@@ -186,7 +184,13 @@ impl HumanArm {
     }
 
     pub fn within_limits(&self, q: &ArmConfig) -> bool {
-        q.iter().zip(&self.limits).all(|(v, [lo, hi])| *v >= *lo && *v <= *hi)
+        self.within_limits_from(0, q)
+    }
+
+    /// Whether joints `first`, `first + 1`, … of a configuration, given as `q`, are inside
+    /// their limits.
+    pub(crate) fn within_limits_from(&self, first: usize, q: &[f64]) -> bool {
+        q.iter().zip(&self.limits[first..]).all(|(v, [lo, hi])| *v >= *lo && *v <= *hi)
     }
 
     /// Forward kinematics: the frames of the shoulder, elbow, wrist and hand (grasp point),
@@ -257,9 +261,4 @@ pub(crate) fn ry(a: f64) -> Matrix3<f64> {
 pub(crate) fn rz(a: f64) -> Matrix3<f64> {
     let (s, c) = a.sin_cos();
     Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
-}
-
-/// Wraps every angle into (−π, π].
-pub(crate) fn wrap_all(q: ArmConfig) -> ArmConfig {
-    q.map(wrap)
 }

@@ -58,6 +58,10 @@ impl PlanarArm {
 /// Wraps an angle into (−π, π].
 pub fn wrap(a: f64) -> f64 {
     let pi = std::f64::consts::PI;
+    if a > -pi && a <= pi {
+        // Already there (and `a % 2π` would return it unchanged): no division.
+        return a;
+    }
     let mut a = a % (2.0 * pi);
     if a <= -pi {
         a += 2.0 * pi;

@@ -10,7 +10,8 @@
 
 use nalgebra::{Isometry3, Matrix3, Vector3};
 
-use super::human_arm::{ArmConfig, HumanArm, ry, wrap_all};
+use super::human_arm::{ArmConfig, HumanArm, ry};
+use super::planar::wrap;
 
 /// One IK solution and the swivel angle it was found at.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -52,28 +53,46 @@ impl ElbowCircle {
     }
 }
 
+/// One branch of an Euler decomposition: each of its three angles as the (y, x) whose
+/// atan2 it is, so that an angle is computed only when the ones before it are in limits.
+type Branch = [(f64, f64); 3];
+
 /// R = Ry(a) Rx(b) Rz(c): both branches of (a, b, c).
-fn decompose_yxz(r: &Matrix3<f64>) -> ([f64; 3], Option<[f64; 3]>) {
+fn decompose_yxz(r: &Matrix3<f64>) -> (Branch, Option<Branch>) {
     let sb = -r[(1, 2)];
     let cb = r[(1, 0)].hypot(r[(1, 1)]);
     if cb < SINGULAR {
-        return ([(-r[(2, 0)]).atan2(r[(0, 0)]), sb.atan2(0.0), 0.0], None);
+        return ([(-r[(2, 0)], r[(0, 0)]), (sb, 0.0), (0.0, 1.0)], None);
     }
-    let branch =
-        |cb: f64| [(r[(0, 2)] / cb).atan2(r[(2, 2)] / cb), sb.atan2(cb), (r[(1, 0)] / cb).atan2(r[(1, 1)] / cb)];
+    let branch = |cb: f64| [(r[(0, 2)] / cb, r[(2, 2)] / cb), (sb, cb), (r[(1, 0)] / cb, r[(1, 1)] / cb)];
     (branch(cb), Some(branch(-cb)))
 }
 
 /// R = Rz(c) Ry(a) Rx(b): both branches of (c, a, b).
-fn decompose_zyx(r: &Matrix3<f64>) -> ([f64; 3], Option<[f64; 3]>) {
+fn decompose_zyx(r: &Matrix3<f64>) -> (Branch, Option<Branch>) {
     let sa = -r[(2, 0)];
     let ca = r[(2, 1)].hypot(r[(2, 2)]);
     if ca < SINGULAR {
-        return ([(-r[(0, 1)]).atan2(r[(1, 1)]), sa.atan2(0.0), 0.0], None);
+        return ([(-r[(0, 1)], r[(1, 1)]), (sa, 0.0), (0.0, 1.0)], None);
     }
-    let branch =
-        |ca: f64| [(r[(1, 0)] / ca).atan2(r[(0, 0)] / ca), sa.atan2(ca), (r[(2, 1)] / ca).atan2(r[(2, 2)] / ca)];
+    let branch = |ca: f64| [(r[(1, 0)] / ca, r[(0, 0)] / ca), (sa, ca), (r[(2, 1)] / ca, r[(2, 2)] / ca)];
     (branch(ca), Some(branch(-ca)))
+}
+
+/// Up to two branches' joint angles, without allocating.
+struct Branches {
+    angles: [[f64; 3]; 2],
+    len: usize,
+}
+
+impl Branches {
+    fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    fn iter(&self) -> impl Iterator<Item = &[f64; 3]> {
+        self.angles[..self.len].iter()
+    }
 }
 
 impl HumanArm {
@@ -113,19 +132,43 @@ impl HumanArm {
                 let z_s = -d1;
                 let y_s = z_s.cross(&x_s);
                 let r_shoulder = Matrix3::from_columns(&[x_s, y_s, z_s]);
-                let r_elbow = r_shoulder * ry(-q3);
-                let m = r_elbow.transpose() * r_hand;
+                // The shoulder's branches inside its limits first: when none is (and for the
+                // elbow), the wrist's decomposition is not needed.
                 let (s1, s2) = decompose_yxz(&r_shoulder);
+                let shoulders = self.branches_within(0, [-1.0, -1.0, 1.0], s1, s2);
+                let q3_wrapped = wrap(q3);
+                if shoulders.is_empty() || !self.within_limits_from(3, &[q3_wrapped]) {
+                    continue;
+                }
+                let m = (r_shoulder * ry(-q3)).transpose() * r_hand;
                 let (w1, w2) = decompose_zyx(&m);
-                for sh in std::iter::once(s1).chain(s2) {
-                    for wr in std::iter::once(w1).chain(w2) {
-                        let q = wrap_all([-sh[0], -sh[1], sh[2], q3, wr[0], -wr[1], -wr[2]]);
-                        if self.within_limits(&q) {
-                            out.push(IkSolution { q, swivel: phi });
-                        }
+                let wrists = self.branches_within(4, [1.0, -1.0, -1.0], w1, w2);
+                for sh in shoulders.iter() {
+                    for wr in wrists.iter() {
+                        let q = [sh[0], sh[1], sh[2], q3_wrapped, wr[0], wr[1], wr[2]];
+                        out.push(IkSolution { q, swivel: phi });
                     }
                 }
             }
+        }
+        out
+    }
+
+    /// The branches whose joints `first`, `first + 1`, `first + 2` (each angle times its
+    /// sign, wrapped) are inside their limits, in order; a branch's angles are computed one by
+    /// one and it is dropped at its first angle out of limits.
+    fn branches_within(&self, first: usize, signs: [f64; 3], a: Branch, b: Option<Branch>) -> Branches {
+        let mut out = Branches { angles: [[0.0; 3]; 2], len: 0 };
+        'branch: for branch in std::iter::once(a).chain(b) {
+            for (k, &(y, x)) in branch.iter().enumerate() {
+                let angle = wrap(signs[k] * y.atan2(x));
+                let [lo, hi] = self.limits[first + k];
+                if !(angle >= lo && angle <= hi) {
+                    continue 'branch;
+                }
+                out.angles[out.len][k] = angle;
+            }
+            out.len += 1;
         }
         out
     }

@@ -54,11 +54,11 @@ pub fn query_value(belief: &Belief, set: &FeasibleSet, alpha: f64, outcomes: Out
                         part.conditional_entropy += w * pass.config_entropy();
                     }
                     OutcomeModel::Region => {
+                        scratch.range_sums(set.regions(), &mut region_p);
                         let mut h = 0.0;
-                        for (r, range) in set.regions().iter().enumerate() {
-                            let pr = scratch.exps()[range.clone()].iter().sum::<f64>() / pass.sum;
-                            region_p[r] = pr;
-                            h -= xlogx(pr);
+                        for pr in region_p.iter_mut() {
+                            *pr /= pass.sum;
+                            h -= xlogx(*pr);
                         }
                         for (m, pr) in part.marginal.iter_mut().zip(&region_p) {
                             *m += w * pr;

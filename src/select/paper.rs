@@ -25,15 +25,16 @@ pub fn information_gain_paper(
         .par_chunks(PARTICLE_CHUNK * s)
         .flat_map_iter(|ps| {
             let mut scratch = SetPass::scratch(set.len());
+            let mut region_sums = vec![0.0; set.regions().len()];
             ps.chunks_exact(s)
                 .map(|p| {
                     let pass = SetPass::run(set.configs(), &p[..d], &p[d..], alpha, &mut scratch);
                     let outcome = match outcomes {
                         OutcomeModel::Configuration => pass.argmin(&scratch),
                         OutcomeModel::Region => {
+                            scratch.range_sums(set.regions(), &mut region_sums);
                             let mut best = (0, f64::NEG_INFINITY);
-                            for (r, range) in set.regions().iter().enumerate() {
-                                let m: f64 = scratch.exps()[range.clone()].iter().sum();
+                            for (r, &m) in region_sums.iter().enumerate() {
                                 if m > best.1 {
                                     best = (r, m);
                                 }
