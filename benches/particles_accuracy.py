@@ -67,6 +67,8 @@ def main():
     ap.add_argument("--algorithms", default="active")
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--trials", type=int, default=20)
+    ap.add_argument("--observation", default="configuration", help="configuration or region (the grip taken)")
+    ap.add_argument("--alpha", help="the simulated person's and the model's α (default: simulate's)")
     ap.add_argument("--out", default="target/particles")
     args = ap.parse_args()
     counts = [int(c) for c in args.particles.split(",")]
@@ -78,7 +80,7 @@ def main():
         if not os.path.exists(metrics):
             cmd = [args.handover, "simulate", "arm7", "--learn", args.learn, "--particles", str(n),
                    "--algorithms", args.algorithms, "--seeds", str(args.seeds), "--trials", str(args.trials),
-                   "--out", out]
+                   "--observation", args.observation, "--out", out] + (["--alpha", args.alpha] if args.alpha else [])
             t0 = time.perf_counter()
             r = subprocess.run(cmd, stdout=subprocess.DEVNULL)
             if r.returncode != 0:
@@ -87,8 +89,9 @@ def main():
         runs[n] = last_iteration(metrics)
 
     base = counts[0]
-    print(f"arm7, learning {args.learn}, {args.seeds} seeds × {args.trials} trials, last iteration; "
-          f"mean [95 % interval over seeds]; Δ: paired difference from {base} particles "
+    print(f"arm7, learning {args.learn}, observing the {args.observation}, α = {args.alpha or 'simulate default'}, "
+          f"{args.seeds} seeds × {args.trials} trials, last iteration; "
+          f"mean [95 % interval over seeds]; Δ: paired difference from a smaller count "
           f"(mean over seeds [95 % interval], sign test over all trials)")
     for algorithm in args.algorithms.split(","):
         for measure, better in (("distance_to_truth", "lower"), ("test_log_likelihood", "higher")):
@@ -100,13 +103,14 @@ def main():
                     by_seed.setdefault(k[1], []).append(float(runs[n][k][measure]))
                 m, lo, hi = interval([statistics.fmean(v) for v in by_seed.values()])
                 line = f"  {n:>6} particles  {m:10.4f} [{lo:.4f}, {hi:.4f}]"
-                if n != base:
-                    diffs = [float(runs[n][k][measure]) - float(runs[base][k][measure]) for k in keys]
+                i = counts.index(n)
+                for ref in ([base] if i == 1 else [base, counts[i - 1]]) if i > 0 else []:
+                    diffs = [float(runs[n][k][measure]) - float(runs[ref][k][measure]) for k in keys]
                     seed_diffs = {}
                     for k, d in zip(keys, diffs):
                         seed_diffs.setdefault(k[1], []).append(d)
                     dm, dlo, dhi = interval([statistics.fmean(v) for v in seed_diffs.values()])
-                    line += f"   Δ {dm:+.4f} [{dlo:+.4f}, {dhi:+.4f}]  sign test p = {sign_test(diffs):.2g}"
+                    line += f"   Δ vs {ref}: {dm:+.4f} [{dlo:+.4f}, {dhi:+.4f}], sign test p = {sign_test(diffs):.2g}"
                 print(line)
 
 

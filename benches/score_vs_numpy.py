@@ -26,6 +26,25 @@ import tempfile
 import time
 
 
+def query_value(xp, q, w, wq, const, pw, alpha):
+    """Exact mutual information and expected cost of one query, with `xp` NumPy or
+    jax.numpy: the costs of every particle against every configuration as one matrix product,
+    C = w·(q²)ᵀ − 2 (w∘q*)·qᵀ + Σ_d w q*², then a shifted exp and reductions (eq. 1, 2, and
+    H(marginal) − E_λ H(choice | λ))."""
+    cost = w @ (q * q).T - 2.0 * (wq @ q.T) + const[:, None]
+    min_cost = cost.min(axis=1)
+    logit = -alpha * (cost - min_cost[:, None])
+    e = xp.exp(logit)
+    s = e.sum(axis=1)
+    p = e / s[:, None]
+    # H(choice | λ) = log S − Σ p ℓ  (ℓ the shifted logit), per particle.
+    h_cond = xp.log(s) - (p * logit).sum(axis=1)
+    marginal = pw @ p
+    positive = marginal > 0
+    h_marg = -xp.sum(xp.where(positive, marginal * xp.log(xp.where(positive, marginal, 1.0)), 0.0))
+    return xp.maximum(h_marg - pw @ h_cond, 0.0), pw @ min_cost
+
+
 def numpy_score(path):
     """The NumPy version: reads a `handover score` input, prints what `score` prints
     (without the paper's eq. 8 and the posterior, which the input does not ask for)."""
@@ -44,24 +63,8 @@ def numpy_score(path):
     out = []
     for item in doc["menu"]:
         q = np.array(item["configs"], dtype=np.float64)
-        cost = w @ (q * q).T - 2.0 * (wq @ q.T) + const[:, None]
-        min_cost = cost.min(axis=1)
-        logit = -alpha * (cost - min_cost[:, None])
-        e = np.exp(logit)
-        s = e.sum(axis=1)
-        p = e / s[:, None]
-        # H(choice | λ) = log S − Σ p ℓ  (ℓ the shifted logit), per particle.
-        h_cond = np.log(s) - (p * logit).sum(axis=1)
-        marginal = pw @ p
-        nz = marginal > 0
-        h_marg = -(marginal[nz] * np.log(marginal[nz])).sum()
-        out.append(
-            {
-                "id": item["id"],
-                "information_gain": float(max(h_marg - pw @ h_cond, 0.0)),
-                "expected_cost": float(pw @ min_cost),
-            }
-        )
+        gain, expected_cost = query_value(np, q, w, wq, const, pw, alpha)
+        out.append({"id": item["id"], "information_gain": float(gain), "expected_cost": float(expected_cost)})
     active = max(range(len(out)), key=lambda i: (out[i]["information_gain"], -i))
     passive = min(range(len(out)), key=lambda i: (out[i]["expected_cost"], i))
     json.dump(
@@ -71,6 +74,48 @@ def numpy_score(path):
     )
     print()
     print(f"numpy compute {time.perf_counter() - t0:.3f} s", file=sys.stderr)
+
+
+def jax_times(path, repeats):
+    """The same computation in JAX (XLA, jit, CPU) in float64 and float32: the median time of
+    one evaluation of every query after compilation, input parsing excluded (the peer a
+    speed-minded researcher would reach for). Returns {dtype: (seconds, information gains)}."""
+    import jax
+
+    jax.config.update("jax_enable_x64", True)
+    import jax.numpy as jnp
+    import numpy as np
+
+    with open(path) as f:
+        doc = json.load(f)
+    alpha = float(doc["alpha"])
+    out = {}
+    for dtype in ("float64", "float32"):
+        qs = jnp.array([p["q_star"] for p in doc["particles"]], dtype=dtype)
+        w = jnp.array([p["w"] for p in doc["particles"]], dtype=dtype)
+        pw = jnp.array([p.get("weight", 1.0) for p in doc["particles"]], dtype=dtype)
+        pw = pw / pw.sum()
+        menu = jnp.array([item["configs"] for item in doc["menu"]], dtype=dtype)
+
+        @jax.jit
+        def score(qs, w, pw, menu):
+            wq = w * qs
+            const = (wq * qs).sum(axis=1)
+
+            def one(q):
+                return query_value(jnp, q, w, wq, const, pw, alpha)
+
+            return jax.lax.map(one, menu)
+
+        score(qs, w, pw, menu)[0].block_until_ready()
+        times = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            gains, _ = score(qs, w, pw, menu)
+            gains.block_until_ready()
+            times.append(time.perf_counter() - t0)
+        out[dtype] = (statistics.median(times), [float(g) for g in np.asarray(gains)])
+    return out
 
 
 def make_input(path, particles, queries, configs, joints, alpha, seed):
@@ -136,6 +181,7 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--tolerance", type=float, default=1e-6, help="largest relative difference allowed")
+    ap.add_argument("--jax", action="store_true", help="also time the same computation in JAX (float64 and float32)")
     args = ap.parse_args()
     if args.numpy_score:
         numpy_score(args.numpy_score)
@@ -154,6 +200,7 @@ def main():
         for _ in range(args.repeats):
             t_ours.append(timed(ours_cmd)[0])
             t_theirs.append(timed(theirs_cmd)[0])
+        jax = jax_times(path, args.repeats) if args.jax else {}
 
     pairs = args.particles * args.queries * args.configs
     mo, mt = statistics.median(t_ours), statistics.median(t_theirs)
@@ -168,6 +215,11 @@ def main():
     print(f"  NumPy:          {mt * 1e3:8.1f} ms  ({mt / pairs * 1e9:.2f} ns per pair)  runs: "
           + " ".join(f"{t * 1e3:.0f}" for t in t_theirs))
     print(f"  ratio NumPy / handover: {mt / mo:.1f}×   (outputs agree to {worst:.1e} relative)")
+    for dtype, (t, gains) in jax.items():
+        ours_gains = [q["information_gain"] for q in ours["queries"]]
+        diff = max(abs(a - b) / max(abs(a), 1e-12) for a, b in zip(ours_gains, gains))
+        print(f"  JAX {dtype} (compute only, after compilation): {t * 1e3:8.1f} ms  ({t / pairs * 1e9:.2f} ns per pair); "
+              f"ratio JAX / handover (whole process): {t / mo:.2f}×  (information gains agree to {diff:.1e} relative)")
 
 
 if __name__ == "__main__":

@@ -119,14 +119,20 @@ impl HumanArm {
         if elbow_flexion > 0.0 && -elbow_flexion >= self.limits[3][0] {
             elbows.push(-elbow_flexion);
         }
+        // What depends on the elbow alone, once: its sine and cosine, its rotation, and
+        // whether it is inside its limits at all.
+        let elbows: Vec<(f64, (f64, f64), Matrix3<f64>)> = elbows
+            .into_iter()
+            .filter(|&q3| self.within_limits_from(3, &[wrap(q3)]))
+            .map(|q3| (q3, q3.sin_cos(), ry(-q3)))
+            .collect();
         for &phi in swivels {
             let (s, c) = phi.sin_cos();
             let radial = circle.u * c + circle.v * s;
             let elbow = circle.centre + radial * circle.radius;
             let d1 = elbow / l1;
             let d2 = (wrist - elbow) / l2;
-            for &q3 in &elbows {
-                let (s3, c3) = q3.sin_cos();
+            for &(q3, (s3, c3), r_flexion) in &elbows {
                 // d2 = sin q3 · x_s + cos q3 · d1 (the forearm in the upper arm's x–z plane).
                 let x_s = if s3.abs() > 1e-9 { ((d2 - d1 * c3) / s3).normalize() } else { radial };
                 let z_s = -d1;
@@ -136,11 +142,11 @@ impl HumanArm {
                 // elbow), the wrist's decomposition is not needed.
                 let (s1, s2) = decompose_yxz(&r_shoulder);
                 let shoulders = self.branches_within(0, [-1.0, -1.0, 1.0], s1, s2);
-                let q3_wrapped = wrap(q3);
-                if shoulders.is_empty() || !self.within_limits_from(3, &[q3_wrapped]) {
+                if shoulders.is_empty() {
                     continue;
                 }
-                let m = (r_shoulder * ry(-q3)).transpose() * r_hand;
+                let q3_wrapped = wrap(q3);
+                let m = (r_shoulder * r_flexion).transpose() * r_hand;
                 let (w1, w2) = decompose_zyx(&m);
                 let wrists = self.branches_within(4, [1.0, -1.0, -1.0], w1, w2);
                 for sh in shoulders.iter() {
@@ -156,11 +162,14 @@ impl HumanArm {
 
     /// The branches whose joints `first`, `first + 1`, `first + 2` (each angle times its
     /// sign, wrapped) are inside their limits, in order; a branch's angles are computed one by
-    /// one and it is dropped at its first angle out of limits.
+    /// one and it is dropped at its first angle out of limits. The middle angle goes first:
+    /// the second branch's is beyond ±90°, outside most limits, so it is dropped after one
+    /// arctangent.
     fn branches_within(&self, first: usize, signs: [f64; 3], a: Branch, b: Option<Branch>) -> Branches {
         let mut out = Branches { angles: [[0.0; 3]; 2], len: 0 };
         'branch: for branch in std::iter::once(a).chain(b) {
-            for (k, &(y, x)) in branch.iter().enumerate() {
+            for k in [1, 0, 2] {
+                let (y, x) = branch[k];
                 let angle = wrap(signs[k] * y.atan2(x));
                 let [lo, hi] = self.limits[first + k];
                 if !(angle >= lo && angle <= hi) {
@@ -304,6 +313,70 @@ mod tests {
         let straight = a.forward(&[0.3, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0]).hand;
         for s in a.inverse_grid(&straight, 5f64.to_radians()) {
             assert!(s.q.iter().all(|v| v.is_finite()));
+        }
+    }
+
+    /// The search as first written, every branch's angles computed and the limits checked
+    /// on the whole configuration: the oracle of the pruned search.
+    fn inverse_unpruned(a: &HumanArm, grasp: &Isometry3<f64>, swivels: &[f64]) -> Vec<IkSolution> {
+        let grasp = &a.side.as_right(grasp);
+        let wrist = a.wrist_for(grasp);
+        let Some(circle) = ElbowCircle::new(a, &wrist) else {
+            return vec![];
+        };
+        let (l1, l2) = (a.upper_arm, a.forearm);
+        let cos_elbow = ((wrist.norm_squared() - l1 * l1 - l2 * l2) / (2.0 * l1 * l2)).clamp(-1.0, 1.0);
+        let flexion = cos_elbow.acos();
+        let r_hand: Matrix3<f64> = *grasp.rotation.to_rotation_matrix().matrix();
+        let mut elbows = vec![flexion];
+        if flexion > 0.0 && -flexion >= a.limits[3][0] {
+            elbows.push(-flexion);
+        }
+        let angles = |b: Branch| b.map(|(y, x)| y.atan2(x));
+        let mut out = vec![];
+        for &phi in swivels {
+            let (s, c) = phi.sin_cos();
+            let radial = circle.u * c + circle.v * s;
+            let elbow = circle.centre + radial * circle.radius;
+            let (d1, d2) = (elbow / l1, (wrist - elbow) / l2);
+            for &q3 in &elbows {
+                let (s3, c3) = q3.sin_cos();
+                let x_s = if s3.abs() > 1e-9 { ((d2 - d1 * c3) / s3).normalize() } else { radial };
+                let z_s = -d1;
+                let r_shoulder = Matrix3::from_columns(&[x_s, z_s.cross(&x_s), z_s]);
+                let m = (r_shoulder * ry(-q3)).transpose() * r_hand;
+                let (s1, s2) = decompose_yxz(&r_shoulder);
+                let (w1, w2) = decompose_zyx(&m);
+                for sh in std::iter::once(s1).chain(s2).map(angles) {
+                    for wr in std::iter::once(w1).chain(w2).map(angles) {
+                        let q = [-sh[0], -sh[1], sh[2], q3, wr[0], -wr[1], -wr[2]].map(wrap);
+                        if a.within_limits(&q) {
+                            out.push(IkSolution { q, swivel: phi });
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(100))]
+
+        /// Dropping a branch at its first angle out of limits, and an elbow out of limits
+        /// before any swivel angle, finds exactly the solutions of the full search, bit for
+        /// bit and in the same order.
+        #[test]
+        fn the_pruned_search_finds_exactly_the_solutions_of_the_full_search(
+            q in in_limits(),
+            offset in prop::array::uniform3(-0.08f64..0.08),
+        ) {
+            let a = arm();
+            // Reachable grasps, and grasps near them whose solutions cross the limits.
+            let mut grasp = a.forward(&q).hand;
+            grasp.translation.vector += Vector3::from(offset);
+            let swivels = swivel_grid(5f64.to_radians());
+            prop_assert_eq!(a.inverse(&grasp, &swivels), inverse_unpruned(&a, &grasp, &swivels));
         }
     }
 
