@@ -143,7 +143,7 @@ pub fn run(args: DryRunArgs) -> Result<()> {
         return Err(bad("--measure and --versus: the live arm is measured for one protocol's session at a time"));
     }
     let mut robot = args.robot.connect()?;
-    let arm = args.robot.connect_arm(&study)?;
+    let arm = args.robot.connect_arm_heard(&study)?;
     let live = args.live.start()?;
     let ctx = RunContext {
         arm: arm.as_ref(),

@@ -107,7 +107,7 @@ pub fn run(args: ResumeArgs) -> Result<()> {
     let _lock = ParticipantLock::acquire(&log_folder(&old.path), &old.start.participant, "resume --dry-run")?;
     // The robot first: a bad robot option is refused before the continuation's file exists.
     let mut robot = args.robot.connect()?;
-    let arm = args.robot.connect_arm(&study)?;
+    let arm = args.robot.connect_arm_heard(&study)?;
     let path = continuation_path(&old, chrono::Utc::now());
     let mut rec = RecordedSession::resume(&old, &path, now_ns())?;
     if let Some(view) = args.live.start()? {

@@ -10,6 +10,9 @@ use handover::robot::{Robot, RobotSettings, hook::CommandHook, ros2::Ros2Link};
 
 use super::input::{bad, read_text};
 
+/// How long a scripted drive waits for the measuring system to be heard before its first grasp.
+const ARM_WAIT: std::time::Duration = std::time::Duration::from_secs(3);
+
 /// How the robot is reached.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum RobotKind {
@@ -94,5 +97,23 @@ impl RobotArgs {
         let source = JointStateSource::new(&settings.ros2, &m.joint_names)
             .map_err(|e| anyhow::anyhow!("cannot subscribe to the arm's joint states: {e}"))?;
         Ok(Some(source))
+    }
+
+    /// [`Self::connect_arm`] for a scripted drive, which reaches its first grasp within
+    /// milliseconds: it waits until the measuring system is heard (DDS discovery takes a
+    /// moment), at most [`ARM_WAIT`], and says so when it is not (the grasps then learn from
+    /// the region until a sample comes).
+    pub fn connect_arm_heard(&self, study: &Study) -> Result<Option<JointStateSource>> {
+        let arm = self.connect_arm(study)?;
+        if let Some(source) = &arm
+            && !source.wait_until_heard(ARM_WAIT)
+        {
+            eprintln!(
+                "no joint state from {} within {} s: grasps learn from the region until one comes",
+                source.describe(),
+                ARM_WAIT.as_secs()
+            );
+        }
+        Ok(arm)
     }
 }

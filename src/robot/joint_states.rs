@@ -160,6 +160,20 @@ impl JointStateSource {
         self.buffer.lock().ok()?.nearest(time_ns, window_s)
     }
 
+    /// Waits until a message has been received, at most `timeout`; whether one was.
+    pub fn wait_until_heard(&self, timeout: Duration) -> bool {
+        let end = std::time::Instant::now() + timeout;
+        loop {
+            if self.counts().0 > 0 {
+                return true;
+            }
+            if std::time::Instant::now() >= end {
+                return false;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+
     /// Messages received and dropped so far, and why the last was dropped.
     pub fn counts(&self) -> (u64, u64, Option<String>) {
         self.buffer.lock().map_or((0, 0, None), |b| (b.received, b.dropped, b.last_drop.clone()))
