@@ -16,4 +16,4 @@ pub use config_set::{ConfigSet, ConfigSetError, FeasibleSet};
 pub use lambda::{Lambda, LearnMask};
 pub use likelihood::{Observation, ObservationError, SIGMA_DEG, cost, log_likelihood, most_likely_in_region};
 pub use numeric::{exp_nonpositive, log_sum_exp, xlogx};
-pub use set_pass::{BLOCK, PRUNE_LOGIT, Scratch, SetPass};
+pub use set_pass::{Scratch, SetPass};
