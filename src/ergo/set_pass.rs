@@ -368,26 +368,60 @@ fn costs_and_min<V: Lanes, const D: usize>(
     terms: &mut Vec<(f64, f64)>,
 ) -> f64 {
     let n = set.len();
-    let whole = n / BLOCK;
     let blocks = n.div_ceil(BLOCK);
     let dims = joints::<D>(set);
     terms.clear();
     terms.extend(w[..dims].iter().zip(q_star).map(|(w, q)| (w.sqrt(), -(w.sqrt() * q))));
     let out = &mut costs.as_chunks_mut::<BLOCK>().0[..blocks];
+    if D > 0 {
+        // The joints' blocks looked up once, not once per block.
+        let joints: [&[[f64; BLOCK]]; D] = std::array::from_fn(|d| &set.joint_blocks(d)[..blocks]);
+        costs_of_blocks::<V, _>(&joints, &terms[..dims], n, out)
+    } else {
+        costs_of_blocks::<V, _>(&set, terms, n, out)
+    }
+}
+
+/// Where a block's values of joint d come from.
+trait JointBlocks {
+    fn block(&self, d: usize, b: usize) -> &[f64; BLOCK];
+}
+
+/// The joints' blocks looked up beforehand (a known number of joints).
+impl<const D: usize> JointBlocks for [&[[f64; BLOCK]]; D] {
+    #[inline(always)]
+    fn block(&self, d: usize, b: usize) -> &[f64; BLOCK] {
+        &self[d][b]
+    }
+}
+
+/// Looked up in the set each time (any number of joints, no allocation).
+impl JointBlocks for &ConfigSet {
+    #[inline(always)]
+    fn block(&self, d: usize, b: usize) -> &[f64; BLOCK] {
+        &self.joint_blocks(d)[b]
+    }
+}
+
+/// The costs of every block of `out` (n configurations; the padding lanes of the last block
+/// +∞) and their minimum.
+#[inline(always)]
+fn costs_of_blocks<V: Lanes, J: JointBlocks>(
+    joints: &J,
+    terms: &[(f64, f64)],
+    n: usize,
+    out: &mut [[f64; BLOCK]],
+) -> f64 {
+    let whole = n / BLOCK;
     let mut mins = V::splat(f64::INFINITY);
-    // The joints' blocks looked up once, not once per block.
-    let on_stack: [&[[f64; BLOCK]]; D] = std::array::from_fn(|d| &set.joint_blocks(d)[..blocks]);
-    let on_heap: Vec<&[[f64; BLOCK]]> =
-        if D == 0 { (0..dims).map(|d| &set.joint_blocks(d)[..blocks]).collect() } else { Vec::new() };
-    let joints: &[&[[f64; BLOCK]]] = if D == 0 { &on_heap } else { &on_stack };
     for (b, o) in out[..whole].iter_mut().enumerate() {
-        let c = block_cost::<V>(&terms[..dims], &joints[..dims], b);
+        let c = block_cost::<V, J>(terms, joints, b);
         mins = mins.min(c);
         c.store(o);
     }
-    if whole < blocks {
+    if whole < out.len() {
         // The last, partial block: its padding lanes +∞.
-        let mut c = to_array(block_cost::<V>(&terms[..dims], &joints[..dims], whole));
+        let mut c = to_array(block_cost::<V, J>(terms, joints, whole));
         c[n - whole * BLOCK..].fill(f64::INFINITY);
         let c = V::load(&c);
         mins = mins.min(c);
@@ -398,10 +432,10 @@ fn costs_and_min<V: Lanes, const D: usize>(
 
 /// The costs of block b: Σ_d u_d², u_d = √w_d·q_d + shift_d, `terms` = (√w_d, shift_d).
 #[inline(always)]
-fn block_cost<V: Lanes>(terms: &[(f64, f64)], joints: &[&[[f64; BLOCK]]], b: usize) -> V {
+fn block_cost<V: Lanes, J: JointBlocks>(terms: &[(f64, f64)], joints: &J, b: usize) -> V {
     let mut acc = V::splat(0.0);
-    for (&(scale, shift), joint) in terms.iter().zip(joints) {
-        let u = V::splat(scale).mul_add(V::load(&joint[b]), V::splat(shift));
+    for (d, &(scale, shift)) in terms.iter().enumerate() {
+        let u = V::splat(scale).mul_add(V::load(joints.block(d, b)), V::splat(shift));
         acc = u.mul_add(u, acc);
     }
     acc
