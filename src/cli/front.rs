@@ -124,12 +124,13 @@ fn print_table(
     threads: usize,
 ) -> Result<()> {
     outln!(
-        "comfort–accuracy front: seeds {}–{}, {} trials each, {} particles, menu {} ({seconds:.1} s on {threads} threads)",
+        "comfort–accuracy front: seeds {}–{}, {} trials each, {} particles, menu {} ({})",
         a.sweep.seed,
         a.sweep.seed + a.sweep.seeds - 1,
         a.sweep.trials,
         a.sweep.particles,
-        a.sweep.menu
+        a.sweep.menu,
+        super::timing(seconds, threads),
     );
     outln!(
         "gain: fraction of active's distance gain over passive at the last iteration; cost: true cost relative to passive's; mean [95 % interval over seeds]"

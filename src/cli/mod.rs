@@ -55,6 +55,12 @@ pub fn is_broken_pipe(err: &anyhow::Error) -> bool {
     })
 }
 
+/// How long a run took and on how many worker threads, as a run's header line ends:
+/// "12.3 s on 2 threads".
+fn timing(seconds: f64, threads: usize) -> String {
+    format!("{seconds:.1} s on {threads} thread{}", if threads == 1 { "" } else { "s" })
+}
+
 /// Learn how a person likes to take objects from a robot, and run the study that measures it.
 #[derive(Debug, Parser)]
 #[command(name = "handover", version, about, long_about = None)]

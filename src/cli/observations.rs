@@ -142,14 +142,15 @@ fn print_table(
     threads: usize,
 ) -> Result<()> {
     outln!(
-        "observation models: learning {}, seeds {}–{}, {} trials each, {} particles, menu {}, test set {} ({seconds:.1} s on {threads} threads)",
+        "observation models: learning {}, seeds {}–{}, {} trials each, {} particles, menu {}, test set {} ({})",
         a.learn,
         a.sweep.seed,
         a.sweep.seed + a.sweep.seeds - 1,
         a.sweep.trials,
         a.sweep.particles,
         a.sweep.menu,
-        a.sweep.test_size
+        a.sweep.test_size,
+        super::timing(seconds, threads),
     );
     outln!(
         "at the last query: mean [95 % interval over seeds]; − region: paired difference (same trials) [95 % interval], Wilcoxon p; queries: the first at which the mean distance is at most the region's after all of them"

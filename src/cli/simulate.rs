@@ -417,7 +417,7 @@ fn print_table(
     let seed_text =
         if seeds > 1 { format!("seeds {}–{}", s.seed, s.seed + seeds - 1) } else { format!("seed {}", s.seed) };
     outln!(
-        "{name}: learning {}, observing {}, {} trials × {} iterations, {} particles, menu {}, test set {}, α = {}, estimate {}, {seed_text} ({seconds:.1} s on {threads} threads)",
+        "{name}: learning {}, observing {}, {} trials × {} iterations, {} particles, menu {}, test set {}, α = {}, estimate {}, {seed_text} ({})",
         s.learn,
         match s.observation {
             SimObservation::Configuration => "the configuration".to_string(),
@@ -433,6 +433,7 @@ fn print_table(
         s.test_size,
         s.alpha,
         s.estimate.name(),
+        super::timing(seconds, threads),
     );
     let over = if seeds > 1 { "over seeds" } else { "over trials" };
     outln!(

@@ -13,5 +13,5 @@ pub use feasible::{ArmFeasibleSet, Discretisation, FeasibleConfig, feasible_set}
 pub use human_arm::{ArmConfig, ArmError, ArmFrames, Hand, HumanArm, JOINT_NAMES, JOINTS, UPPER_ARM_FRACTION, mirror};
 pub use object::{GripRegion, Object};
 pub use planar::{PlanarArm, PlanarConfig, PlanarObject};
-pub use swivel_ik::{IkSolution, swivel_grid};
+pub use swivel_ik::{IkSolution, Swivels, swivel_grid};
 pub use tsr::{Pose, Resolution, Tsr};
