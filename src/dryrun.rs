@@ -7,7 +7,7 @@ use rand::SeedableRng;
 use crate::ergo::Lambda;
 use crate::kinematics::Hand;
 use crate::participant::{ScriptedParticipant, SimulatedPerson};
-use crate::protocol::{Body, Study};
+use crate::protocol::{Body, Population, Study};
 use crate::record::{RecordedSession, SubmitError};
 use crate::robot::joint_states::JointStateSource;
 use crate::robot::{Report, Robot, command_for};
@@ -17,7 +17,6 @@ use crate::{SeededRng, derive_seed};
 mod purpose {
     pub const ID: u64 = 301;
     pub const SESSION: u64 = 302;
-    pub const TRUTH: u64 = 303;
     pub const BODY: u64 = 304;
 }
 
@@ -79,15 +78,25 @@ pub struct DryRunPlan {
 }
 
 /// The plan of simulated participant `index` (0-based): id, counterbalancing slot
-/// (alternating), session seed, and ground truth (drawn from the prior unless given).
+/// (alternating), session seed, and ground truth (drawn from the protocol's population
+/// unless given), answering with the population's α.
 pub fn plan(study: &Study, seed: u64, index: usize, truth: Option<&Lambda>, started_at: String) -> DryRunPlan {
+    plan_from(study, &study.population(), seed, index, truth, started_at)
+}
+
+/// [`plan`] with the participant drawn from `population` rather than the protocol's.
+pub fn plan_from(
+    study: &Study,
+    population: &Population,
+    seed: u64,
+    index: usize,
+    truth: Option<&Lambda>,
+    started_at: String,
+) -> DryRunPlan {
     let i = index as u64;
     let id = format!("pilot-{:06x}-{:02}", derive_seed(seed, 0, purpose::ID) & 0xff_ffff, index + 1);
     let slot = index % 2;
-    let truth = truth.cloned().unwrap_or_else(|| {
-        let prior = study.protocol.learning.prior().expect("a validated protocol's prior");
-        Lambda::from_slice(&prior.sample(&mut SeededRng::seed_from_u64(derive_seed(seed, i, purpose::TRUTH))))
-    });
+    let truth = truth.cloned().unwrap_or_else(|| population.draw(seed, index));
     let session_seed = derive_seed(seed, i, purpose::SESSION);
     let order = condition_order(study, slot);
     let start = SessionStart {
@@ -105,7 +114,7 @@ pub fn plan(study: &Study, seed: u64, index: usize, truth: Option<&Lambda>, star
         simulated_truth: Some(truth.clone()),
         resumed_from: None,
     };
-    let person = SimulatedPerson { truth, alpha: study.protocol.learning.alpha };
+    let person = SimulatedPerson { truth, alpha: population.alpha };
     DryRunPlan { start, participant: ScriptedParticipant { person } }
 }
 

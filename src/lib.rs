@@ -13,6 +13,7 @@ pub mod experiment;
 pub mod kinematics;
 pub mod live;
 pub mod participant;
+pub mod plan;
 pub mod plot;
 pub mod private_files;
 pub mod protocol;

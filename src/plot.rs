@@ -203,31 +203,134 @@ fn draw_lines<DB: DrawingBackend>(
         .draw()
         .map_err(|e| err(&e))?;
     for (k, s) in plot.series.iter().enumerate() {
-        let colour = PALETTE[k % PALETTE.len()];
-        let pts: Vec<_> = s.points.iter().filter(|p| p.1.is_finite() && p.2.is_finite()).copied().collect();
-        let mut band: Vec<(f64, f64)> = pts.iter().map(|p| (p.0, p.1 + p.2)).collect();
-        band.extend(pts.iter().rev().map(|p| (p.0, p.1 - p.2)));
-        chart.draw_series(std::iter::once(Polygon::new(band, colour.mix(0.15).filled()))).map_err(|e| err(&e))?;
-        chart
-            .draw_series(LineSeries::new(pts.iter().map(|p| (p.0, p.1)), colour.stroke_width(2)))
-            .map_err(|e| err(&e))?
-            .label(s.name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2)));
-        chart.draw_series(pts.iter().map(|p| Circle::new((p.0, p.1), 3, colour.filled()))).map_err(|e| err(&e))?;
+        let pts: Vec<_> = s
+            .points
+            .iter()
+            .filter(|p| p.1.is_finite() && p.2.is_finite())
+            .map(|p| (p.0, p.1, p.1 - p.2, p.1 + p.2))
+            .collect();
+        draw_band_line(&mut chart, s.name, PALETTE[k % PALETTE.len()], &pts)?;
     }
+    draw_legend(&mut chart, plot.band, SeriesLabelPosition::UpperRight)
+}
+
+/// A chart of f64 axes on any backend.
+type AnyChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// One series as a shaded band from low to high, a line and its points, named in the
+/// legend; `pts` are (x, y, low, high).
+fn draw_band_line<DB: DrawingBackend>(
+    chart: &mut AnyChart<'_, DB>,
+    name: &str,
+    colour: RGBColor,
+    pts: &[(f64, f64, f64, f64)],
+) -> Result<(), String> {
+    let err = |e: &dyn std::fmt::Display| e.to_string();
+    let mut band: Vec<(f64, f64)> = pts.iter().map(|p| (p.0, p.3)).collect();
+    band.extend(pts.iter().rev().map(|p| (p.0, p.2)));
+    chart.draw_series(std::iter::once(Polygon::new(band, colour.mix(0.15).filled()))).map_err(|e| err(&e))?;
+    chart
+        .draw_series(LineSeries::new(pts.iter().map(|p| (p.0, p.1)), colour.stroke_width(2)))
+        .map_err(|e| err(&e))?
+        .label(name)
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2)));
+    chart.draw_series(pts.iter().map(|p| Circle::new((p.0, p.1), 3, colour.filled()))).map_err(|e| err(&e))?;
+    Ok(())
+}
+
+/// The legend, with an entry saying what the shaded bands are.
+fn draw_legend<'a, DB: DrawingBackend + 'a>(
+    chart: &mut AnyChart<'a, DB>,
+    band: &str,
+    position: SeriesLabelPosition,
+) -> Result<(), String> {
+    let err = |e: &dyn std::fmt::Display| e.to_string();
     let grey = RGBColor(120, 120, 120);
     chart
         .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
         .map_err(|e| err(&e))?
-        .label(format!("shaded: {}", plot.band))
+        .label(format!("shaded: {band}"))
         .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], grey.mix(0.3).filled()));
     chart
         .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
+        .position(position)
         .background_style(WHITE.mix(0.8))
         .border_style(BLACK)
         .draw()
         .map_err(|e| err(&e))?;
+    Ok(())
+}
+
+/// One line of a power curve: (participants, power, interval low, interval high) points.
+pub struct PowerSeries<'a> {
+    pub name: &'a str,
+    pub points: Vec<(f64, f64, f64, f64)>,
+}
+
+/// Power (a share of studies, 0–1) against the number of participants, one line per series
+/// with its interval shaded (`band` names it), the conventional 80 % target and the 5 %
+/// significance level dashed; ticks at the sizes planned.
+pub fn power_plot(path: &Path, title: &str, band: &str, series: &[PowerSeries]) -> Result<(), String> {
+    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let root = SVGBackend::new(path, (760, 500)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    // The sizes planned, equally spaced (they usually double), labelled with their values.
+    let mut sizes: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).collect();
+    sizes.sort_by(f64::total_cmp);
+    sizes.dedup();
+    let at = |n: f64| sizes.iter().position(|&s| s == n).unwrap_or(0) as f64;
+    let last = sizes.len().saturating_sub(1) as f64;
+    let top = 1.0 + legend_headroom(series.len() + 3) * 0.8;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 17))
+        .margin(12)
+        .x_label_area_size(42)
+        .y_label_area_size(60)
+        .build_cartesian_2d(-0.4..last + 0.4, 0.0..top)
+        .map_err(|e| err(&e))?;
+    chart
+        .configure_mesh()
+        .light_line_style(TRANSPARENT)
+        .x_desc("participants in the study")
+        .y_desc("power (share of studies with p < .05)")
+        .x_labels(sizes.len().clamp(2, 13))
+        .x_label_formatter(&|x| {
+            let i = x.round();
+            if (x - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < sizes.len() {
+                format!("{}", sizes[i as usize])
+            } else {
+                String::new()
+            }
+        })
+        .y_labels(12)
+        .y_label_formatter(&|y| if *y <= 1.0 + 1e-9 { format!("{:.0} %", y * 100.0) } else { String::new() })
+        .draw()
+        .map_err(|e| err(&e))?;
+    let (x_min, x_max, pad) = (0.0, last, 0.4);
+    let grey = RGBColor(120, 120, 120);
+    for (level, name) in [(0.8, "80 % (a common target)"), (0.05, "5 % (the significance level)")] {
+        chart
+            .draw_series(DashedLineSeries::new(
+                [(x_min - pad, level), (x_max + pad, level)],
+                6,
+                4,
+                grey.stroke_width(1),
+            ))
+            .map_err(|e| err(&e))?
+            .label(name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], grey.stroke_width(1)));
+    }
+    for (k, s) in series.iter().enumerate() {
+        let pts: Vec<_> = s
+            .points
+            .iter()
+            .filter(|p| p.1.is_finite() && p.2.is_finite() && p.3.is_finite())
+            .map(|p| (at(p.0), p.1, p.2, p.3))
+            .collect();
+        draw_band_line(&mut chart, s.name, PALETTE[k % PALETTE.len()], &pts).map_err(|e| err(&e))?;
+    }
+    draw_legend(&mut chart, band, SeriesLabelPosition::UpperLeft).map_err(|e| err(&e))?;
+    root.present().map_err(|e| err(&e))?;
     Ok(())
 }
 

@@ -5,7 +5,7 @@ use std::process::Command;
 use std::sync::Arc;
 use std::time::Duration;
 
-use handover::dryrun::{DryRunPlan, drive, now_ns, plan};
+use handover::dryrun::{DryRunPlan, drive, now_ns, plan_from};
 use handover::protocol::Study;
 use handover::record::{RecordedSession, new_log_path};
 use handover::session::Session;
@@ -37,7 +37,7 @@ fn logs(name: &str, pilots: usize) -> PathBuf {
     let text = small_protocol_text();
     let study = Arc::new(Study::from_json(&text, "small").unwrap());
     for i in 0..=pilots {
-        let mut p = plan(&study, 77, i, None, "2026-11-22T00:00:00Z".into());
+        let mut p = plan_from(&study, &study.prior_population(), 77, i, None, "2026-11-22T00:00:00Z".into());
         if i == pilots {
             p.start.pilot = false;
             p.start.participant = "p-real0001".into();
@@ -179,7 +179,12 @@ fn alpha_logs(alpha: f64, participants: usize) -> PathBuf {
     let text = v.to_string();
     let study = Arc::new(Study::from_json(&text, "alpha").unwrap());
     for i in 0..participants {
-        record(&dir, &text, &study, &plan(&study, 5, i, None, "2026-11-22T00:00:00Z".into()));
+        record(
+            &dir,
+            &text,
+            &study,
+            &plan_from(&study, &study.prior_population(), 5, i, None, "2026-11-22T00:00:00Z".into()),
+        );
     }
     dir
 }
@@ -223,7 +228,7 @@ fn a_protocol_alpha_the_data_reject_is_flagged() {
     let text = v.to_string();
     let study = Arc::new(Study::from_json(&text, "flag").unwrap());
     for i in 0..6 {
-        let mut p = plan(&study, 5, i, None, "2026-11-22T00:00:00Z".into());
+        let mut p = plan_from(&study, &study.prior_population(), 5, i, None, "2026-11-22T00:00:00Z".into());
         // The simulated people are more rational than the protocol assumes.
         p.participant.person.alpha = 20.0;
         record(&dir, &text, &study, &p);
@@ -298,7 +303,7 @@ fn trials_csv_keeps_undone_and_voided_trials_and_notes_csv_the_notes() {
     let _ = std::fs::remove_dir_all(&dir);
     let text = small_protocol_text();
     let study = Arc::new(Study::from_json(&text, "small").unwrap());
-    let p = plan(&study, 5, 0, None, "2026-11-22T00:00:00Z".into());
+    let p = plan_from(&study, &study.prior_population(), 5, 0, None, "2026-11-22T00:00:00Z".into());
     let session = Session::new(Arc::clone(&study), p.start.clone()).unwrap();
     let mut rec = RecordedSession::create(
         &new_log_path(&dir, &p.start.participant, chrono::Utc::now()),

@@ -4,7 +4,7 @@
 
 use std::sync::Arc;
 
-use handover::dryrun::plan;
+use handover::dryrun::plan_from;
 use handover::protocol::{DEFAULT_PROTOCOL, Study};
 use handover::session::{Prompt, Session};
 
@@ -24,7 +24,7 @@ fn distance(a: &[f64], b: &[f64]) -> f64 {
 #[test]
 fn before_any_grasp_the_estimates_are_the_priors_centre() {
     let s = study("region", 1);
-    let p = plan(&s, 1, 0, None, "2026-11-22T00:00:00Z".into());
+    let p = plan_from(&s, &s.prior_population(), 1, 0, None, "2026-11-22T00:00:00Z".into());
     let session = Session::new(Arc::clone(&s), p.start).unwrap();
     let prior = s.protocol.learning.prior().unwrap();
     for l in session.learners() {
@@ -48,7 +48,7 @@ fn with_region_observations_the_estimate_approaches_the_truth() {
     let (mut before, mut after, mut closer) = (0.0, 0.0, 0);
     let seeds = 6;
     for seed in 0..seeds {
-        let p = plan(&s, 100 + seed, 0, None, "2026-11-22T00:00:00Z".into());
+        let p = plan_from(&s, &s.prior_population(), 100 + seed, 0, None, "2026-11-22T00:00:00Z".into());
         let truth = p.start.simulated_truth.clone().unwrap().q_star;
         let mut session = Session::new(Arc::clone(&s), p.start.clone()).unwrap();
         let d0 = distance(&session.learners()[0].summary.mean.q_star, &truth);

@@ -8,7 +8,7 @@ use std::process::Command;
 use std::sync::Arc;
 use std::time::Duration;
 
-use handover::dryrun::{drive, now_ns, plan};
+use handover::dryrun::{drive, now_ns, plan_from};
 use handover::protocol::Study;
 use handover::record::{RecordedSession, new_log_path};
 use handover::session::{Event, Session, Stamped, VoidReason};
@@ -80,7 +80,7 @@ fn logs(dir: &Path) {
     let text = v.to_string();
     let study = Arc::new(Study::from_json(&text, "small").unwrap());
     for i in 0..2 {
-        let p = plan(&study, 5, i, None, "2026-11-22T00:00:00Z".into());
+        let p = plan_from(&study, &study.prior_population(), 5, i, None, "2026-11-22T00:00:00Z".into());
         let session = Session::new(Arc::clone(&study), p.start.clone()).unwrap();
         let path = new_log_path(dir, &p.start.participant, chrono::Utc::now());
         let mut rec = RecordedSession::create(&path, &text, session, now_ns()).unwrap();
@@ -162,11 +162,12 @@ fn every_csv_matches_the_data_dictionary() {
         ]
         .concat(),
     );
+    handover(&["plan", "--participants", "2,3", "--studies", "2", "--out", &s(&dir.join("plan"))]);
     let feasible = handover(&["feasible", "--format", "csv", "--query", "lock-low-upright"]);
     std::fs::write(dir.join("feasible.csv"), feasible.stdout).unwrap();
 
     let mut checked: BTreeMap<String, usize> = BTreeMap::new();
-    for folder in ["analyze/pilot", "sim", "two", "front", "observations"] {
+    for folder in ["analyze/pilot", "sim", "two", "front", "observations", "plan"] {
         for path in csv_files(&dir.join(folder)) {
             let name = path.file_name().unwrap().to_string_lossy().into_owned();
             let rows = check_csv(&path, &name, &dict);

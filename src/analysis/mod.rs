@@ -13,7 +13,8 @@ mod verify;
 use std::sync::Arc;
 
 use crate::belief::{Belief, posterior_predictive_log_likelihood};
-use crate::record::{LogContents, RecordError, replay_with, study_of};
+use crate::protocol::Study;
+use crate::record::{LogContents, RecordError, ReplayStep, replay_with, study_of};
 use crate::session::{Applied, BeliefSummary, Phase, Session, SessionStart};
 
 pub use crate::stats::{Wilcoxon, mean, median, quantile, standard_error, wilcoxon_signed_rank};
@@ -94,112 +95,148 @@ pub fn analyse(log: &LogContents) -> Result<SessionAnalysis, RecordError> {
 /// and their recomputation ([`verify`]), from one replay.
 pub fn analyse_and_verify(log: &LogContents, verify: bool) -> Result<(SessionAnalysis, Vec<Difference>), RecordError> {
     let study = Arc::new(study_of(log)?);
-    let runs = log.start.condition_order.len();
-    // Beliefs (and their summaries) after each training iteration, per run (index 0: the prior).
-    let mut snapshots: Vec<Vec<(Belief, BeliefSummary)>> = Vec::new();
-    let mut verifier = Verifier::new(log.start_time_ns);
-    let mut rows = rows::RowCollector::default();
-    let snapshot = |session: &Session, run: usize| {
-        let l = &session.learners()[run];
-        (l.belief.clone(), l.summary.clone())
-    };
-    let session = replay_with(Arc::clone(&study), log, |session, step| {
-        if verify {
-            verifier.visit(session, step);
+    let mut analyser = Analyser::new(log.start_time_ns, verify, true);
+    let session = replay_with(Arc::clone(&study), log, |session, step| analyser.visit(session, step))?;
+    let differences = if verify { analyser.verifier.differences(log) } else { Vec::new() };
+    Ok((analyser.finish(&session, &study, log), differences))
+}
+
+/// The analysis of a session as it is driven, step by step, rather than replayed from its
+/// log: `visit` is called as [`replay_with`] calls it (once with no step at the start, then
+/// after every event applied), and `finish` gives what [`analyse`] gives for the log of
+/// those events — the same code on the same states. Without `predictive`, the posterior
+/// predictive test log-likelihoods (the costliest part, which `plan` does not use) are left
+/// empty.
+pub struct Analyser {
+    verifier: Verifier,
+    verify: bool,
+    predictive: bool,
+    rows: rows::RowCollector,
+    /// Beliefs (and their summaries) after each training iteration, per run (index 0: the prior).
+    snapshots: Vec<Vec<(Belief, BeliefSummary)>>,
+}
+
+impl Analyser {
+    pub fn new(start_time_ns: u64, verify: bool, predictive: bool) -> Self {
+        Self {
+            verifier: Verifier::new(start_time_ns),
+            verify,
+            predictive,
+            rows: rows::RowCollector::default(),
+            snapshots: Vec::new(),
+        }
+    }
+
+    /// One step of the session (None: its start).
+    pub fn visit(&mut self, session: &Session, step: Option<ReplayStep>) {
+        if self.verify {
+            self.verifier.visit(session, step);
         }
         if let Some((index, stamped, applied)) = step {
-            rows.visit(session, index, stamped, applied);
+            self.rows.visit(session, index, stamped, applied);
         }
-        if snapshots.is_empty() {
-            snapshots = (0..session.learners().len()).map(|run| vec![snapshot(session, run)]).collect();
+        let snapshot = |session: &Session, run: usize| {
+            let l = &session.learners()[run];
+            (l.belief.clone(), l.summary.clone())
+        };
+        if self.snapshots.is_empty() {
+            self.snapshots = (0..session.learners().len()).map(|run| vec![snapshot(session, run)]).collect();
         }
         match step.map(|(_, _, applied)| applied) {
             Some(Applied::Responded { view, .. }) if view.phase == Phase::Training => {
                 let run = view.program.expect("training has a program");
-                snapshots[run].push(snapshot(session, run));
+                self.snapshots[run].push(snapshot(session, run));
             }
             Some(Applied::Undone { view, .. }) | Some(Applied::Voided { view, retracted: true })
                 if view.phase == Phase::Training =>
             {
-                snapshots[view.program.expect("training has a program")].pop();
+                self.snapshots[view.program.expect("training has a program")].pop();
             }
             _ => {}
         }
-    })?;
-    let differences = if verify { verifier.differences(log) } else { Vec::new() };
-    let ctx = session.context();
-    let tests = session.test_examples();
-    let region_id = |t: &crate::session::TrialRecord| {
-        let q = session.query(t.query);
-        study.object(q).regions[q.regions[t.region]].id.clone()
-    };
-    let mut out_runs = Vec::with_capacity(runs);
-    for (run, points) in snapshots.into_iter().enumerate() {
-        let (beliefs, summaries): (Vec<Belief>, Vec<BeliefSummary>) = points.into_iter().unzip();
-        let modes: Vec<_> = summaries.iter().map(|b| b.mean.clone()).collect();
-        let (test_ll_estimate, test_ll_predictive) = if tests.is_empty() {
-            (Vec::new(), Vec::new())
-        } else {
-            (
-                session.test_log_likelihoods(run, &tests),
-                beliefs
-                    .iter()
-                    .map(|b| posterior_predictive_log_likelihood(b, &tests, ctx.alpha).expect("logged indices"))
-                    .collect(),
-            )
-        };
-        let trials = session
-            .trials()
-            .iter()
-            .filter(|t| t.run == Some(run))
-            .map(|t| {
-                let q = session.query(t.query);
-                TrainingTrial {
-                    trial: t.trial,
-                    query: q.query.id.clone(),
-                    object: q.query.object.clone(),
-                    region: region_id(t),
-                }
-            })
-            .collect();
-        out_runs.push(RunAnalysis {
-            program: run,
-            condition: session.learners()[run].condition.name().to_string(),
-            trials,
-            test_ll_estimate,
-            test_ll_predictive,
-            learned_q_star: modes.last().map(|m| m.q_star.clone()).unwrap_or_default(),
-            beliefs: summaries,
-        });
     }
-    let alpha_evidence = AlphaEvidence {
-        prior: ctx.prior.clone(),
-        seed: log.start.seed,
-        choices: session.trials().iter().map(|t| (session.set(t.query).clone(), t.region)).collect(),
-        protocol_alpha: ctx.alpha,
-    };
-    let items = &study.protocol.questionnaire.items;
-    let completed = matches!(session.prompt(), crate::session::Prompt::Done { completed: true });
-    let analysis = SessionAnalysis {
-        body: crate::protocol::Body { height_m: study.protocol.arm.body_height_m, hand: study.arm.side },
-        trial_rows: rows.trials,
-        notes: rows.notes,
-        robot: rows.robot,
-        start: log.start.clone(),
-        runs: out_runs,
-        test_trials: session
-            .trials()
-            .iter()
-            .filter(|t| t.phase == Phase::Test)
-            .map(|t| {
-                let q = session.query(t.query);
-                (q.query.id.clone(), q.query.object.clone(), region_id(t))
-            })
-            .collect(),
-        likert: session.likert_answers().iter().map(|(&(p, i), &v)| (p, items[i].id.clone(), v)).collect(),
-        choice: session.forced_choice(),
-        completed,
-        alpha_evidence,
-    };
-    Ok((analysis, differences))
+
+    /// The session's results, from its final state and its log's start.
+    pub fn finish(self, session: &Session, study: &Study, log: &LogContents) -> SessionAnalysis {
+        let runs = log.start.condition_order.len();
+        let Self { rows, snapshots, predictive, .. } = self;
+        let ctx = session.context();
+        let tests = session.test_examples();
+        let region_id = |t: &crate::session::TrialRecord| {
+            let q = session.query(t.query);
+            study.object(q).regions[q.regions[t.region]].id.clone()
+        };
+        let mut out_runs = Vec::with_capacity(runs);
+        for (run, points) in snapshots.into_iter().enumerate() {
+            let (beliefs, summaries): (Vec<Belief>, Vec<BeliefSummary>) = points.into_iter().unzip();
+            let modes: Vec<_> = summaries.iter().map(|b| b.mean.clone()).collect();
+            let (test_ll_estimate, test_ll_predictive) = if tests.is_empty() {
+                (Vec::new(), Vec::new())
+            } else {
+                (
+                    session.test_log_likelihoods(run, &tests),
+                    if predictive {
+                        beliefs
+                            .iter()
+                            .map(|b| posterior_predictive_log_likelihood(b, &tests, ctx.alpha).expect("logged indices"))
+                            .collect()
+                    } else {
+                        Vec::new()
+                    },
+                )
+            };
+            let trials = session
+                .trials()
+                .iter()
+                .filter(|t| t.run == Some(run))
+                .map(|t| {
+                    let q = session.query(t.query);
+                    TrainingTrial {
+                        trial: t.trial,
+                        query: q.query.id.clone(),
+                        object: q.query.object.clone(),
+                        region: region_id(t),
+                    }
+                })
+                .collect();
+            out_runs.push(RunAnalysis {
+                program: run,
+                condition: session.learners()[run].condition.name().to_string(),
+                trials,
+                test_ll_estimate,
+                test_ll_predictive,
+                learned_q_star: modes.last().map(|m| m.q_star.clone()).unwrap_or_default(),
+                beliefs: summaries,
+            });
+        }
+        let alpha_evidence = AlphaEvidence {
+            prior: ctx.prior.clone(),
+            seed: log.start.seed,
+            choices: session.trials().iter().map(|t| (session.set(t.query).clone(), t.region)).collect(),
+            protocol_alpha: ctx.alpha,
+        };
+        let items = &study.protocol.questionnaire.items;
+        let completed = matches!(session.prompt(), crate::session::Prompt::Done { completed: true });
+        SessionAnalysis {
+            body: crate::protocol::Body { height_m: study.protocol.arm.body_height_m, hand: study.arm.side },
+            trial_rows: rows.trials,
+            notes: rows.notes,
+            robot: rows.robot,
+            start: log.start.clone(),
+            runs: out_runs,
+            test_trials: session
+                .trials()
+                .iter()
+                .filter(|t| t.phase == Phase::Test)
+                .map(|t| {
+                    let q = session.query(t.query);
+                    (q.query.id.clone(), q.query.object.clone(), region_id(t))
+                })
+                .collect(),
+            likert: session.likert_answers().iter().map(|(&(p, i), &v)| (p, items[i].id.clone(), v)).collect(),
+            choice: session.forced_choice(),
+            completed,
+            alpha_evidence,
+        }
+    }
 }

@@ -12,7 +12,7 @@ use clap::Args;
 use handover::analysis::{
     SEED_MEASURES, SeedRun, SessionAnalysis, analyse, object_shares, over_seeds, paired_across, paired_over_seeds,
 };
-use handover::dryrun::{BodyPopulation, RobotDrive, drive_session, now_ns, plan};
+use handover::dryrun::{BodyPopulation, RobotDrive, drive_session, now_ns, plan_from};
 use handover::ergo::Lambda;
 use handover::protocol::{LambdaSpec, Study, for_body};
 use handover::record::{RecordedSession, new_log_path, read_log};
@@ -64,8 +64,13 @@ pub struct DryRunArgs {
     #[arg(long, value_name = "FRACTION", default_value_t = handover::dryrun::LEFT_HANDED_SHARE)]
     left_handed_share: f64,
     /// A ground truth for every participant: {"q_star_deg": [7 angles], "w": [7 weights]}.
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", conflicts_with = "population")]
     truth: Option<PathBuf>,
+    /// Whom participants' λ are drawn from: the protocol's `population` section (or its
+    /// default), or the robot's own prior (as the paper's simulations and the dry runs before
+    /// the population section drew them).
+    #[arg(long, value_enum, default_value = "protocol")]
+    population: PopulationArg,
     /// Milliseconds to wait between actions, to watch or rehearse.
     #[arg(long, value_name = "MS", default_value_t = 0)]
     pace: u64,
@@ -80,6 +85,13 @@ pub struct DryRunArgs {
     robot: RobotArgs,
     #[command(flatten)]
     live: LiveArgs,
+}
+
+/// Where simulated participants' λ come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum PopulationArg {
+    Protocol,
+    Prior,
 }
 
 fn load_truth(path: &std::path::Path) -> Result<Lambda> {
@@ -207,7 +219,12 @@ fn run_seeds(
             let (text, fitted) = for_body(text, &study.source_name, body)
                 .map_err(|e| bad(format!("simulated participant {} of seed {seed}: {e}", i + 1)))?;
             let fitted = Arc::new(fitted);
-            let p = plan(&fitted, seed, i, truth, now.to_rfc3339_opts(chrono::SecondsFormat::Millis, true));
+            let people = match args.population {
+                PopulationArg::Protocol => fitted.population(),
+                PopulationArg::Prior => fitted.prior_population(),
+            };
+            let started = now.to_rfc3339_opts(chrono::SecondsFormat::Millis, true);
+            let p = plan_from(&fitted, &people, seed, i, truth, started);
             let session = Session::new(Arc::clone(&fitted), p.start.clone()).map_err(|e| anyhow::anyhow!("{e}"))?;
             let path = new_log_path(logs, &p.start.participant, now);
             let _lock = ParticipantLock::acquire(&logs.join(&p.start.participant), &p.start.participant, "dry-run")?;

@@ -32,10 +32,12 @@ mod input;
 mod live;
 mod observations;
 mod participant;
+mod plan;
 mod protocol;
 mod resume;
 mod robot;
 mod score;
+mod shards;
 mod simulate;
 mod sweep;
 
@@ -114,6 +116,12 @@ enum Command {
     /// Writes: one pilot log per simulated participant, LOGS/<id>/<id>_<UTC time>.mcap,
     /// stamped at a session's pace; the measures on stdout.
     DryRun(dry_run::DryRunArgs),
+    /// Plan a study before recruiting: its power at several sizes, from simulated studies.
+    ///
+    /// Writes: a table on stdout; with --out DIR, studies.csv, study_objects.csv, power.csv,
+    /// objects.csv and power.svg into DIR (docs/outputs.md); with --keep-logs LOGS, the first
+    /// simulated study's pilot logs.
+    Plan(plan::PlanArgs),
     /// Continue an interrupted session from its log.
     ///
     /// Writes: a new log beside the old one (the old one is kept, never changed) holding every
@@ -155,6 +163,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Protocol(args) => protocol::run(args),
         Command::Participant(args) => participant::run(args),
         Command::DryRun(args) => dry_run::run(args),
+        Command::Plan(args) => plan::run(args),
         Command::Resume(args) => resume::run(args),
         Command::Analyze(args) => analyze::run(args),
         Command::Completions { shell } => {

@@ -169,5 +169,14 @@ pub fn summary(s: &Study) -> String {
         p.session.conditions.len(),
         p.questionnaire.scale.len()
     );
+    out += &format!(
+        "  simulated participants (dry-run, plan): {}, α = {}\n",
+        if p.population.is_some() {
+            "the protocol's population"
+        } else {
+            "the default population (each learned component centred on its prior range, sd a sixth of it)"
+        },
+        s.population().alpha
+    );
     out
 }

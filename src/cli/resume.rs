@@ -114,7 +114,7 @@ pub fn run(args: ResumeArgs) -> Result<()> {
         rec.set_tap(Box::new(view));
     }
     eprintln!("resumed {} ({} events) into {}", old.path.display(), old.events.len(), rec.path().display());
-    let person = SimulatedPerson { truth, alpha: study.protocol.learning.alpha };
+    let person = SimulatedPerson { truth, alpha: study.population().alpha };
     let participant = ScriptedParticipant { person };
     let driven = drive_session(&mut rec, &participant, robot.as_mut(), arm.as_ref(), Duration::from_millis(args.pace))?;
     let path = rec.finish().context("cannot finish the log")?;

@@ -229,7 +229,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     let started = Instant::now();
     let fingerprint = format!("{} {settings:?} seeds {}", scenario.name(), args.seeds);
     if let Some(text) = &args.shard {
-        let (k, n) = parse_shard(text)?;
+        let (k, n) = super::shards::parse_shard(text)?;
         let dir = args.out.as_ref().ok_or_else(|| bad("--shard needs --out DIR for the shard's files"))?;
         let units = experiment::shard_units(args.seeds, settings.trials, k, n);
         bar.set_length(units.len() as u64);
@@ -242,9 +242,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         bar.finish_and_clear();
         write_csv(&dir.join("metrics.csv"), &rows)?;
         let manifest = experiment::ShardManifest { run: fingerprint, shard: k, of: n, rows: rows.len() };
-        let path = dir.join(experiment::SHARD_MANIFEST);
-        std::fs::write(&path, serde_json::to_string_pretty(&manifest)? + "\n")
-            .with_context(|| format!("cannot write {}", path.display()))?;
+        super::shards::write_manifest(dir, &manifest)?;
         eprintln!(
             "shard {k}/{n}: {} of {} trials × seeds, {} rows in {:.1} s; wrote {}/metrics.csv and {}",
             units.len(),
@@ -315,50 +313,13 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     Ok(())
 }
 
-/// `K/N` with N from 1 to 100000 shards and K below N.
-fn parse_shard(text: &str) -> Result<(usize, usize)> {
-    let parsed = text.split_once('/').and_then(|(k, n)| Some((k.trim().parse().ok()?, n.trim().parse().ok()?)));
-    match parsed {
-        Some((k, n)) if (1..=100_000).contains(&n) && k < n => Ok((k, n)),
-        _ => Err(bad(format!("--shard is '{text}', expected K/N with 1 ≤ N ≤ 100000 and 0 ≤ K < N"))),
-    }
-}
-
 /// The rows of every shard of this run, checked (the same run, each shard once, all there)
 /// and in the whole run's order.
 fn merge_shards(dirs: &[PathBuf], fingerprint: &str, s: &Settings, seeds: u64) -> Result<Vec<experiment::MetricRow>> {
     let per_unit = s.algorithms.len() * (s.iterations + 1);
     let expected = seeds as usize * s.trials * per_unit;
-    let mut seen: Vec<Option<&Path>> = Vec::new();
     let mut rows = Vec::with_capacity(expected);
-    for dir in dirs {
-        let path = dir.join(experiment::SHARD_MANIFEST);
-        let text = super::input::read_text(&path)?;
-        let m: experiment::ShardManifest = super::input::parse_json(&text, &path.display().to_string())?;
-        if m.run != fingerprint {
-            return Err(bad(format!("{}: a shard of another run (other options than this command's)", dir.display())));
-        }
-        if seen.is_empty() {
-            seen = vec![None; m.of];
-        }
-        if m.of != seen.len() || m.shard >= m.of {
-            return Err(bad(format!(
-                "{}: shard {}/{}, expected one of {} shards",
-                dir.display(),
-                m.shard,
-                m.of,
-                seen.len()
-            )));
-        }
-        if let Some(first) = seen[m.shard].replace(dir) {
-            return Err(bad(format!(
-                "shard {}/{} is given twice: {} and {}",
-                m.shard,
-                m.of,
-                first.display(),
-                dir.display()
-            )));
-        }
+    for (dir, m) in super::shards::checked_shards(dirs, fingerprint)? {
         let shard_rows = experiment::read_metrics(&dir.join("metrics.csv"), expected).map_err(bad)?;
         if shard_rows.len() != m.rows {
             return Err(bad(format!(
@@ -370,11 +331,6 @@ fn merge_shards(dirs: &[PathBuf], fingerprint: &str, s: &Settings, seeds: u64) -
         }
         rows.extend(shard_rows);
     }
-    let missing: Vec<String> =
-        seen.iter().enumerate().filter(|(_, d)| d.is_none()).map(|(k, _)| k.to_string()).collect();
-    if !missing.is_empty() {
-        return Err(bad(format!("shards {} of {} are missing", missing.join(", "), seen.len())));
-    }
     if rows.len() != expected {
         return Err(bad(format!("the shards hold {} rows, the run has {expected}", rows.len())));
     }
@@ -382,7 +338,7 @@ fn merge_shards(dirs: &[PathBuf], fingerprint: &str, s: &Settings, seeds: u64) -
     Ok(rows)
 }
 
-fn write_csv<T: serde::Serialize>(path: &Path, rows: &[T]) -> Result<()> {
+pub(super) fn write_csv<T: serde::Serialize>(path: &Path, rows: &[T]) -> Result<()> {
     let mut w = csv::Writer::from_path(path).with_context(|| format!("cannot write {}", path.display()))?;
     for r in rows {
         w.serialize(r)?;

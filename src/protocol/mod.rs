@@ -4,6 +4,7 @@
 //! Its length: every section of a protocol file as a typed value, with the study built from
 //! it; the checks are in `validate.rs`.
 
+mod population;
 mod validate;
 
 use serde::{Deserialize, Serialize};
@@ -15,6 +16,7 @@ use nalgebra::{Isometry3, UnitQuaternion};
 use crate::kinematics::{ArmFeasibleSet, Discretisation, Hand, HumanArm, JOINTS, Object, Pose, mirror};
 use crate::select::SelectorKind;
 
+pub use population::{Population, PopulationSpec, Spread};
 pub use validate::{Problem, ProtocolError, limits};
 
 /// The default study, embedded so that a bare `handover` runs.
@@ -46,6 +48,10 @@ pub struct Protocol {
     pub session: SessionSpec,
     /// The post-study questionnaire (the paper's Table I).
     pub questionnaire: QuestionnaireSpec,
+    /// Who simulated participants are (dry runs, `plan`); absent: the default population
+    /// (`population.rs`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub population: Option<PopulationSpec>,
 }
 
 /// The phases of a session.
@@ -365,6 +371,19 @@ impl Study {
     /// The embedded default protocol.
     pub fn default_study() -> Self {
         Self::from_json(DEFAULT_PROTOCOL, DEFAULT_PROTOCOL_NAME).expect("the embedded protocol is valid (tested)")
+    }
+
+    /// The population simulated participants are drawn from.
+    pub fn population(&self) -> Population {
+        let l = &self.protocol.learning;
+        Population::new(self.protocol.population.as_ref(), &l.prior().expect("a validated protocol's prior"), l.alpha)
+    }
+
+    /// People drawn from the robot's own prior, with the protocol's α (`dry-run --population
+    /// prior`).
+    pub fn prior_population(&self) -> Population {
+        let l = &self.protocol.learning;
+        Population::from_prior(&l.prior().expect("a validated protocol's prior"), l.alpha)
     }
 
     /// The factor the queries' positions are scaled by for this study's arm.

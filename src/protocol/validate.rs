@@ -7,8 +7,8 @@ use std::collections::HashSet;
 use std::fmt;
 
 use super::{
-    ArmSpec, LambdaSpec, LearningSpec, ObservationModel, Protocol, Query, QuestionnaireSpec, ResolvedQuery,
-    SessionSpec, Study, commanded_pose,
+    ArmSpec, LambdaSpec, LearningSpec, ObservationModel, PopulationSpec, Protocol, Query, QuestionnaireSpec,
+    ResolvedQuery, SessionSpec, Study, commanded_pose,
 };
 use crate::belief::{Prior, ResamplePolicy};
 use crate::kinematics::{HumanArm, JOINT_NAMES, JOINTS, Object, Pose, feasible_set};
@@ -325,6 +325,48 @@ fn learning(l: &LearningSpec, p: &mut Problems) {
     p.range("learning.budget_epsilon", l.budget_epsilon, (0.0, limits::BUDGET_EPSILON), "a fraction");
 }
 
+/// The population: one spread per joint, each mean inside the prior's support of a learned
+/// component (draws are truncated to it) and each sd at most the support's width.
+fn population(pop: &PopulationSpec, l: &LearningSpec, p: &mut Problems) {
+    for (field, spreads, priors, bound, unit) in [
+        ("q_star_deg", &pop.q_star_deg, &l.prior.q_star_deg, limits::ANGLE_DEG, "degrees"),
+        ("w", &pop.w, &l.prior.w, limits::WEIGHT, "a weight"),
+    ] {
+        if spreads.len() != JOINTS {
+            p.add(
+                format!("population.{field}"),
+                format!("has {} entries, expected {JOINTS} (one per joint)", spreads.len()),
+            );
+            continue;
+        }
+        for (i, (s, prior)) in spreads.iter().zip(priors).enumerate() {
+            let path = format!("population.{field}[{i}]");
+            let (lo, hi) = prior.support();
+            if !(s.mean.is_finite() && s.mean.abs() <= bound) {
+                p.add(
+                    format!("{path}.mean"),
+                    format!("is {}, expected a number from -{bound} to {bound} {unit}", s.mean),
+                );
+            } else if hi > lo && !(lo..=hi).contains(&s.mean) {
+                p.add(
+                    format!("{path}.mean"),
+                    format!(
+                        "is {}, expected a value inside learning.prior.{field}[{i}]'s support [{lo}, {hi}]",
+                        s.mean
+                    ),
+                );
+            }
+            let width = if hi > lo { hi - lo } else { bound };
+            p.range(&format!("{path}.sd"), s.sd, (0.0, width), unit);
+        }
+    }
+    if let Some(alpha) = pop.alpha
+        && !(alpha.is_finite() && alpha > 0.0 && alpha <= limits::ALPHA)
+    {
+        p.add("population.alpha", format!("is {alpha}, expected a positive number up to {}", limits::ALPHA));
+    }
+}
+
 fn measurement(l: &LearningSpec, p: &mut Problems) {
     let m = match (l.observation, &l.measurement) {
         (ObservationModel::Measured, Some(m)) => m,
@@ -606,6 +648,9 @@ pub(super) fn study(protocol: Protocol, name: &str, sha256: String) -> Result<St
     );
     objects(&protocol.objects, &d.resolution, &mut p);
     learning(&protocol.learning, &mut p);
+    if let Some(pop) = &protocol.population {
+        population(pop, &protocol.learning, &mut p);
+    }
     session(&protocol.session, &protocol.questionnaire, &mut p);
     // Feasible sets are computed only for a discretisation that makes sense.
     let arm = if p.0.is_empty() { arm } else { None };

@@ -158,7 +158,7 @@ impl App {
         if app.config.simulate
             && let Some(truth) = old.start.simulated_truth.clone()
         {
-            let person = SimulatedPerson { truth, alpha: rec.session().study().protocol.learning.alpha };
+            let person = SimulatedPerson { truth, alpha: rec.session().study().population().alpha };
             app.plan = Some(Plan {
                 start: old.start.clone(),
                 new_record: None,

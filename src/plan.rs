@@ -1,0 +1,354 @@
+//! Planning a study before recruiting (`handover plan`): whole studies of simulated
+//! participants, each session run by the session's own code and analysed as `analyze`
+//! analyses a log, and the share of studies that find the protocol's effect (its power).
+//!
+//! A study of N participants is participants 0..N of that study's draws (bodies, λ, answers,
+//! counterbalancing slot alternating), so the studies of different sizes are nested: study
+//! k at N = 20 holds study k at N = 10. The sizes' powers are then compared on the same
+//! people, and one study's sessions are simulated once for every size.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+
+use crate::analysis::{Analyser, SeedRun, SessionAnalysis, object_shares, paired_over_seeds};
+use crate::derive_seed;
+use crate::dryrun::{BodyPopulation, DryRunPlan, plan, simulated_seconds};
+use crate::protocol::{Study, for_body};
+use crate::record::{LogContents, ReplayStep};
+use crate::session::{Session, Stamped};
+
+/// What a plan's studies' seeds are derived for.
+const PURPOSE_STUDY: u64 = 401;
+
+/// The log time a simulated session starts at (2026-01-01T00:00:00Z): sessions kept in
+/// memory are stamped as a dry run stamps them, from a fixed start.
+const START_NS: u64 = 1_767_225_600_000_000_000;
+
+/// The seed of study `index` of a plan with seed `seed`.
+pub fn study_seed(seed: u64, index: usize) -> u64 {
+    derive_seed(seed, index as u64, PURPOSE_STUDY)
+}
+
+/// Why a simulated study could not be run.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    #[error("simulated participant {participant} of study {study}: {message}")]
+    Participant { study: usize, participant: usize, message: String },
+}
+
+/// Simulated participant `index` of a study with seed `seed`: the protocol fitted to the
+/// participant's body (its text, as a log embeds it) and the session's plan.
+pub fn participant(
+    text: &str,
+    study: &Study,
+    seed: u64,
+    index: usize,
+) -> Result<(String, Arc<Study>, DryRunPlan), String> {
+    let body = BodyPopulation::default().draw(seed, index);
+    let (text, fitted) = for_body(text, &study.source_name, body).map_err(|e| e.to_string())?;
+    let fitted = Arc::new(fitted);
+    let p = plan(&fitted, seed, index, None, crate::analysis::rfc3339_ms(START_NS));
+    Ok((text, fitted, p))
+}
+
+/// A simulated participant's whole session, driven by the session's own code and kept in
+/// memory as the log `analyze` would read (stamped as a dry run without a pace stamps it);
+/// `visit` sees every state as a replay of that log would ([`replay_with`]'s order).
+///
+/// [`replay_with`]: crate::record::replay_with
+pub fn drive_in_memory(
+    text: String,
+    study: Arc<Study>,
+    p: &DryRunPlan,
+    mut visit: impl FnMut(&Session, Option<ReplayStep>),
+) -> Result<(LogContents, Session), String> {
+    let mut session = Session::new(study, p.start.clone()).map_err(|e| e.to_string())?;
+    visit(&session, None);
+    let mut events = Vec::new();
+    let mut time_ns = START_NS;
+    while let Some(event) = p.participant.respond(&session) {
+        time_ns += simulated_seconds(&event) * 1_000_000_000;
+        let stamped = Stamped { time_ns, event };
+        let applied = session.apply(&stamped.event).map_err(|e| e.to_string())?;
+        events.push(stamped);
+        visit(&session, Some((events.len(), events.last().expect("just pushed"), &applied)));
+    }
+    let log = LogContents {
+        path: PathBuf::from(format!("(in memory) {}", p.start.participant)),
+        protocol_text: text,
+        start: p.start.clone(),
+        start_time_ns: START_NS,
+        events,
+        messages: Vec::new(),
+        finished: true,
+        cut_tail: false,
+        integrity: Vec::new(),
+    };
+    Ok((log, session))
+}
+
+/// [`drive_in_memory`] without looking on: the log alone.
+pub fn session_in_memory(text: String, study: Arc<Study>, p: &DryRunPlan) -> Result<LogContents, String> {
+    drive_in_memory(text, study, p, |_, _| {}).map(|(log, _)| log)
+}
+
+/// Study `index` of a plan: its first `participants` simulated sessions, each analysed as it
+/// is driven, as `analyze` analyses its log (without the posterior predictive, which the
+/// plan does not use).
+pub fn simulate_study(
+    text: &str,
+    study: &Study,
+    seed: u64,
+    index: usize,
+    participants: usize,
+) -> Result<Vec<SessionAnalysis>, PlanError> {
+    let s = study_seed(seed, index);
+    (0..participants)
+        .map(|i| {
+            let err = |message: String| PlanError::Participant { study: index, participant: i + 1, message };
+            let (text, fitted, p) = participant(text, study, s, i).map_err(err)?;
+            let mut analyser = Analyser::new(START_NS, false, false);
+            let (log, session) =
+                drive_in_memory(text, Arc::clone(&fitted), &p, |s, step| analyser.visit(s, step)).map_err(err)?;
+            Ok(analyser.finish(&session, &fitted, &log))
+        })
+        .collect()
+}
+
+/// A session's length in log time (s): what the stated times per action add up to.
+pub fn session_seconds(log: &LogContents) -> f64 {
+    log.events.last().map_or(0.0, |e| (e.time_ns - log.start_time_ns) as f64 / 1e9)
+}
+
+/// One study at one size: the paired comparison of the two conditions on one measure at one
+/// iteration (`studies.csv`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StudyRow {
+    pub study: usize,
+    pub participants: usize,
+    pub measure: String,
+    pub iteration: usize,
+    /// Differences are first − second, per participant.
+    pub first: String,
+    pub second: String,
+    pub mean_difference: f64,
+    /// Two-sided Wilcoxon signed-rank p over the participants; empty when every difference
+    /// is zero (the test is not defined, and the study finds nothing).
+    pub p_value: Option<f64>,
+}
+
+/// One study at one size: the share of a condition's training offers that were of an object
+/// (`study_objects.csv`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StudyObjectRow {
+    pub study: usize,
+    pub participants: usize,
+    pub condition: String,
+    pub object: String,
+    pub share: f64,
+}
+
+/// The rows of one study's sessions at each size (the first N of them); `objects` are the
+/// protocol's object ids (a condition that never offered one has a share of 0 in it).
+pub fn study_rows(
+    index: usize,
+    sessions: &[SessionAnalysis],
+    sizes: &[usize],
+    objects: &[String],
+) -> (Vec<StudyRow>, Vec<StudyObjectRow>) {
+    let mut rows = Vec::new();
+    let mut out_objects = Vec::new();
+    for &n in sizes {
+        let run = [SeedRun { seed: index as u64, sessions: sessions[..n.min(sessions.len())].to_vec() }];
+        for p in paired_over_seeds(&run) {
+            rows.push(StudyRow {
+                study: index,
+                participants: n,
+                measure: p.measure.to_string(),
+                iteration: p.iteration,
+                first: p.first,
+                second: p.second,
+                mean_difference: p.mean_difference,
+                p_value: p.p_value,
+            });
+        }
+        for (condition, shares) in object_shares(&run) {
+            for object in objects {
+                let share = shares.get(object).map_or(0.0, |s| s.0);
+                out_objects.push(StudyObjectRow {
+                    study: index,
+                    participants: n,
+                    condition: condition.clone(),
+                    object: object.clone(),
+                    share,
+                });
+            }
+        }
+    }
+    (rows, out_objects)
+}
+
+/// The significance level the power is the share of studies below.
+pub const SIGNIFICANCE: f64 = 0.05;
+
+/// Power and effect at one size, measure and iteration, over studies (`power.csv`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PowerRow {
+    pub participants: usize,
+    pub measure: String,
+    pub iteration: usize,
+    pub first: String,
+    pub second: String,
+    pub studies: usize,
+    /// Share of studies with p < .05 (two-sided, either direction).
+    pub power: f64,
+    /// 95 % Wilson score interval of the power.
+    pub power_low: f64,
+    pub power_high: f64,
+    /// Share of studies with p < .05 and first > second.
+    pub power_first_higher: f64,
+    /// Mean over studies of the study's mean difference, and its spread over studies (none
+    /// with one study).
+    pub mean_effect: f64,
+    pub effect_sd: Option<f64>,
+    pub effect_q025: f64,
+    pub effect_q975: f64,
+}
+
+/// The 95 % Wilson score interval of `k` successes in `n` trials.
+pub fn wilson_interval(k: usize, n: usize) -> (f64, f64) {
+    if n == 0 {
+        return (f64::NAN, f64::NAN);
+    }
+    let z = 1.959_963_984_540_054_f64;
+    let (n, p) = (n as f64, k as f64 / n as f64);
+    let denom = 1.0 + z * z / n;
+    let centre = (p + z * z / (2.0 * n)) / denom;
+    let half = z * (p * (1.0 - p) / n + z * z / (4.0 * n * n)).sqrt() / denom;
+    // At 0 and n the interval's end is exactly 0 or 1 (the formula leaves rounding there).
+    let low = if k == 0 { 0.0 } else { (centre - half).max(0.0) };
+    let high = if k as f64 == n { 1.0 } else { (centre + half).min(1.0) };
+    (low, high)
+}
+
+/// Power rows from every study's rows, per size, measure and iteration in first-seen order.
+pub fn power(rows: &[StudyRow]) -> Vec<PowerRow> {
+    let mut keys: Vec<(usize, &str, usize)> = Vec::new();
+    for r in rows {
+        let key = (r.participants, r.measure.as_str(), r.iteration);
+        if !keys.contains(&key) {
+            keys.push(key);
+        }
+    }
+    keys.into_iter()
+        .map(|(n, measure, iteration)| {
+            let group: Vec<&StudyRow> = rows
+                .iter()
+                .filter(|r| r.participants == n && r.measure == measure && r.iteration == iteration)
+                .collect();
+            let significant = |r: &&&StudyRow| r.p_value.is_some_and(|p| p < SIGNIFICANCE);
+            let k = group.iter().filter(significant).count();
+            let higher = group.iter().filter(significant).filter(|r| r.mean_difference > 0.0).count();
+            let effects: Vec<f64> = group.iter().map(|r| r.mean_difference).collect();
+            let m = crate::stats::mean(&effects);
+            let sd = (effects.len() > 1)
+                .then(|| (effects.iter().map(|e| (e - m).powi(2)).sum::<f64>() / (effects.len() - 1) as f64).sqrt());
+            let (low, high) = wilson_interval(k, group.len());
+            PowerRow {
+                participants: n,
+                measure: measure.to_string(),
+                iteration,
+                first: group[0].first.clone(),
+                second: group[0].second.clone(),
+                studies: group.len(),
+                power: k as f64 / group.len() as f64,
+                power_low: low,
+                power_high: high,
+                power_first_higher: higher as f64 / group.len() as f64,
+                mean_effect: m,
+                effect_sd: sd,
+                effect_q025: crate::stats::quantile(&effects, 0.025),
+                effect_q975: crate::stats::quantile(&effects, 0.975),
+            }
+        })
+        .collect()
+}
+
+/// Mean share of each condition's offers per object at each size, over studies
+/// (`objects.csv`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ObjectShareRow {
+    pub participants: usize,
+    pub condition: String,
+    pub object: String,
+    pub studies: usize,
+    pub mean_share: f64,
+    pub share_q025: f64,
+    pub share_q975: f64,
+}
+
+/// Object shares over studies, per size, condition and object in first-seen order.
+pub fn object_share_rows(rows: &[StudyObjectRow]) -> Vec<ObjectShareRow> {
+    let mut keys: Vec<(usize, &str, &str)> = Vec::new();
+    for r in rows {
+        let key = (r.participants, r.condition.as_str(), r.object.as_str());
+        if !keys.contains(&key) {
+            keys.push(key);
+        }
+    }
+    keys.into_iter()
+        .map(|(n, condition, object)| {
+            let v: Vec<f64> = rows
+                .iter()
+                .filter(|r| r.participants == n && r.condition == condition && r.object == object)
+                .map(|r| r.share)
+                .collect();
+            ObjectShareRow {
+                participants: n,
+                condition: condition.to_string(),
+                object: object.to_string(),
+                studies: v.len(),
+                mean_share: crate::stats::mean(&v),
+                share_q025: crate::stats::quantile(&v, 0.025),
+                share_q975: crate::stats::quantile(&v, 0.975),
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wilson_intervals_hold_their_known_values() {
+        // 5 of 100: Wilson 95 % interval [0.0215, 0.1118].
+        let (lo, hi) = wilson_interval(5, 100);
+        assert!((lo - 0.02154).abs() < 1e-4 && (hi - 0.11175).abs() < 1e-4, "{lo} {hi}");
+        assert_eq!(wilson_interval(0, 10).0, 0.0);
+        assert_eq!(wilson_interval(10, 10).1, 1.0);
+    }
+
+    #[test]
+    fn a_session_analysed_as_it_is_driven_is_its_log_replayed_and_analysed() {
+        let study = Study::default_study();
+        let text = crate::protocol::DEFAULT_PROTOCOL;
+        let (text, fitted, p) = participant(text, &study, study_seed(3, 0), 0).unwrap();
+        let mut analyser = Analyser::new(START_NS, false, true);
+        let (log, session) = drive_in_memory(text, Arc::clone(&fitted), &p, |s, step| analyser.visit(s, step)).unwrap();
+        let driven = analyser.finish(&session, &fitted, &log);
+        let replayed = crate::analysis::analyse(&log).unwrap();
+        assert!(replayed.completed && driven.completed);
+        assert_eq!(replayed.runs.len(), 2);
+        for (d, r) in driven.runs.iter().zip(&replayed.runs) {
+            assert_eq!(d.test_ll_estimate, r.test_ll_estimate);
+            assert_eq!(d.test_ll_predictive, r.test_ll_predictive);
+            assert_eq!(d.trials, r.trials);
+            assert_eq!(d.learned_q_star, r.learned_q_star);
+        }
+        assert_eq!(driven.trial_rows, replayed.trial_rows);
+        assert!(session_seconds(&log) > 60.0);
+    }
+}
