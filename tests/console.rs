@@ -10,6 +10,7 @@ use std::time::Duration;
 
 use handover::protocol::{DEFAULT_PROTOCOL, Study};
 use handover::record::read_log;
+use handover::session::VoidReason;
 use handover::study_dir::StudyDirs;
 use handover::tui::app::Overlay;
 use handover::tui::app::Screen;
@@ -85,6 +86,14 @@ macro_rules! snap {
 }
 
 /// Presents and records the first offered grip of `n` trials.
+/// Answers questionnaire items in turn: each key, then Enter to move on.
+fn answer(app: &mut App, answers: &str) {
+    for c in answers.chars() {
+        keys(app, &c.to_string());
+        press(app, KeyCode::Enter);
+    }
+}
+
 fn trials(app: &mut App, n: usize, grip: char) {
     for _ in 0..n {
         press(app, KeyCode::Enter);
@@ -126,10 +135,12 @@ fn every_screen_at_100_by_30() {
     trials(&mut a, 16, '2');
     snap!("questionnaire", &mut a);
     keys(&mut a, "4");
+    snap!("questionnaire_answered", &mut a);
+    press(&mut a, KeyCode::Enter);
     snap!("questionnaire_second_item", &mut a);
-    keys(&mut a, "3524153");
+    answer(&mut a, "3524153");
     snap!("forced_choice", &mut a);
-    keys(&mut a, "a");
+    answer(&mut a, "a");
     snap!("questionnaire_review", &mut a);
     press(&mut a, KeyCode::Enter);
     a.wait_idle();
@@ -150,8 +161,7 @@ fn a_whole_session_by_keys_logs_26_responses() {
         keys(&mut a, &grip.to_string());
         grip = if grip == '1' { '2' } else { '1' };
     }
-    keys(&mut a, "45342512");
-    keys(&mut a, "b");
+    answer(&mut a, "45342512b");
     press(&mut a, KeyCode::Enter);
     a.wait_idle();
     let Screen::Summary(view) = &a.screen else { panic!("expected the summary screen") };
@@ -171,6 +181,40 @@ fn a_whole_session_by_keys_logs_26_responses() {
     check_with_reference_reader(&path, 26);
     keys(&mut a, "q");
     assert!(a.quit);
+}
+
+/// A number answers the statement shown and stays there (a double press changes the answer,
+/// never answers the next one); Enter on an unanswered statement asks before skipping it.
+#[test]
+fn a_double_press_answers_one_statement_and_enter_asks_before_skipping() {
+    let dir = tmpdir("questionnaire");
+    let mut a = app(&dir);
+    press(&mut a, KeyCode::Enter);
+    trials(&mut a, 26, '1');
+    keys(&mut a, "44");
+    a.wait_idle();
+    assert_eq!(a.cursor, 0);
+    assert_eq!(a.session().unwrap().likert_answers().len(), 1);
+    let s = screen(&mut a, 100, 30);
+    assert!(s.contains("statement 1/8") && s.contains("← answered"), "{s}");
+    keys(&mut a, "2");
+    a.wait_idle();
+    assert_eq!(a.session().unwrap().likert_answers().values().copied().collect::<Vec<_>>(), vec![2]);
+    press(&mut a, KeyCode::Enter);
+    assert_eq!(a.cursor, 1);
+    // Unanswered: the first Enter asks, the second skips.
+    press(&mut a, KeyCode::Enter);
+    assert_eq!(a.cursor, 1);
+    let s = screen(&mut a, 100, 30);
+    assert!(s.contains("Statement 2 of 8 has no answer"), "{s}");
+    press(&mut a, KeyCode::Enter);
+    assert_eq!(a.cursor, 2);
+    // Asking is for that statement only: answering elsewhere and coming back asks again.
+    press(&mut a, KeyCode::Enter);
+    keys(&mut a, "3");
+    press(&mut a, KeyCode::Enter);
+    assert_eq!(a.cursor, 3);
+    assert_eq!(a.session().unwrap().likert_answers().len(), 2);
 }
 
 /// The reference Python reader (`../shared/tools/check_mcap.py`), when CI provides it
@@ -221,6 +265,52 @@ fn undo_and_void_by_keys() {
     keys(&mut a, "qy");
     assert!(a.quit);
     assert!(a.exit_message.as_deref().unwrap_or("").contains("handover resume"));
+}
+
+/// A void says so, stays in the phase's history with its reason, and "other" asks what
+/// happened (the detail is logged).
+#[test]
+fn a_void_is_confirmed_kept_in_the_history_and_other_asks_why() {
+    let dir = tmpdir("void");
+    let mut a = app(&dir);
+    press(&mut a, KeyCode::Enter);
+    trials(&mut a, 1, '1');
+    press(&mut a, KeyCode::Enter);
+    keys(&mut a, "x1");
+    a.wait_idle();
+    assert_eq!(a.status, "Trial 2 voided (object dropped): it is repeated");
+    press(&mut a, KeyCode::Enter);
+    keys(&mut a, "x4");
+    assert!(matches!(a.overlay, Some(Overlay::VoidDetail(_))), "{:?}", a.overlay);
+    press(&mut a, KeyCode::Enter);
+    assert!(a.status.contains("Say what happened"), "{}", a.status);
+    keys(&mut a, "fire alarm");
+    press(&mut a, KeyCode::Enter);
+    a.wait_idle();
+    assert!(a.overlay.is_none());
+    let voids = a.session().unwrap().voids().to_vec();
+    assert_eq!(voids.len(), 2);
+    assert_eq!((voids[1].reason, voids[1].detail.as_str()), (VoidReason::Other, "fire alarm"));
+    let s = screen(&mut a, 160, 45);
+    assert!(s.contains("voided: object dropped") && s.contains("voided: other — fire alarm"), "{s}");
+    // The digit before the object is presented says what to do first.
+    keys(&mut a, "1");
+    assert!(a.status.starts_with("Press Enter when the robot holds the object there first"), "{}", a.status);
+}
+
+/// A participant id with no record is one clear state: not "existing record", no start
+/// offered; Enter does not start it.
+#[test]
+fn an_id_without_a_record_offers_no_start() {
+    let dir = tmpdir("norecord");
+    let mut a = App::new(AppConfig { participant: "p-NOSUCH01".into(), ..config(&dir, false) });
+    a.tick(T0);
+    let s = screen(&mut a, 100, 30);
+    assert!(s.contains("p-NOSUCH01 (cannot be used: see below)") && s.contains("Cannot start"), "{s}");
+    assert!(s.contains("The session cannot start (see above): e enters another participant id"), "{s}");
+    assert!(!s.contains("existing record") && !s.contains("Press Enter to start"), "{s}");
+    press(&mut a, KeyCode::Enter);
+    assert!(matches!(a.screen, Screen::Setup), "no session started");
 }
 
 #[test]

@@ -93,7 +93,10 @@ fn the_console_runs_a_session_in_a_real_terminal() {
         send(&name, &["Enter", if k % 2 == 0 { "1" } else { "2" }]);
     }
     wait_for(&name, "statement 1/8");
-    send(&name, &["4", "4", "3", "5", "2", "4", "3", "3", "b"]);
+    // Each answer is confirmed with Enter: a number alone does not move on.
+    for answer in ["4", "4", "3", "5", "2", "4", "3", "3", "b"] {
+        send(&name, &[answer, "Enter"]);
+    }
     let screen = wait_for(&name, "Press Enter to finish the session");
     assert!(screen.contains("8 of 8 statements answered") && screen.contains("forced choice: Program B"), "{screen}");
     send(&name, &["Enter"]);

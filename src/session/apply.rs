@@ -3,7 +3,7 @@
 
 use super::{
     Applied, ArmMeasurement, BeliefSummary, Event, MeasuredGrasp, Prompt, QueryRef, RobotTrack, Session, SessionError,
-    Stage, TrialCursor, TrialRecord, TrialSlot, UndoPoint,
+    Stage, TrialCursor, TrialRecord, TrialSlot, UndoPoint, VoidReason, VoidRecord,
 };
 use crate::ergo::{FeasibleSet, Observation, most_likely_in_region};
 
@@ -48,7 +48,7 @@ impl Session {
             Event::QueryPresented { query } => self.present(name, query)?,
             Event::GraspRecorded { region, measured } => self.record_grasp(name, region, measured.as_ref())?,
             Event::GraspUndone => self.undo_grasp(name)?,
-            Event::TrialVoided { .. } => self.void(name)?,
+            Event::TrialVoided { reason, detail } => self.void(name, *reason, detail)?,
             Event::Note { text } => {
                 self.notes.push(text.clone());
                 Applied::Other
@@ -228,7 +228,7 @@ impl Session {
         Ok(Applied::Undone { view: self.view(cursor), belief })
     }
 
-    fn void(&mut self, name: &'static str) -> Result<Applied, SessionError> {
+    fn void(&mut self, name: &'static str, reason: VoidReason, detail: &str) -> Result<Applied, SessionError> {
         let (cursor, retracted) = match (self.undo.take(), self.cursor()) {
             (Some(undo), _) => (self.restore(*undo).0, true),
             // Before its query is presented, a trial the robot was sent to can be voided (the
@@ -237,6 +237,14 @@ impl Session {
             _ => return Err(not_now(name, "no trial is in progress")),
         };
         let view = self.view(cursor);
+        self.voids.push(VoidRecord {
+            phase: view.phase,
+            run: view.program,
+            trial: view.trial,
+            query: view.query,
+            reason,
+            detail: detail.to_string(),
+        });
         self.stage = Stage::Trial(TrialCursor { presented: false, ..cursor });
         self.robot = None;
         Ok(Applied::Voided { view, retracted })

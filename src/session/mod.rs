@@ -142,6 +142,18 @@ pub struct TrialRecord {
     pub measured: Option<MeasuredGrasp>,
 }
 
+/// A voided presentation of a trial: where it was, and why (the trial itself is repeated).
+#[derive(Clone, Debug, PartialEq)]
+pub struct VoidRecord {
+    pub phase: Phase,
+    pub run: Option<usize>,
+    /// 1-based trial number within the phase (within the run for training).
+    pub trial: usize,
+    pub query: QueryRef,
+    pub reason: VoidReason,
+    pub detail: String,
+}
+
 /// A grasp's measurement and the configuration it is nearest to.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeasuredGrasp {
@@ -250,6 +262,7 @@ pub struct Session {
     likert: BTreeMap<(usize, usize), i64>,
     choice: Option<usize>,
     notes: Vec<String>,
+    voids: Vec<VoidRecord>,
     /// The robot's commands for the trial under way (none without a robot).
     robot: Option<RobotTrack>,
     events: usize,
@@ -323,6 +336,7 @@ impl Session {
             likert: BTreeMap::new(),
             choice: None,
             notes: Vec::new(),
+            voids: Vec::new(),
             robot: None,
             events: 0,
             robot_events: 0,
@@ -351,6 +365,11 @@ impl Session {
 
     pub fn notes(&self) -> &[String] {
         &self.notes
+    }
+
+    /// Every trial voided, in order (shown in the phase's history with its reason).
+    pub fn voids(&self) -> &[VoidRecord] {
+        &self.voids
     }
 
     pub fn likert_answers(&self) -> &BTreeMap<(usize, usize), i64> {

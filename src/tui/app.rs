@@ -12,7 +12,7 @@ use std::time::Duration;
 
 use ratatui::crossterm::event::KeyEvent;
 
-use super::keys::{Counts, Mode, action_for};
+use super::keys::{Counts, Mode, action_for, why_not};
 use super::worker::{Done, Failure, Worker};
 use crate::analysis::{SessionAnalysis, analyse};
 use crate::dryrun::now_ns;
@@ -71,6 +71,8 @@ pub enum Overlay {
     ParticipantId(String),
     /// The reason for ending the session for good, asked after `q` then `a`.
     AbortReason(String),
+    /// What happened, for a trial voided as "other".
+    VoidDetail(String),
     /// The log could not be written: nothing moves on until the event is retried (`r`).
     WriteFailed {
         message: String,
@@ -108,10 +110,15 @@ pub struct App {
     pub visible: bool,
     /// The last message for the operator.
     pub status: String,
+    /// What to say once the event under way has taken effect (see `submit_saying`).
+    say_after: Option<String>,
     /// Which pair of joints the particle view shows.
     pub joint_pair: usize,
     /// Position in the questionnaire: items, then the forced choice, then finish.
     pub cursor: usize,
+    /// The questionnaire position whose skip Enter has asked to confirm (a second Enter
+    /// there skips it).
+    pub skip_asked: Option<usize>,
     /// The clock, set by the loop (ns since the Unix epoch).
     pub now_ns: u64,
     /// When the session screen was first shown.
@@ -208,6 +215,8 @@ impl App {
             status: String::new(),
             joint_pair: 0,
             cursor: 0,
+            skip_asked: None,
+            say_after: None,
             now_ns: now_ns(),
             session_started_ns: None,
             last_simulated_ns: 0,
@@ -293,7 +302,9 @@ impl App {
             Some(Overlay::Help) => return Mode::Help,
             Some(Overlay::ConfirmQuit) => return Mode::ConfirmQuit,
             Some(Overlay::VoidReason) => return Mode::VoidReason,
-            Some(Overlay::Note(_) | Overlay::ParticipantId(_) | Overlay::AbortReason(_)) => return Mode::LineEdit,
+            Some(Overlay::Note(_) | Overlay::ParticipantId(_) | Overlay::AbortReason(_) | Overlay::VoidDetail(_)) => {
+                return Mode::LineEdit;
+            }
             Some(Overlay::WriteFailed { .. }) => return Mode::WriteFailed,
             None => {}
         }
@@ -322,6 +333,7 @@ impl App {
             scale_points: self.config.study.protocol.questionnaire.scale.len(),
             void_reasons: crate::session::VoidReason::ALL.len(),
             robot: self.robot.is_some(),
+            can_undo: self.session().is_some_and(|s| s.can_undo()),
         }
     }
 
@@ -335,8 +347,13 @@ impl App {
             self.pending.push_back(key);
             return;
         }
-        if let Some(action) = action_for(self.mode(), key, self.counts()) {
-            self.update(action);
+        match action_for(self.mode(), key, self.counts()) {
+            Some(action) => self.update(action),
+            None => {
+                if let Some(why) = why_not(self.mode(), key) {
+                    self.status = why;
+                }
+            }
         }
     }
 
@@ -500,6 +517,12 @@ impl App {
         self.submit_stamped(Stamped { time_ns: now_ns(), event });
     }
 
+    /// [`App::submit`], and once the event has taken effect (it is on disk) say `message`.
+    pub(super) fn submit_saying(&mut self, event: Event, message: String) {
+        self.say_after = Some(message);
+        self.submit(event);
+    }
+
     pub(super) fn submit_stamped(&mut self, stamped: Stamped) {
         if let Some(w) = self.worker.as_mut() {
             w.submit(stamped);
@@ -531,7 +554,7 @@ impl App {
     /// After an event took effect: keep the questionnaire cursor in step, and finish the
     /// log when the session is over.
     fn after_event(&mut self) {
-        self.status.clear();
+        self.status = self.say_after.take().unwrap_or_default();
         let Some(session) = self.session() else { return };
         if let Prompt::Done { completed } = session.prompt() {
             self.finish_log(completed);

@@ -97,6 +97,8 @@ pub struct Counts {
     pub void_reasons: usize,
     /// Whether a robot is connected (its keys act and are listed).
     pub robot: bool,
+    /// Whether there is a grasp to undo (`u` acts and is listed).
+    pub can_undo: bool,
 }
 
 impl Counts {
@@ -359,16 +361,45 @@ pub fn key_label(keys: Keys, counts: Counts) -> String {
     }
 }
 
-/// Whether a binding's keys can act at all now (a robot's keys need a robot).
-fn acts(keys: Keys, counts: Counts) -> bool {
-    !matches!(keys, Keys::RobotChar(_)) || counts.robot
+/// Whether a binding can act at all now (a robot's keys need a robot, undo a grasp to undo).
+fn acts(b: &Binding, counts: Counts) -> bool {
+    (!matches!(b.keys, Keys::RobotChar(_)) || counts.robot)
+        && (!matches!(b.does, Does::Is(Action::Undo)) || counts.can_undo)
+}
+
+/// Why a key that does nothing now does nothing, for the status line.
+pub fn why_not(mode: Mode, key: KeyEvent) -> Option<String> {
+    if key.kind == KeyEventKind::Release || key.modifiers.contains(KeyModifiers::CONTROL) {
+        return None;
+    }
+    let name = match key.code {
+        KeyCode::Char(c) => c.to_string(),
+        KeyCode::Enter => "Enter".into(),
+        KeyCode::Esc => "Esc".into(),
+        KeyCode::Tab => "Tab".into(),
+        KeyCode::Backspace => "Backspace".into(),
+        KeyCode::Left => "←".into(),
+        KeyCode::Right => "→".into(),
+        _ => return None,
+    };
+    let digit = matches!(key.code, KeyCode::Char(c) if c.is_ascii_digit());
+    Some(match (mode, key.code) {
+        (Mode::Present, _) if digit => {
+            "Press Enter when the robot holds the object there first; then the number of the grip taken".into()
+        }
+        (Mode::Present | Mode::Grasp, KeyCode::Char('u')) => {
+            "Nothing to undo: a grasp can be undone until the next query is presented".into()
+        }
+        (Mode::Paused, _) => format!("{name} does nothing while paused: p resumes the session"),
+        _ => format!("{name} does nothing here (? lists the keys that act now)"),
+    })
 }
 
 /// The footer's hints for a mode: (keys, what), in table order; bindings of one action
 /// with the same hint are merged ("←/→").
 pub fn hints(mode: Mode, counts: Counts) -> Vec<(String, &'static str)> {
     let mut out: Vec<(String, &'static str)> = Vec::new();
-    for b in BINDINGS.iter().filter(|b| b.modes.contains(&mode) && !b.hint.is_empty() && acts(b.keys, counts)) {
+    for b in BINDINGS.iter().filter(|b| b.modes.contains(&mode) && !b.hint.is_empty() && acts(b, counts)) {
         let keys = key_label(b.keys, counts);
         match out.last_mut() {
             Some((k, hint)) if *hint == b.hint => *k = format!("{k}/{keys}"),
@@ -384,7 +415,7 @@ pub fn help(counts: Counts) -> Vec<(&'static str, Vec<(String, &'static str)>)> 
         .into_iter()
         .map(|(section, heading)| {
             let mut lines: Vec<(String, &'static str)> = Vec::new();
-            for b in BINDINGS.iter().filter(|b| b.section == section && !b.help.is_empty() && acts(b.keys, counts)) {
+            for b in BINDINGS.iter().filter(|b| b.section == section && !b.help.is_empty() && acts(b, counts)) {
                 let line = (key_label(b.keys, counts), b.help);
                 if !lines.contains(&line) {
                     lines.push(line);
@@ -403,7 +434,7 @@ mod tests {
         KeyEvent::new(code, KeyModifiers::NONE)
     }
 
-    const COUNTS: Counts = Counts { regions: 2, scale_points: 5, void_reasons: 4, robot: false };
+    const COUNTS: Counts = Counts { regions: 2, scale_points: 5, void_reasons: 4, robot: false, can_undo: true };
 
     fn action_for(mode: Mode, key: KeyEvent) -> Option<Action> {
         super::action_for(mode, key, COUNTS)
@@ -516,5 +547,22 @@ mod tests {
         assert!(questionnaire.contains(&("1–5".to_string(), "answer the statement")));
         let with_seven = help(Counts { scale_points: 7, ..COUNTS });
         assert!(with_seven.iter().any(|(_, l)| l.contains(&("1–7".to_string(), "answer the statement"))));
+        // `u` is listed only with a grasp to undo.
+        assert!(hints(Mode::Present, COUNTS).iter().any(|(k, _)| k == "u"));
+        assert!(!hints(Mode::Present, Counts { can_undo: false, ..COUNTS }).iter().any(|(k, _)| k == "u"));
+    }
+
+    /// A key that does nothing now says why.
+    #[test]
+    fn keys_that_do_nothing_say_why() {
+        let why = |mode, code| why_not(mode, key(code)).unwrap();
+        assert!(
+            why(Mode::Present, KeyCode::Char('1'))
+                .starts_with("Press Enter when the robot holds the object there first")
+        );
+        assert!(why(Mode::Grasp, KeyCode::Char('u')).starts_with("Nothing to undo"));
+        assert!(why(Mode::Paused, KeyCode::Char('1')).contains("p resumes"));
+        assert_eq!(why(Mode::Summary, KeyCode::Char('z')), "z does nothing here (? lists the keys that act now)");
+        assert_eq!(why_not(Mode::Grasp, key(KeyCode::F(5))), None);
     }
 }

@@ -36,13 +36,17 @@ impl App {
                 self.overlay = Some(Overlay::ParticipantId(String::new()))
             }
             (Mode::LineEdit, Action::Char(c)) => {
-                if let Some(Overlay::Note(t) | Overlay::ParticipantId(t) | Overlay::AbortReason(t)) = &mut self.overlay
+                if let Some(
+                    Overlay::Note(t) | Overlay::ParticipantId(t) | Overlay::AbortReason(t) | Overlay::VoidDetail(t),
+                ) = &mut self.overlay
                 {
                     t.push(c);
                 }
             }
             (Mode::LineEdit, Action::Backspace) => {
-                if let Some(Overlay::Note(t) | Overlay::ParticipantId(t) | Overlay::AbortReason(t)) = &mut self.overlay
+                if let Some(
+                    Overlay::Note(t) | Overlay::ParticipantId(t) | Overlay::AbortReason(t) | Overlay::VoidDetail(t),
+                ) = &mut self.overlay
                 {
                     t.pop();
                 }
@@ -56,6 +60,13 @@ impl App {
                 Some(Overlay::AbortReason(text)) => {
                     self.status = "A reason is needed to end the session for good (Esc goes back)".into();
                     self.overlay = Some(Overlay::AbortReason(text));
+                }
+                Some(Overlay::VoidDetail(text)) if !text.trim().is_empty() => {
+                    self.void(VoidReason::Other, text.trim().to_string())
+                }
+                Some(Overlay::VoidDetail(text)) => {
+                    self.status = "Say what happened, for the log (Esc goes back)".into();
+                    self.overlay = Some(Overlay::VoidDetail(text));
                 }
                 Some(Overlay::ParticipantId(id)) => {
                     let id = id.trim().to_string();
@@ -75,10 +86,13 @@ impl App {
             (Mode::Paused, Action::Pause) => self.submit(Event::Resumed),
             (Mode::Present | Mode::Grasp, Action::SwitchJoints) => self.joint_pair += 1,
             (Mode::Present | Mode::Grasp, Action::Void) => self.overlay = Some(Overlay::VoidReason),
-            (Mode::VoidReason, Action::VoidReason(k)) => {
-                self.overlay = None;
-                self.submit(Event::TrialVoided { reason: VoidReason::ALL[k], detail: String::new() });
-            }
+            (Mode::VoidReason, Action::VoidReason(k)) => match VoidReason::ALL[k] {
+                VoidReason::Other => self.overlay = Some(Overlay::VoidDetail(String::new())),
+                reason => {
+                    self.overlay = None;
+                    self.void(reason, String::new());
+                }
+            },
             (Mode::Present, Action::Undo) => {
                 if self.session().is_some_and(|s| s.can_undo()) {
                     self.submit(Event::GraspUndone);
@@ -110,13 +124,36 @@ impl App {
         }
     }
 
+    /// Voids the trial under way, saying so: it stays in the history with its reason and is
+    /// repeated.
+    fn void(&mut self, reason: VoidReason, detail: String) {
+        let trial = match self.session().map(|s| s.prompt()) {
+            Some(Prompt::Present(v) | Prompt::Grasp(v)) => Some(v.trial),
+            _ => None,
+        };
+        let message =
+            trial.map_or_else(String::new, |t| format!("Trial {t} voided ({}): it is repeated", reason.label()));
+        self.submit_saying(Event::TrialVoided { reason, detail }, message);
+    }
+
+    /// The questionnaire: a digit answers the statement shown (and another digit changes
+    /// the answer) without moving on, so a double press never answers two statements; Enter
+    /// moves on, and on a statement or choice not answered asks first (a second Enter skips
+    /// it); ← / → move freely.
     fn questionnaire(&mut self, action: Action) {
         let n = self.likert_count();
+        let asked = self.skip_asked.take();
         let Some(s) = self.session() else { return };
         let order = s.likert_order();
         match action {
-            Action::Prev => self.cursor = self.cursor.saturating_sub(1),
-            Action::Next => self.cursor = (self.cursor + 1).min(n + 1),
+            Action::Prev => {
+                self.status.clear();
+                self.cursor = self.cursor.saturating_sub(1);
+            }
+            Action::Next => {
+                self.status.clear();
+                self.cursor = (self.cursor + 1).min(n + 1);
+            }
             Action::Likert(k) if self.cursor < n => {
                 let scale = &s.study().protocol.questionnaire.scale;
                 let Some(point) = scale.get(k) else {
@@ -129,18 +166,40 @@ impl App {
                     item: s.study().protocol.questionnaire.items[item].id.clone(),
                     value: point.value,
                 };
-                self.cursor += 1;
-                self.submit(event);
+                let message =
+                    format!("Answered “{}”: Enter for the next statement, or another number to change it", point.label);
+                self.submit_saying(event, message);
             }
             Action::Choice(p) if self.cursor >= n => {
-                self.cursor = n + 1;
-                self.submit(Event::ForcedChoice { program: p });
+                self.cursor = n;
+                let message = "Chosen: Enter to review the answers, or the other letter to change it".to_string();
+                self.submit_saying(Event::ForcedChoice { program: p }, message);
             }
             Action::Confirm => {
-                if s.prompt() == Prompt::Finish && self.cursor >= n {
+                if s.prompt() == Prompt::Finish && self.cursor > n {
                     self.submit(Event::Ended);
+                    return;
+                }
+                let answered = if self.cursor < n {
+                    s.likert_answers().contains_key(&order[self.cursor])
                 } else {
+                    self.cursor > n || s.forced_choice().is_some()
+                };
+                let points = s.study().protocol.questionnaire.scale.len();
+                if answered || asked == Some(self.cursor) || self.cursor > n {
+                    self.status.clear();
                     self.cursor = (self.cursor + 1).min(n + 1);
+                } else {
+                    self.skip_asked = Some(self.cursor);
+                    let what = if self.cursor < n {
+                        format!(
+                            "Statement {} of {n} has no answer: Enter again skips it, 1–{points} answers it",
+                            self.cursor + 1
+                        )
+                    } else {
+                        "The forced choice has no answer: Enter again skips it, a or b answers it".to_string()
+                    };
+                    self.status = what;
                 }
             }
             _ => {}

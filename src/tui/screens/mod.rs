@@ -53,6 +53,12 @@ pub fn render(app: &App, frame: &mut Frame) {
             "End the session for good? Reason (e.g. participant withdrew); Enter ends it, Esc goes back",
             text,
         ),
+        Some(Overlay::VoidDetail(text)) => overlays::line_editor(
+            frame,
+            area,
+            "Void as other: what happened? (Enter voids the trial, Esc goes back)",
+            text,
+        ),
         Some(Overlay::WriteFailed { message, last_event }) => overlays::write_failed(frame, area, message, *last_event),
         None => {}
     }

@@ -30,6 +30,8 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
                 format!("{} (simulated participant — rehearsal, logged as pilot)", plan.start.participant)
             } else if plan.new_record.is_some() {
                 format!("{} (new; created when the session starts)", plan.start.participant)
+            } else if plan.error.is_some() {
+                format!("{} (cannot be used: see below)", plan.start.participant)
             } else {
                 format!("{} (existing record)", plan.start.participant)
             };
@@ -92,7 +94,17 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
         lines.push(Line::from(vec![Span::styled("Arm measurement: ", theme::title()), Span::raw(measuring)]));
     }
     lines.push(Line::from(""));
-    lines.push(Line::from(Span::styled("Press Enter to start the session.", theme::instruction())));
+    let can_start = app.plan.as_ref().is_some_and(|p| p.error.is_none());
+    lines.push(Line::from(Span::styled(
+        if can_start {
+            "Press Enter to start the session."
+        } else if app.config.simulate {
+            "The session cannot start (see above); q quits."
+        } else {
+            "The session cannot start (see above): e enters another participant id ('new' for a new one), q quits."
+        },
+        if can_start { theme::instruction() } else { theme::warning() },
+    )));
     frame.render_widget(
         Paragraph::new(lines).wrap(Wrap { trim: false }).block(Block::bordered().title(" Setup ")),
         area,

@@ -112,23 +112,38 @@ fn grasp_prompt(session: &Session, v: &TrialView, active: bool, frame: &mut Fram
     frame.render_widget(Paragraph::new(lines).block(Block::bordered().title(" Grasp ")), area);
 }
 
+/// The phase's trials so far, each voided presentation (with its reason) before the trial it
+/// was repeated as.
 fn history_panel(session: &Session, v: &TrialView, frame: &mut Frame, area: Rect) {
-    let rows: Vec<Row> = session
+    let mut rows: Vec<(usize, usize, Row)> = session
         .trials()
         .iter()
         .filter(|t| t.phase == v.phase && t.run == v.program)
         .map(|t| {
             let q = session.query(t.query);
             let region = &session.study().object(q).regions[q.regions[t.region]].label;
-            Row::new(vec![t.trial.to_string(), q.query.id.clone(), region.clone()])
+            (t.trial, 1, Row::new(vec![t.trial.to_string(), q.query.id.clone(), region.clone()]))
         })
         .collect();
+    rows.extend(session.voids().iter().filter(|x| x.phase == v.phase && x.run == v.program).map(|x| {
+        let q = session.query(x.query);
+        let why = if x.detail.is_empty() {
+            format!("voided: {}", x.reason.label())
+        } else {
+            format!("voided: {} — {}", x.reason.label(), x.detail)
+        };
+        (x.trial, 0, Row::new(vec![x.trial.to_string(), q.query.id.clone(), why]).style(theme::dim()))
+    }));
+    // Stable: voids of a trial in the order they happened, before the trial's grasp.
+    rows.sort_by_key(|(trial, kind, _)| (*trial, *kind));
     let n = rows.len();
     let skip = n.saturating_sub(area.height.saturating_sub(3) as usize);
-    let table =
-        Table::new(rows.into_iter().skip(skip), [Constraint::Length(4), Constraint::Length(22), Constraint::Min(10)])
-            .header(Row::new(vec!["#", "query", "grip taken"]).style(theme::title()))
-            .block(Block::bordered().title(" History of this phase "));
+    let table = Table::new(
+        rows.into_iter().skip(skip).map(|(_, _, row)| row),
+        [Constraint::Length(4), Constraint::Length(22), Constraint::Min(10)],
+    )
+    .header(Row::new(vec!["#", "query", "grip taken"]).style(theme::title()))
+    .block(Block::bordered().title(" History of this phase "));
     frame.render_widget(table, area);
 }
 
