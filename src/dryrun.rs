@@ -51,17 +51,7 @@ impl BodyPopulation {
         use rand::RngExt;
         let mut rng = SeededRng::seed_from_u64(derive_seed(seed, index as u64, purpose::BODY));
         let (mean, sd) = STATURE_M[usize::from(rng.random::<bool>())];
-        let normal = rand_distr::Normal::new(mean, sd).expect("a positive sd");
-        // Truncation by rejection: 99.9 % of draws fall inside within a few tries; the bound
-        // keeps the work finite, and the last draw is clamped.
-        let mut h = mean;
-        for _ in 0..64 {
-            h = rand_distr::Distribution::sample(&normal, &mut rng);
-            if (HEIGHT_RANGE_M.0..=HEIGHT_RANGE_M.1).contains(&h) {
-                break;
-            }
-        }
-        let h = (h.clamp(HEIGHT_RANGE_M.0, HEIGHT_RANGE_M.1) * 1000.0).round() / 1000.0;
+        let h = (crate::protocol::truncated_normal(mean, sd, HEIGHT_RANGE_M, &mut rng) * 1000.0).round() / 1000.0;
         let left = rng.random::<f64>() < self.left_handed;
         Body {
             height_m: Some(self.height_m.unwrap_or(h)),

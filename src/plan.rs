@@ -72,8 +72,8 @@ pub fn drive_in_memory(
         time_ns += simulated_seconds(&event) * 1_000_000_000;
         let stamped = Stamped { time_ns, event };
         let applied = session.apply(&stamped.event).map_err(|e| e.to_string())?;
+        visit(&session, Some((events.len() + 1, &stamped, &applied)));
         events.push(stamped);
-        visit(&session, Some((events.len(), events.last().expect("just pushed"), &applied)));
     }
     let log = LogContents {
         path: PathBuf::from(format!("(in memory) {}", p.start.participant)),

@@ -81,11 +81,9 @@ pub struct PlanArgs {
     merge: Vec<PathBuf>,
 }
 
-/// The checked sizes: each 2 to [`MAX_PARTICIPANTS`], no repeats, and the work within budget.
-fn check(a: &PlanArgs) -> Result<()> {
-    if a.participants.is_empty() {
-        return Err(bad("--participants is empty, expected sizes such as 5,10,20,40"));
-    }
+/// The checked sizes (each 2 to [`MAX_PARTICIPANTS`], no repeats, the work within budget):
+/// the largest.
+fn check(a: &PlanArgs) -> Result<usize> {
     for &n in &a.participants {
         if !(2..=MAX_PARTICIPANTS).contains(&n) {
             return Err(bad(format!(
@@ -105,22 +103,23 @@ fn check(a: &PlanArgs) -> Result<()> {
     if a.threads == Some(0) {
         return Err(bad("--threads is 0, expected at least 1"));
     }
-    let largest = *sorted.last().expect("not empty");
+    let Some(&largest) = sorted.last() else {
+        return Err(bad("--participants is empty, expected sizes such as 5,10,20,40"));
+    };
     let sessions = a.studies.saturating_mul(largest);
     if sessions > MAX_SESSIONS {
         return Err(bad(format!(
             "--studies × the largest --participants = {sessions} simulated sessions, over the budget of {MAX_SESSIONS}"
         )));
     }
-    Ok(())
+    Ok(largest)
 }
 
 pub fn run(args: PlanArgs) -> Result<()> {
-    check(&args)?;
+    let largest = check(&args)?;
     let (text, study) = load_protocol(args.protocol.as_deref())?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start worker threads")?;
-    let largest = *args.participants.iter().max().expect("checked");
     let fingerprint = format!(
         "plan protocol {} sizes {:?} studies {} seed {}",
         study.sha256, args.participants, args.studies, args.seed
@@ -221,14 +220,7 @@ fn merge_shards(args: &PlanArgs, fingerprint: &str, study: &Study) -> Result<(Ve
     let mut objects: Vec<StudyObjectRow> = Vec::new();
     for (dir, m) in super::shards::checked_shards(&args.merge, fingerprint)? {
         let shard_rows: Vec<StudyRow> = read_rows(&dir.join("studies.csv"), max_rows)?;
-        if shard_rows.len() != m.rows {
-            return Err(bad(format!(
-                "{}: studies.csv has {} rows, its manifest says {}",
-                dir.display(),
-                shard_rows.len(),
-                m.rows
-            )));
-        }
+        super::shards::check_rows(dir, "studies.csv", shard_rows.len(), &m)?;
         rows.extend(shard_rows);
         objects.extend(read_rows::<StudyObjectRow>(&dir.join("study_objects.csv"), max_objects)?);
         if rows.len() > max_rows || objects.len() > max_objects {

@@ -25,6 +25,14 @@ pub fn write_manifest(dir: &Path, manifest: &ShardManifest) -> Result<()> {
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
+/// A shard's `file` holds the rows its manifest says.
+pub fn check_rows(dir: &Path, file: &str, rows: usize, manifest: &ShardManifest) -> Result<()> {
+    if rows == manifest.rows {
+        return Ok(());
+    }
+    Err(bad(format!("{}: {file} has {rows} rows, its manifest says {}", dir.display(), manifest.rows)))
+}
+
 /// The shard directories of a merge with their manifests, checked: every one of the run
 /// `fingerprint`, each shard once, none missing. In the order given.
 pub fn checked_shards<'a>(dirs: &'a [PathBuf], fingerprint: &str) -> Result<Vec<(&'a Path, ShardManifest)>> {

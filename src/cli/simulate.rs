@@ -321,14 +321,7 @@ fn merge_shards(dirs: &[PathBuf], fingerprint: &str, s: &Settings, seeds: u64) -
     let mut rows = Vec::with_capacity(expected);
     for (dir, m) in super::shards::checked_shards(dirs, fingerprint)? {
         let shard_rows = experiment::read_metrics(&dir.join("metrics.csv"), expected).map_err(bad)?;
-        if shard_rows.len() != m.rows {
-            return Err(bad(format!(
-                "{}: metrics.csv has {} rows, its manifest says {}",
-                dir.display(),
-                shard_rows.len(),
-                m.rows
-            )));
-        }
+        super::shards::check_rows(dir, "metrics.csv", shard_rows.len(), &m)?;
         rows.extend(shard_rows);
     }
     if rows.len() != expected {

@@ -16,7 +16,7 @@ use nalgebra::{Isometry3, UnitQuaternion};
 use crate::kinematics::{ArmFeasibleSet, Discretisation, Hand, HumanArm, JOINTS, Object, Pose, mirror};
 use crate::select::SelectorKind;
 
-pub use population::{Population, PopulationSpec, Spread};
+pub use population::{Population, PopulationSpec, Spread, truncated_normal};
 pub use validate::{Problem, ProtocolError, limits};
 
 /// The default study, embedded so that a bare `handover` runs.

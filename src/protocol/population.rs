@@ -112,7 +112,7 @@ impl Population {
             .iter()
             .map(|c| match c {
                 Component::Known(v) => *v,
-                Component::Spread { mean, sd, min, max } => truncated_normal(*mean, *sd, *min, *max, &mut rng),
+                Component::Spread { mean, sd, min, max } => truncated_normal(*mean, *sd, (*min, *max), &mut rng),
                 Component::Prior(c) => c.sample(&mut rng),
             })
             .collect();
@@ -120,11 +120,14 @@ impl Population {
     }
 }
 
-fn truncated_normal(mean: f64, sd: f64, min: f64, max: f64, rng: &mut SeededRng) -> f64 {
+/// A draw of N(mean, sd) truncated to [min, max] by rejection: within a few tries unless
+/// the range is far in a tail; the work is bounded and the last draw clamped. `sd` must be
+/// finite and non-negative (0: the mean, clamped).
+pub fn truncated_normal(mean: f64, sd: f64, (min, max): (f64, f64), rng: &mut SeededRng) -> f64 {
+    let Ok(normal) = rand_distr::Normal::new(mean, sd) else { return mean.clamp(min, max) };
     if sd == 0.0 {
         return mean.clamp(min, max);
     }
-    let normal = rand_distr::Normal::new(mean, sd).expect("a finite, positive sd (validated)");
     let mut v = mean;
     for _ in 0..TRUNCATION_TRIES {
         v = rand_distr::Distribution::sample(&normal, rng);

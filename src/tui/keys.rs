@@ -367,6 +367,9 @@ fn acts(b: &Binding, counts: Counts) -> bool {
         && (!matches!(b.does, Does::Is(Action::Undo)) || counts.can_undo)
 }
 
+/// What `u` says when there is no grasp to undo.
+pub const NOTHING_TO_UNDO: &str = "Nothing to undo: a grasp can be undone until the next query is presented";
+
 /// Why a key that does nothing now does nothing, for the status line.
 pub fn why_not(mode: Mode, key: KeyEvent) -> Option<String> {
     if key.kind == KeyEventKind::Release || key.modifiers.contains(KeyModifiers::CONTROL) {
@@ -387,9 +390,7 @@ pub fn why_not(mode: Mode, key: KeyEvent) -> Option<String> {
         (Mode::Present, _) if digit => {
             "Press Enter when the robot holds the object there first; then the number of the grip taken".into()
         }
-        (Mode::Present | Mode::Grasp, KeyCode::Char('u')) => {
-            "Nothing to undo: a grasp can be undone until the next query is presented".into()
-        }
+        (Mode::Present | Mode::Grasp, KeyCode::Char('u')) => NOTHING_TO_UNDO.into(),
         (Mode::Paused, _) => format!("{name} does nothing while paused: p resumes the session"),
         _ => format!("{name} does nothing here (? lists the keys that act now)"),
     })

@@ -97,7 +97,7 @@ impl App {
                 if self.session().is_some_and(|s| s.can_undo()) {
                     self.submit(Event::GraspUndone);
                 } else {
-                    self.status = "Nothing to undo: a grasp can be undone until the next query is presented".into();
+                    self.status = super::keys::NOTHING_TO_UNDO.into();
                 }
             }
             (Mode::Present, Action::SendRobot) => self.send_robot(),
