@@ -72,9 +72,18 @@ fn screen(app: &mut App, width: u16, height: u16) -> String {
     t.backend().to_string()
 }
 
+/// The sizes every screen is drawn at: the smallest the console accepts, a common one and a
+/// large one.
+const SIZES: [(u16, u16); 3] = [(80, 24), (100, 30), (160, 45)];
+
+/// A screen at every size, one snapshot holding the three.
+fn at_sizes(app: &mut App) -> String {
+    SIZES.iter().map(|&(w, h)| format!("{w}×{h}\n{}", screen(app, w, h))).collect::<Vec<_>>().join("\n")
+}
+
 macro_rules! snap {
     ($name:expr, $app:expr) => {{
-        let text = screen($app, 100, 30);
+        let text = at_sizes($app);
         insta::with_settings!({filters => vec![
             (r"p-[a-z0-9]{8}", "p-XXXXXXXX"),
             (r"\d{8}T\d{6}Z(-\d+)?", "TIME"),
@@ -88,21 +97,46 @@ macro_rules! snap {
 /// Presents and records the first offered grip of `n` trials.
 /// Answers questionnaire items in turn: each key, then Enter to move on.
 fn answer(app: &mut App, answers: &str) {
+    past_transition(app);
     for c in answers.chars() {
         keys(app, &c.to_string());
         press(app, KeyCode::Enter);
     }
 }
 
+/// Confirms the transition screen between phases, if one is shown.
+fn past_transition(app: &mut App) {
+    if app.transition().is_some() {
+        press(app, KeyCode::Enter);
+    }
+}
+
 fn trials(app: &mut App, n: usize, grip: char) {
     for _ in 0..n {
+        past_transition(app);
         press(app, KeyCode::Enter);
         keys(app, &grip.to_string());
     }
 }
 
+/// Every line of the operator's instruction is on screen whole, at the smallest size.
+fn assert_full_instruction(app: &mut App) {
+    let text = screen(app, 80, 24);
+    for needle in [
+        "position     x ",
+        "of the object's centre",
+        "orientation  roll ",
+        "yaw ",
+        "frame        participant's",
+        "z up",
+        "left, right  always the participant's",
+    ] {
+        assert!(text.contains(needle), "'{needle}' is not on the 80×24 screen:\n{text}");
+    }
+}
+
 #[test]
-fn every_screen_at_100_by_30() {
+fn every_screen_at_three_sizes() {
     // A fixed directory, so that the log path on screen has the same length every run.
     let dir = PathBuf::from("target/console-snapshots");
     let _ = std::fs::remove_dir_all(&dir);
@@ -110,8 +144,10 @@ fn every_screen_at_100_by_30() {
     snap!("setup", &mut a);
     press(&mut a, KeyCode::Enter);
     snap!("trial_present", &mut a);
+    assert_full_instruction(&mut a);
     press(&mut a, KeyCode::Enter);
     snap!("trial_grasp", &mut a);
+    assert_full_instruction(&mut a);
     keys(&mut a, "2");
     snap!("trial_after_grasp", &mut a);
     keys(&mut a, "?");
@@ -130,18 +166,32 @@ fn every_screen_at_100_by_30() {
     keys(&mut a, "q");
     snap!("confirm_quit", &mut a);
     keys(&mut a, "n");
-    trials(&mut a, 9, '1');
+    trials(&mut a, 4, '1');
+    snap!("transition_between_programs", &mut a);
+    trials(&mut a, 5, '1');
+    snap!("transition_before_test", &mut a);
+    past_transition(&mut a);
     snap!("test_phase", &mut a);
+    assert_full_instruction(&mut a);
     trials(&mut a, 16, '2');
+    snap!("transition_before_questionnaire", &mut a);
+    past_transition(&mut a);
     snap!("questionnaire", &mut a);
     keys(&mut a, "4");
     snap!("questionnaire_answered", &mut a);
     press(&mut a, KeyCode::Enter);
     snap!("questionnaire_second_item", &mut a);
+    keys(&mut a, "h");
+    snap!("participant_statement", &mut a);
     answer(&mut a, "3524153");
-    snap!("forced_choice", &mut a);
+    snap!("participant_forced_choice", &mut a);
     answer(&mut a, "a");
+    snap!("participant_hand_back", &mut a);
+    a.key(KeyEvent::new(KeyCode::Char('e'), KeyModifiers::CONTROL));
     snap!("questionnaire_review", &mut a);
+    press(&mut a, KeyCode::Left);
+    snap!("forced_choice", &mut a);
+    press(&mut a, KeyCode::Right);
     press(&mut a, KeyCode::Enter);
     a.wait_idle();
     snap!("summary", &mut a);
@@ -157,6 +207,7 @@ fn a_whole_session_by_keys_logs_26_responses() {
     press(&mut a, KeyCode::Enter);
     let mut grip = '1';
     for _ in 0..26 {
+        past_transition(&mut a);
         press(&mut a, KeyCode::Enter);
         keys(&mut a, &grip.to_string());
         grip = if grip == '1' { '2' } else { '1' };
@@ -191,6 +242,7 @@ fn a_double_press_answers_one_statement_and_enter_asks_before_skipping() {
     let mut a = app(&dir);
     press(&mut a, KeyCode::Enter);
     trials(&mut a, 26, '1');
+    past_transition(&mut a);
     keys(&mut a, "44");
     a.wait_idle();
     assert_eq!(a.cursor, 0);
@@ -306,8 +358,8 @@ fn an_id_without_a_record_offers_no_start() {
     let mut a = App::new(AppConfig { participant: "p-NOSUCH01".into(), ..config(&dir, false) });
     a.tick(T0);
     let s = screen(&mut a, 100, 30);
-    assert!(s.contains("p-NOSUCH01 (cannot be used: see below)") && s.contains("Cannot start"), "{s}");
-    assert!(s.contains("The session cannot start (see above): e enters another participant id"), "{s}");
+    assert!(s.contains("p-NOSUCH01 (cannot be used: see above)") && s.contains("Cannot start"), "{s}");
+    assert!(s.contains("The session cannot start: e enters another participant id"), "{s}");
     assert!(!s.contains("existing record") && !s.contains("Press Enter to start"), "{s}");
     press(&mut a, KeyCode::Enter);
     assert!(matches!(a.screen, Screen::Setup), "no session started");
@@ -423,7 +475,10 @@ fn a_left_handed_short_participant_gets_mirrored_scaled_poses_named_from_both_si
     let s = a.session().unwrap();
     assert_eq!(s.study().arm.side, handover::kinematics::Hand::Left);
     let trial = screen(&mut a, 100, 30);
-    assert!(trial.contains("frame        left shoulder") && trial.contains("LEFT hand (on your right"), "{trial}");
+    assert!(
+        trial.contains("frame        participant's left shoulder") && trial.contains("LEFT hand (on your right"),
+        "{trial}"
+    );
     // The pose shown is the protocol's, scaled by the reach (1.55 / 1.75) and mirrored (y negated).
     let handover::session::Prompt::Present(view) = a.session().unwrap().prompt() else { panic!("a trial is prompted") };
     let q = a.session().unwrap().query(view.query).clone();
@@ -629,4 +684,134 @@ fn a_measured_protocol_without_a_measuring_system_learns_from_the_handle_and_say
     let log = read_log(&a.log_path().unwrap()).unwrap();
     let response = log.messages.iter().find(|m| m.topic == "/trial/response").unwrap();
     assert_eq!(response.value["learned_from"], "region", "{:?}", response.value);
+}
+
+/// Between Program A and B, before the test and before the questionnaire the console stops
+/// on the protocol's text until the experimenter confirms; grip keys there say why they do
+/// nothing; a protocol's own text is shown with the programs' labels.
+#[test]
+fn transitions_wait_for_the_experimenter_with_the_protocol_s_text() {
+    let dir = tmpdir("transitions");
+    let mut cfg = config(&dir, false);
+    let mut v: serde_json::Value = serde_json::from_str(&cfg.protocol_text).unwrap();
+    v["session"]["transitions"] = serde_json::json!({
+        "between_programs": "Say: {done} has finished and {next} starts.",
+        "before_test": "Say: now the test.",
+        "before_questionnaire": "Say: now the statements."
+    });
+    cfg.protocol_text = v.to_string();
+    cfg.study = Arc::new(Study::from_json(&cfg.protocol_text, "transitions").unwrap());
+    let mut a = App::new(cfg);
+    a.tick(T0);
+    press(&mut a, KeyCode::Enter);
+    assert_eq!(a.transition(), None, "the first program starts at once");
+    trials(&mut a, 5, '1');
+    assert_eq!(a.transition(), Some(handover::tui::app::Stage::Program(1)));
+    let s = screen(&mut a, 80, 24);
+    assert!(s.contains("Say: Program A has finished and Program B starts.") && s.contains("Program B is next"), "{s}");
+    keys(&mut a, "1");
+    assert!(a.status.starts_with("Tell the participant what comes next"), "{}", a.status);
+    let before = a.session().unwrap().trials().len();
+    press(&mut a, KeyCode::Enter);
+    assert_eq!(a.transition(), None);
+    assert_eq!(a.session().unwrap().trials().len(), before, "confirming records nothing");
+    assert!(a.status.starts_with("Program B begins"), "{}", a.status);
+    trials(&mut a, 5, '2');
+    assert_eq!(a.transition(), Some(handover::tui::app::Stage::Test));
+    assert!(screen(&mut a, 80, 24).contains("Say: now the test."));
+    trials(&mut a, 16, '1');
+    assert_eq!(a.transition(), Some(handover::tui::app::Stage::Questionnaire));
+    assert!(screen(&mut a, 80, 24).contains("Say: now the statements."));
+    press(&mut a, KeyCode::Enter);
+    assert_eq!(a.mode(), handover::tui::keys::Mode::Questionnaire);
+    // A protocol whose text names an unknown placeholder is refused, naming the field.
+    v["session"]["transitions"]["before_test"] = "now {program}".into();
+    let err = Study::from_json(&v.to_string(), "bad.json").unwrap_err().to_string();
+    assert!(err.contains("session.transitions.before_test") && err.contains("no placeholder"), "{err}");
+}
+
+/// The questionnaire handed to the participant: one statement, nothing that un-blinds, only
+/// the answering keys act (no quit, note, pause or help; Ctrl+C included), Enter at the end
+/// asks for the keyboard back instead of finishing, and Ctrl+E gives it back.
+#[test]
+fn the_participant_answers_blinded_and_hands_back() {
+    let dir = tmpdir("participant");
+    let mut a = app(&dir);
+    press(&mut a, KeyCode::Enter);
+    trials(&mut a, 26, '1');
+    past_transition(&mut a);
+    keys(&mut a, "h");
+    assert!(a.participant_mode);
+    for (w, h) in SIZES {
+        let s = screen(&mut a, w, h);
+        for secret in ["active", "passive", "Belief", "slot", "participant p-", "bike-handover", "PILOT", "Ctrl"] {
+            assert!(!s.contains(secret), "'{secret}' is on the participant's screen:\n{s}");
+        }
+        assert!(s.contains("Statement 1 of 8"), "{s}");
+    }
+    for c in ['q', '?', 'n', 'p', 'x'] {
+        keys(&mut a, &c.to_string());
+        assert!(a.overlay.is_none() && !a.quit, "{c} opens nothing");
+    }
+    a.key(KeyEvent::new(KeyCode::Char('c'), KeyModifiers::CONTROL));
+    a.wait_idle();
+    assert!(a.overlay.is_none() && !a.quit, "Ctrl+C does not quit in the participant's hands");
+    answer(&mut a, "45342512b");
+    assert_eq!(a.session().unwrap().likert_answers().len(), 8);
+    assert_eq!(a.session().unwrap().forced_choice(), Some(1));
+    press(&mut a, KeyCode::Enter);
+    assert!(matches!(a.screen, Screen::Session), "the participant cannot finish the session");
+    assert!(screen(&mut a, 80, 24).contains("hand the keyboard back to the experimenter"));
+    a.key(KeyEvent::new(KeyCode::Char('e'), KeyModifiers::CONTROL));
+    assert!(!a.participant_mode);
+    assert!(screen(&mut a, 80, 24).contains("participant p-"), "the experimenter's header is back");
+    press(&mut a, KeyCode::Enter);
+    a.wait_idle();
+    assert!(matches!(a.screen, Screen::Summary(_)));
+}
+
+/// The help fits 120×35 whole, and at 80×24 scrolls to its last line.
+#[test]
+fn the_help_fits_or_scrolls_to_its_end() {
+    let dir = tmpdir("help");
+    let mut a = app(&dir);
+    press(&mut a, KeyCode::Enter);
+    // After a grasp the help lists undo too: its longest.
+    trials(&mut a, 1, '1');
+    keys(&mut a, "?");
+    let big = screen(&mut a, 120, 35);
+    assert!(big.contains("Keys (Esc closes)") && big.contains("type an existing participant id"), "{big}");
+    let small = screen(&mut a, 80, 24);
+    assert!(small.contains("↑/↓ scroll") && !small.contains("type an existing participant id"), "{small}");
+    for _ in 0..40 {
+        press(&mut a, KeyCode::Down);
+    }
+    let end = screen(&mut a, 80, 24);
+    assert!(end.contains("type an existing participant id"), "{end}");
+    press(&mut a, KeyCode::Esc);
+    assert!(a.overlay.is_none());
+}
+
+/// A resumed session keeps its clock from the logged start, and its status line is whole.
+#[test]
+fn a_resumed_session_shows_its_elapsed_time_and_whole_status() {
+    let dir = tmpdir("resumed");
+    let mut a = app(&dir);
+    press(&mut a, KeyCode::Enter);
+    trials(&mut a, 2, '1');
+    keys(&mut a, "qy");
+    drop(a);
+    let path = handover::record::mcap_files(&dir.join("logs"))[0].clone();
+    let log = read_log(&path).unwrap();
+    let mut r = App::resume(config(&dir, false), &log).unwrap();
+    let started = chrono::DateTime::parse_from_rfc3339(&log.start.started_at).unwrap();
+    r.tick(started.timestamp_nanos_opt().unwrap() as u64 + 3_725_000_000_000);
+    let mut t = Terminal::new(TestBackend::new(80, 24)).unwrap();
+    t.draw(|f| render(&r, f)).unwrap();
+    let s = t.backend().to_string();
+    assert!(s.contains("elapsed 1:02:05"), "{s}");
+    let name = path.file_name().unwrap().to_string_lossy().to_string();
+    let flat: String = s.lines().map(|l| l.trim_matches('"').trim_end()).collect::<Vec<_>>().join("");
+    assert!(flat.contains(&format!("Resumed {name} after")), "the status is whole:\n{s}");
+    keys(&mut r, "qy");
 }

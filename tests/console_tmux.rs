@@ -51,6 +51,35 @@ fn small_protocol(dir: &Path) -> PathBuf {
     p
 }
 
+/// What the operator's instruction said for one trial, read off the screen.
+struct Shown {
+    query: String,
+    position: String,
+    orientation: String,
+}
+
+/// Reads the whole instruction off a trial screen: the query's id and the full position,
+/// orientation, frame and whose-left lines (none of them cut at 80 columns).
+fn instruction_on(screen: &str) -> Shown {
+    let line = |start: &str| -> String {
+        let l = screen.lines().find(|l| l.contains(start)).unwrap_or_else(|| panic!("no '{start}' line:\n{screen}"));
+        l.trim_matches('│').trim().to_string()
+    };
+    let object = line("(query ");
+    let query = object.split("(query ").nth(1).and_then(|r| r.split(')').next()).unwrap().to_string();
+    let position = line("position     x ");
+    assert!(position.ends_with("m, of the object's centre"), "cut: '{position}'");
+    let orientation = line("orientation  roll ");
+    assert!(orientation.contains("yaw ") && orientation.ends_with('°'), "cut: '{orientation}'");
+    assert!(line("frame        participant's").ends_with("y to their left, z up"), "{screen}");
+    assert!(line("left, right ").ends_with("as they face the robot"), "{screen}");
+    Shown { query, position, orientation }
+}
+
+/// A whole session at the smallest size the console accepts (80×24), driven by keys as an
+/// experimenter would: every trial's full instruction is read off the screen (and checked
+/// against the log's study afterwards), a grasp is undone and a trial voided, each
+/// transition is confirmed, and the questionnaire is handed to the participant and back.
 #[test]
 fn the_console_runs_a_session_in_a_real_terminal() {
     if !has_tmux() {
@@ -70,38 +99,58 @@ fn the_console_runs_a_session_in_a_real_terminal() {
         dir.join("logs").display(),
         dir.join("participants").display()
     );
-    tmux(&["new-session", "-d", "-s", &name, "-x", "100", "-y", "30", &cmd]);
+    tmux(&["new-session", "-d", "-s", &name, "-x", "80", "-y", "24", &cmd]);
     let _guard = Session(name.clone());
     wait_for(&name, "Press Enter to start the session.");
     send(&name, &["Enter"]);
-    wait_for(&name, "Training · Program A · trial 1/5");
+    let mut shown = Vec::new();
     // Trial 1: present, take grip 1, undo it, take grip 2 instead.
+    shown.push(instruction_on(&wait_for(&name, "Training · Program A · trial 1/5")));
     send(&name, &["Enter", "1"]);
     wait_for(&name, "trial 2/5");
     send(&name, &["u"]);
     let screen = wait_for(&name, "Training · Program A · trial 1/5");
     assert!(screen.contains("Presented."), "the undone trial awaits its grasp again:\n{screen}");
     send(&name, &["2"]);
-    wait_for(&name, "trial 2/5");
     // Trial 2: present, then void it (robot fault); it is repeated.
+    shown.push(instruction_on(&wait_for(&name, "trial 2/5")));
     send(&name, &["Enter", "x"]);
     wait_for(&name, "Why is this trial void?");
     send(&name, &["2"]);
-    wait_for(&name, "Press Enter when the robot holds the object there.");
-    // The rest of training and the test phase: 25 trials, keys sent without waiting.
-    for k in 0..25 {
-        send(&name, &["Enter", if k % 2 == 0 { "1" } else { "2" }]);
+    wait_for(&name, "Trial 2 voided (robot fault)");
+    // Every other trial: wait for its screen, read the instruction, present, grasp; the
+    // transitions between the phases are confirmed.
+    let mut phases = vec![("Training · Program A", 5, 2)];
+    phases.push(("Training · Program B", 5, 1));
+    phases.push(("Test", 16, 1));
+    for (k, (phase, of, first)) in phases.into_iter().enumerate() {
+        if k > 0 {
+            wait_for(&name, "Press Enter once the participant has been told.");
+            send(&name, &["Enter"]);
+        }
+        for trial in first..=of {
+            let screen = wait_for(&name, &format!("{phase} · trial {trial}/{of}"));
+            shown.push(instruction_on(&screen));
+            send(&name, &["Enter", if trial % 2 == 0 { "1" } else { "2" }]);
+        }
     }
+    wait_for(&name, "The questionnaire is next");
+    send(&name, &["Enter"]);
     wait_for(&name, "statement 1/8");
-    // Each answer is confirmed with Enter: a number alone does not move on.
+    // The participant answers: each number confirmed with Enter (a number alone does not
+    // move on); Enter at the end asks for the keyboard back; Ctrl+E takes it back.
+    send(&name, &["h"]);
+    wait_for(&name, "Statement 1 of 8");
     for answer in ["4", "4", "3", "5", "2", "4", "3", "3", "b"] {
         send(&name, &[answer, "Enter"]);
     }
+    wait_for(&name, "Please hand the keyboard back to the experimenter");
+    send(&name, &["C-e"]);
     let screen = wait_for(&name, "Press Enter to finish the session");
     assert!(screen.contains("8 of 8 statements answered") && screen.contains("forced choice: Program B"), "{screen}");
     send(&name, &["Enter"]);
     let screen = wait_for(&name, "Session complete.");
-    assert!(screen.contains("Program A = ") && screen.contains("Objects each condition chose"), "{screen}");
+    assert!(screen.contains("Program A = "), "{screen}");
     send(&name, &["q"]);
     std::thread::sleep(Duration::from_millis(300));
     let logs = mcap_files(&dir.join("logs"));
@@ -116,6 +165,16 @@ fn the_console_runs_a_session_in_a_real_terminal() {
     assert_eq!(count("/questionnaire/choice"), 1);
     let end = log.messages.iter().find(|m| m.topic == "/session/end").unwrap();
     assert_eq!(end.value["status"], "completed");
+    // What the screen said is the pose the session ran, for every one of the 27 screens.
+    assert_eq!(shown.len(), 27, "26 trials and the voided one");
+    let study = handover::record::study_of(&log).unwrap();
+    for s in &shown {
+        let q = study.training.iter().chain(&study.test).find(|q| q.query.id == s.query).expect("a query of the study");
+        let [x, y, z] = q.pose.position;
+        let [r, p, w] = q.pose.rpy_deg;
+        assert!(s.position.contains(&format!("x {x:+.3}  y {y:+.3}  z {z:+.3} m")), "{}: {}", s.query, s.position);
+        assert!(s.orientation.contains(&format!("roll {r:+.1}°  pitch {p:+.1}°  yaw {w:+.1}°")), "{}", s.orientation);
+    }
     let _ = std::fs::remove_dir_all(dir);
 }
 

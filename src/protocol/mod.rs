@@ -67,6 +67,46 @@ pub struct SessionSpec {
     pub program_labels: Vec<String>,
     /// Whether the test set is presented in an order shuffled per participant.
     pub shuffle_test: bool,
+    /// What the experimenter tells the participant between phases; absent: the defaults of
+    /// [`Transitions`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transitions: Option<Transitions>,
+}
+
+/// What the console's transition screens say, each confirmed by the experimenter before the
+/// next phase: `{done}` and `{next}` are replaced by the programs' labels.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Transitions {
+    /// After one training program, before the next.
+    pub between_programs: String,
+    /// After the last training program, before the test phase.
+    pub before_test: String,
+    /// After the test phase, before the questionnaire.
+    pub before_questionnaire: String,
+}
+
+impl Default for Transitions {
+    fn default() -> Self {
+        Self {
+            between_programs: "{done} is done. Tell the participant: the robot will now use {next}; \
+                               take each object as you like."
+                .into(),
+            before_test: "Training is done. Tell the participant: the robot will now hand over each object \
+                          in a few more poses; take each as you like."
+                .into(),
+            before_questionnaire: "The handovers are done. Tell the participant: a few statements about \
+                                   each program follow; answer each on the scale shown."
+                .into(),
+        }
+    }
+}
+
+impl SessionSpec {
+    /// The transitions' texts: the protocol's, or the defaults.
+    pub fn transitions(&self) -> Transitions {
+        self.transitions.clone().unwrap_or_default()
+    }
 }
 
 /// A Likert questionnaire asked about each program, then a forced choice.

@@ -574,6 +574,35 @@ fn session(s: &SessionSpec, q: &QuestionnaireSpec, p: &mut Problems) {
         }
         p.text(&format!("session.program_labels[{i}]"), l, 100);
     }
+    if let Some(t) = &s.transitions {
+        for (field, text, placeholders) in [
+            ("between_programs", &t.between_programs, &["{done}", "{next}"][..]),
+            ("before_test", &t.before_test, &[][..]),
+            ("before_questionnaire", &t.before_questionnaire, &[][..]),
+        ] {
+            let path = format!("session.transitions.{field}");
+            p.text(&path, text, limits::LONG_TEXT);
+            if text.trim().is_empty() {
+                p.add(path.clone(), "is empty, expected what the experimenter tells the participant");
+            }
+            let mut rest = text.as_str();
+            while let Some(i) = rest.find('{') {
+                let tail = &rest[i..];
+                match placeholders.iter().find(|ph| tail.starts_with(**ph)) {
+                    Some(ph) => rest = &tail[ph.len()..],
+                    None => {
+                        let expected = if placeholders.is_empty() {
+                            "no placeholder".to_string()
+                        } else {
+                            placeholders.join(" or ")
+                        };
+                        p.add(path.clone(), format!("has '{{' not starting a known placeholder, expected {expected}"));
+                        break;
+                    }
+                }
+            }
+        }
+    }
     p.count("questionnaire.scale", q.scale.len(), limits::SCALE_POINTS, "points");
     p.count("questionnaire.items", q.items.len(), limits::ITEMS, "statements");
     p.text("questionnaire.forced_choice", &q.forced_choice, limits::LONG_TEXT);

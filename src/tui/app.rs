@@ -80,6 +80,18 @@ pub enum Overlay {
     },
 }
 
+/// A point between phases where the experimenter tells the participant what comes next
+/// (the protocol's `session.transitions`) and confirms before the console goes on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    /// The start of training program k (k ≥ 1: after another program).
+    Program(usize),
+    /// The start of the test phase.
+    Test,
+    /// The start of the questionnaire.
+    Questionnaire,
+}
+
 /// Why the console could not open a session.
 #[derive(Debug, thiserror::Error)]
 pub enum ConsoleError {
@@ -119,6 +131,12 @@ pub struct App {
     /// The questionnaire position whose skip Enter has asked to confirm (a second Enter
     /// there skips it).
     pub skip_asked: Option<usize>,
+    /// The transitions the experimenter has confirmed in this console.
+    acknowledged: Vec<Stage>,
+    /// The questionnaire is in the participant's hands.
+    pub participant_mode: bool,
+    /// How far the help overlay is scrolled (lines).
+    pub help_scroll: u16,
     /// The clock, set by the loop (ns since the Unix epoch).
     pub now_ns: u64,
     /// When the session screen was first shown.
@@ -181,6 +199,11 @@ impl App {
         app.shown = Some(rec.session().clone());
         app.worker = Some(Worker::spawn(rec));
         app.screen = Screen::Session;
+        // The session's clock runs from its logged start, across the interruption.
+        app.session_started_ns = chrono::DateTime::parse_from_rfc3339(&old.start.started_at)
+            .ok()
+            .and_then(|t| t.timestamp_nanos_opt())
+            .and_then(|ns| u64::try_from(ns).ok());
         app.sync_cursor();
         app.after_event();
         app.status = status;
@@ -216,6 +239,9 @@ impl App {
             joint_pair: 0,
             cursor: 0,
             skip_asked: None,
+            acknowledged: Vec::new(),
+            participant_mode: false,
+            help_scroll: 0,
             say_after: None,
             now_ns: now_ns(),
             session_started_ns: None,
@@ -298,26 +324,94 @@ impl App {
 
     /// What the keyboard drives now.
     pub fn mode(&self) -> Mode {
-        match &self.overlay {
-            Some(Overlay::Help) => return Mode::Help,
-            Some(Overlay::ConfirmQuit) => return Mode::ConfirmQuit,
-            Some(Overlay::VoidReason) => return Mode::VoidReason,
-            Some(Overlay::Note(_) | Overlay::ParticipantId(_) | Overlay::AbortReason(_) | Overlay::VoidDetail(_)) => {
-                return Mode::LineEdit;
+        self.overlay_mode().unwrap_or_else(|| self.screen_mode())
+    }
+
+    /// What a dialog over the screen takes the keys for, if one is open.
+    fn overlay_mode(&self) -> Option<Mode> {
+        Some(match self.overlay.as_ref()? {
+            Overlay::Help => Mode::Help,
+            Overlay::ConfirmQuit => Mode::ConfirmQuit,
+            Overlay::VoidReason => Mode::VoidReason,
+            Overlay::Note(_) | Overlay::ParticipantId(_) | Overlay::AbortReason(_) | Overlay::VoidDetail(_) => {
+                Mode::LineEdit
             }
-            Some(Overlay::WriteFailed { .. }) => return Mode::WriteFailed,
-            None => {}
-        }
+            Overlay::WriteFailed { .. } => Mode::WriteFailed,
+        })
+    }
+
+    /// What the screen under any dialog takes the keys for.
+    pub fn screen_mode(&self) -> Mode {
         match &self.screen {
             Screen::Setup => Mode::Setup,
             Screen::Summary(_) => Mode::Summary,
+            Screen::Session if self.transition().is_some() => Mode::Transition,
             Screen::Session => match self.session().map(|s| s.prompt()) {
                 Some(Prompt::Present(_)) => Mode::Present,
                 Some(Prompt::Grasp(_)) => Mode::Grasp,
                 Some(Prompt::Paused) => Mode::Paused,
                 Some(Prompt::Done { .. }) | None => Mode::Summary,
+                Some(_) if self.participant_mode => Mode::Participant,
                 Some(_) => Mode::Questionnaire,
             },
+        }
+    }
+
+    /// The transition waiting for the experimenter's confirmation: the first trial of a
+    /// training program after another, of the test phase, or the first statement of the
+    /// questionnaire, before anything of it is recorded (a resumed session shows it again).
+    pub fn transition(&self) -> Option<Stage> {
+        let s = self.session()?;
+        let stage = match s.prompt() {
+            Prompt::Present(v) if v.trial == 1 => {
+                let begun = s.voids().iter().any(|x| x.phase == v.phase && x.run == v.program);
+                match (v.phase, v.program) {
+                    _ if begun => return None,
+                    (crate::session::Phase::Training, Some(k)) if k > 0 => Stage::Program(k),
+                    (crate::session::Phase::Test, _) => Stage::Test,
+                    _ => return None,
+                }
+            }
+            Prompt::Likert { index: 0, .. }
+                if self.cursor == 0 && s.likert_answers().is_empty() && s.forced_choice().is_none() =>
+            {
+                Stage::Questionnaire
+            }
+            _ => return None,
+        };
+        (!self.acknowledged.contains(&stage)).then_some(stage)
+    }
+
+    /// What the experimenter tells the participant at a transition: the protocol's text
+    /// with the programs' labels.
+    pub fn transition_text(&self, stage: Stage) -> String {
+        let Some(s) = self.session() else { return String::new() };
+        let t = s.study().protocol.session.transitions();
+        let labels = &s.start().program_labels;
+        match stage {
+            Stage::Program(k) => t
+                .between_programs
+                .replace("{done}", &labels[k.saturating_sub(1)])
+                .replace("{next}", &labels[k.min(labels.len() - 1)]),
+            Stage::Test => t.before_test,
+            Stage::Questionnaire => t.before_questionnaire,
+        }
+    }
+
+    /// The experimenter confirms the transition shown.
+    pub(super) fn acknowledge(&mut self) {
+        if let Some(stage) = self.transition() {
+            self.acknowledged.push(stage);
+            self.status = match stage {
+                Stage::Program(k) => format!(
+                    "{} begins: present its first query",
+                    self.session().map_or(String::new(), |s| s.start().program_labels[k].clone())
+                ),
+                Stage::Test => "The test phase begins: present its first query".into(),
+                Stage::Questionnaire => {
+                    "The questionnaire begins: h hands it to the participant, or read the statements out".into()
+                }
+            };
         }
     }
 
@@ -374,6 +468,14 @@ impl App {
         }
         let Some(sim) = self.plan.as_ref().and_then(|p| p.simulated.clone()) else { return };
         if now_ns.saturating_sub(self.last_simulated_ns) < self.config.pace.as_nanos() as u64 {
+            return;
+        }
+        // A rehearsal goes on by itself; the transition's text is left on the status line.
+        if let Some(stage) = self.transition() {
+            self.last_simulated_ns = now_ns;
+            let text = self.transition_text(stage);
+            self.acknowledged.push(stage);
+            self.status = text;
             return;
         }
         if let Some(event) = self.session().and_then(|s| sim.respond(s)) {

@@ -23,6 +23,12 @@ pub enum Mode {
     LineEdit,
     /// The log could not be written: retry or quit.
     WriteFailed,
+    /// Between programs, before the test phase and before the questionnaire: what to tell
+    /// the participant, confirmed by the experimenter.
+    Transition,
+    /// The questionnaire handed to the participant: answering keys only, nothing that
+    /// un-blinds, and a hand-back key nobody presses by chance.
+    Participant,
 }
 
 /// An operator's intent.
@@ -58,6 +64,13 @@ pub enum Action {
     Retry,
     /// Send the waiting query's pose to the robot (again).
     SendRobot,
+    /// Scroll the help up or down by a line.
+    ScrollUp,
+    ScrollDown,
+    /// Hand the questionnaire to the participant.
+    HandOver,
+    /// The experimenter takes the keyboard back.
+    HandBack,
 }
 
 /// The keys a binding answers to.
@@ -69,7 +82,11 @@ pub enum Keys {
     Tab,
     Left,
     Right,
+    Up,
+    Down,
     Backspace,
+    /// Control and a letter.
+    Ctrl(char),
     /// A digit 1..=n, n the count of what is picked ([`Counts`]).
     Digits(Picked),
     /// Any printable character (a line editor).
@@ -147,7 +164,8 @@ pub struct Binding {
 use Mode as M;
 const TRIAL: &[Mode] = &[M::Present, M::Grasp];
 const IN_SESSION: &[Mode] = &[M::Present, M::Grasp, M::Questionnaire];
-const COMMON: &[Mode] = &[M::Setup, M::Present, M::Grasp, M::Questionnaire, M::Paused, M::Summary];
+const COMMON: &[Mode] = &[M::Setup, M::Present, M::Grasp, M::Questionnaire, M::Paused, M::Summary, M::Transition];
+const ANSWERING: &[Mode] = &[M::Questionnaire, M::Participant];
 
 const fn bind(
     keys: Keys,
@@ -171,6 +189,8 @@ pub const BINDINGS: &[Binding] = &[
     bind(Keys::Char('?'), &[M::Help], Does::Is(Action::Cancel), "", "", Section::Dialog),
     bind(Keys::Char('q'), &[M::Help], Does::Is(Action::Cancel), "", "", Section::Dialog),
     bind(Keys::Enter, &[M::Help], Does::Is(Action::Cancel), "", "", Section::Dialog),
+    bind(Keys::Up, &[M::Help], Does::Is(Action::ScrollUp), "scroll", "", Section::Dialog),
+    bind(Keys::Down, &[M::Help], Does::Is(Action::ScrollDown), "scroll", "", Section::Dialog),
     bind(Keys::Char('y'), &[M::ConfirmQuit], Does::Is(Action::Yes), "quit", "", Section::Dialog),
     bind(Keys::Enter, &[M::ConfirmQuit], Does::Is(Action::Yes), "", "", Section::Dialog),
     bind(Keys::Char('n'), &[M::ConfirmQuit], Does::Is(Action::No), "stay", "", Section::Dialog),
@@ -238,20 +258,29 @@ pub const BINDINGS: &[Binding] = &[
         "void the trial, then choose a reason (it is repeated)",
         Section::Trial,
     ),
+    // Transitions.
+    bind(
+        Keys::Enter,
+        &[M::Transition],
+        Does::Is(Action::Confirm),
+        "told them: go on",
+        "between phases: the participant has been told; go on",
+        Section::Trial,
+    ),
     // The questionnaire.
     bind(
         Keys::Digits(Picked::ScalePoint),
-        &[M::Questionnaire],
+        ANSWERING,
         Does::Pick(Action::Likert),
         "answer",
         "answer the statement",
         Section::Questionnaire,
     ),
-    bind(Keys::Left, &[M::Questionnaire], Does::Is(Action::Prev), "move", "previous statement", Section::Questionnaire),
-    bind(Keys::Right, &[M::Questionnaire], Does::Is(Action::Next), "move", "next statement", Section::Questionnaire),
+    bind(Keys::Left, ANSWERING, Does::Is(Action::Prev), "move", "previous statement", Section::Questionnaire),
+    bind(Keys::Right, ANSWERING, Does::Is(Action::Next), "move", "next statement", Section::Questionnaire),
     bind(
         Keys::Char('a'),
-        &[M::Questionnaire],
+        ANSWERING,
         Does::Is(Action::Choice(0)),
         "choice",
         "forced choice: Program A",
@@ -259,7 +288,7 @@ pub const BINDINGS: &[Binding] = &[
     ),
     bind(
         Keys::Char('b'),
-        &[M::Questionnaire],
+        ANSWERING,
         Does::Is(Action::Choice(1)),
         "choice",
         "forced choice: Program B",
@@ -273,11 +302,28 @@ pub const BINDINGS: &[Binding] = &[
         "next; at the end, finish the session",
         Section::Questionnaire,
     ),
+    bind(Keys::Enter, &[M::Participant], Does::Is(Action::Confirm), "next", "", Section::Dialog),
+    bind(
+        Keys::Char('h'),
+        &[M::Questionnaire],
+        Does::Is(Action::HandOver),
+        "hand to participant",
+        "hand the questionnaire to the participant (large, nothing un-blinds)",
+        Section::Questionnaire,
+    ),
+    bind(
+        Keys::Ctrl('e'),
+        &[M::Participant],
+        Does::Is(Action::HandBack),
+        "",
+        "the experimenter takes the questionnaire back from the participant",
+        Section::Questionnaire,
+    ),
     // In a session, and everywhere.
     bind(Keys::Char('p'), &[M::Paused], Does::Is(Action::Pause), "resume", "", Section::Trial),
     bind(
         Keys::Char('n'),
-        &[M::Present, M::Grasp, M::Questionnaire, M::Paused],
+        &[M::Present, M::Grasp, M::Questionnaire, M::Paused, M::Transition],
         Does::Is(Action::Note),
         "note",
         "add a note (Enter saves, Esc cancels)",
@@ -299,23 +345,28 @@ pub const BINDINGS: &[Binding] = &[
         COMMON,
         Does::Is(Action::Quit),
         "quit",
-        "quit (asks first; the session can be resumed; or a: abort it for good)",
+        "quit (asks first; the session can be resumed, or a ends it for good)",
         Section::Trial,
     ),
 ];
 
-fn matches(keys: Keys, code: KeyCode, counts: Counts) -> Option<Option<usize>> {
+fn matches(keys: Keys, key: KeyEvent, counts: Counts) -> Option<Option<usize>> {
+    let ctrl = key.modifiers.contains(KeyModifiers::CONTROL);
+    let code = key.code;
     match (keys, code) {
-        (Keys::Char(a), KeyCode::Char(b)) if a == b => Some(None),
+        (Keys::Char(a), KeyCode::Char(b)) if a == b && !ctrl => Some(None),
+        (Keys::Ctrl(a), KeyCode::Char(b)) if a == b && ctrl => Some(None),
         (Keys::RobotChar(a), KeyCode::Char(b)) if a == b && counts.robot => Some(None),
         (Keys::Enter, KeyCode::Enter)
         | (Keys::Esc, KeyCode::Esc)
         | (Keys::Tab, KeyCode::Tab)
         | (Keys::Left, KeyCode::Left)
         | (Keys::Right, KeyCode::Right)
+        | (Keys::Up, KeyCode::Up)
+        | (Keys::Down, KeyCode::Down)
         | (Keys::Backspace, KeyCode::Backspace) => Some(None),
-        (Keys::Typed, KeyCode::Char(_)) => Some(None),
-        (Keys::Digits(p), KeyCode::Char(c)) => {
+        (Keys::Typed, KeyCode::Char(_)) if !ctrl => Some(None),
+        (Keys::Digits(p), KeyCode::Char(c)) if !ctrl => {
             let d = c.to_digit(10)? as usize;
             (1..=counts.of(p).min(9)).contains(&d).then(|| Some(d - 1))
         }
@@ -329,11 +380,13 @@ pub fn action_for(mode: Mode, key: KeyEvent, counts: Counts) -> Option<Action> {
     if key.kind == KeyEventKind::Release {
         return None;
     }
-    if key.modifiers.contains(KeyModifiers::CONTROL) && key.code == KeyCode::Char('c') {
+    // Ctrl+C asks to quit, except in the participant's hands (the experimenter takes the
+    // keyboard back first).
+    if key.modifiers.contains(KeyModifiers::CONTROL) && key.code == KeyCode::Char('c') && mode != Mode::Participant {
         return Some(Action::Quit);
     }
     BINDINGS.iter().filter(|b| b.modes.contains(&mode)).find_map(|b| {
-        let digit = matches(b.keys, key.code, counts)?;
+        let digit = matches(b.keys, key, counts)?;
         Some(match (b.does, digit, key.code) {
             (Does::Is(a), _, _) => a,
             (Does::Pick(f), Some(i), _) => f(i),
@@ -352,6 +405,9 @@ pub fn key_label(keys: Keys, counts: Counts) -> String {
         Keys::Tab => "Tab".into(),
         Keys::Left => "←".into(),
         Keys::Right => "→".into(),
+        Keys::Up => "↑".into(),
+        Keys::Down => "↓".into(),
+        Keys::Ctrl(c) => format!("Ctrl+{}", c.to_ascii_uppercase()),
         Keys::Backspace => "Backspace".into(),
         Keys::Typed => "text".into(),
         Keys::Digits(p) => match counts.of(p).min(9) {
@@ -369,6 +425,9 @@ fn acts(b: &Binding, counts: Counts) -> bool {
 
 /// What `u` says when there is no grasp to undo.
 pub const NOTHING_TO_UNDO: &str = "Nothing to undo: a grasp can be undone until the next query is presented";
+
+/// What a key that does nothing in the participant's hands says (nothing about the session).
+pub const PARTICIPANT_KEYS: &str = "The numbers answer; Enter goes to the next statement; ← and → move between them";
 
 /// Why a key that does nothing now does nothing, for the status line.
 pub fn why_not(mode: Mode, key: KeyEvent) -> Option<String> {
@@ -392,6 +451,8 @@ pub fn why_not(mode: Mode, key: KeyEvent) -> Option<String> {
         }
         (Mode::Present | Mode::Grasp, KeyCode::Char('u')) => NOTHING_TO_UNDO.into(),
         (Mode::Paused, _) => format!("{name} does nothing while paused: p resumes the session"),
+        (Mode::Participant, _) => PARTICIPANT_KEYS.into(),
+        (Mode::Transition, _) => "Tell the participant what comes next (on screen), then press Enter".into(),
         _ => format!("{name} does nothing here (? lists the keys that act now)"),
     })
 }
@@ -509,6 +570,8 @@ mod tests {
             Mode::VoidReason,
             Mode::LineEdit,
             Mode::WriteFailed,
+            Mode::Transition,
+            Mode::Participant,
         ];
         for mode in modes {
             let hints = hints(mode, COUNTS);
@@ -529,6 +592,14 @@ mod tests {
                         );
                         continue;
                     }
+                    Keys::Ctrl(c) => {
+                        let k = KeyEvent::new(KeyCode::Char(c), KeyModifiers::CONTROL);
+                        assert!(action_for(mode, k).is_some(), "{mode:?}: Ctrl+{c} is bound");
+                        assert_eq!(action_for(mode, key(KeyCode::Char(c))), None, "{c} alone is not Ctrl+{c}");
+                        continue;
+                    }
+                    Keys::Up => KeyCode::Up,
+                    Keys::Down => KeyCode::Down,
                     Keys::Enter => KeyCode::Enter,
                     Keys::Esc => KeyCode::Esc,
                     Keys::Tab => KeyCode::Tab,
@@ -551,6 +622,30 @@ mod tests {
         // `u` is listed only with a grasp to undo.
         assert!(hints(Mode::Present, COUNTS).iter().any(|(k, _)| k == "u"));
         assert!(!hints(Mode::Present, Counts { can_undo: false, ..COUNTS }).iter().any(|(k, _)| k == "u"));
+    }
+
+    /// In the participant's hands only the answering keys act: no quit (Ctrl+C included),
+    /// no help, no note, no pause; Ctrl+E gives the keyboard back; every line of the help
+    /// fits the narrowest terminal.
+    #[test]
+    fn the_participant_answers_and_only_the_experimenter_takes_back() {
+        let p = Mode::Participant;
+        assert_eq!(action_for(p, key(KeyCode::Char('3'))), Some(Action::Likert(2)));
+        assert_eq!(action_for(p, key(KeyCode::Enter)), Some(Action::Confirm));
+        assert_eq!(action_for(p, key(KeyCode::Char('b'))), Some(Action::Choice(1)));
+        for c in ['q', '?', 'n', 'p', 'h', 'e', 'x', 'u'] {
+            assert_eq!(action_for(p, key(KeyCode::Char(c))), None, "{c}");
+        }
+        assert_eq!(action_for(p, KeyEvent::new(KeyCode::Char('c'), KeyModifiers::CONTROL)), None);
+        assert_eq!(action_for(p, KeyEvent::new(KeyCode::Char('e'), KeyModifiers::CONTROL)), Some(Action::HandBack));
+        assert_eq!(action_for(Mode::Questionnaire, key(KeyCode::Char('h'))), Some(Action::HandOver));
+        assert!(!hints(p, COUNTS).iter().any(|(k, _)| k.contains("Ctrl")), "the footer does not tell the participant");
+        assert_eq!(why_not(p, key(KeyCode::Char('q'))).as_deref(), Some(PARTICIPANT_KEYS));
+        for (_, lines) in help(Counts { robot: true, ..COUNTS }) {
+            for (k, w) in lines {
+                assert!(8 + 1 + w.chars().count() <= 78, "{k}: '{w}' is wider than 80 columns' help");
+            }
+        }
     }
 
     /// A key that does nothing now says why.

@@ -34,7 +34,16 @@ pub const PRESENT: &str = "ROBOT OPERATOR — command the robot to hand over:";
 pub const PRESENT_DONE: &str = "Press Enter when the robot holds the object there.";
 pub const GRASP: &str = "Which grip did the participant take?";
 pub const COMPUTING: &str = "computing…";
+pub const HAND_BACK: &str = "Thank you. Please hand the keyboard back to the experimenter.";
 pub const PAUSED: &str = "PAUSED — press p to resume";
+
+/// Whose left and right the screen, the protocol's labels and the poses mean.
+pub const WHOSE_LEFT: &str = "always the participant's, as they face the robot";
+
+/// The frame a pose is written in: the participant's shoulder, their axes.
+pub fn frame_of(hand: crate::kinematics::Hand) -> String {
+    format!("participant's {} shoulder: x ahead, y to their left, z up", hand.name())
+}
 
 /// The participant's hand that takes the objects, named from both people's views: the
 /// operator faces the participant, so the participant's right is on the operator's left.

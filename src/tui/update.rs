@@ -3,6 +3,7 @@
 
 use super::app::{App, Overlay};
 use super::keys::{Action, Mode};
+use super::theme;
 use crate::participant::validate_id;
 use crate::session::{Event, Prompt, VoidReason};
 
@@ -11,8 +12,22 @@ impl App {
     pub fn update(&mut self, action: Action) {
         let mode = self.mode();
         match (mode, action) {
-            (_, Action::Help) => self.overlay = Some(Overlay::Help),
+            (_, Action::Help) => {
+                self.help_scroll = 0;
+                self.overlay = Some(Overlay::Help)
+            }
             (Mode::Help, Action::Cancel) => self.overlay = None,
+            (Mode::Help, Action::ScrollUp) => self.help_scroll = self.help_scroll.saturating_sub(1),
+            (Mode::Help, Action::ScrollDown) => self.help_scroll = self.help_scroll.saturating_add(1),
+            (Mode::Transition, Action::Confirm) => self.acknowledge(),
+            (Mode::Questionnaire, Action::HandOver) => {
+                self.participant_mode = true;
+                self.status = "Please answer each statement with a number; Enter goes to the next one.".into();
+            }
+            (Mode::Participant, Action::HandBack) => {
+                self.participant_mode = false;
+                self.status = "The experimenter has the keyboard again (h hands it back to the participant)".into();
+            }
             (Mode::Setup, Action::Quit) | (Mode::Summary, Action::Quit) => self.quit_now(),
             (_, Action::Quit) if !matches!(mode, Mode::LineEdit | Mode::WriteFailed) => {
                 self.overlay = Some(Overlay::ConfirmQuit)
@@ -79,7 +94,7 @@ impl App {
                 }
                 _ => {}
             },
-            (Mode::Present | Mode::Grasp | Mode::Questionnaire | Mode::Paused, Action::Note) => {
+            (Mode::Present | Mode::Grasp | Mode::Questionnaire | Mode::Paused | Mode::Transition, Action::Note) => {
                 self.overlay = Some(Overlay::Note(String::new()))
             }
             (Mode::Present | Mode::Grasp | Mode::Questionnaire, Action::Pause) => self.submit(Event::Paused),
@@ -119,7 +134,7 @@ impl App {
                     None => self.status = format!("Only {} regions are offered", q.regions.len()),
                 }
             }
-            (Mode::Questionnaire, a) => self.questionnaire(a),
+            (Mode::Questionnaire | Mode::Participant, a) => self.questionnaire(a),
             _ => {}
         }
     }
@@ -177,7 +192,11 @@ impl App {
             }
             Action::Confirm => {
                 if s.prompt() == Prompt::Finish && self.cursor > n {
-                    self.submit(Event::Ended);
+                    if self.participant_mode {
+                        self.status = theme::HAND_BACK.into();
+                    } else {
+                        self.submit(Event::Ended);
+                    }
                     return;
                 }
                 let answered = if self.cursor < n {

@@ -9,7 +9,7 @@ mod trial;
 use ratatui::Frame;
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::text::{Line, Span};
-use ratatui::widgets::Paragraph;
+use ratatui::widgets::{Paragraph, Wrap};
 
 use super::app::{App, Overlay, Screen};
 use super::theme;
@@ -22,13 +22,22 @@ pub fn render(app: &App, frame: &mut Frame) {
         overlays::too_small(frame, area);
         return;
     }
-    let [top, body, status, keys] =
-        Layout::vertical([Constraint::Length(1), Constraint::Min(0), Constraint::Length(1), Constraint::Length(1)])
-            .areas(area);
+    let msg = if app.busy() { theme::COMPUTING.to_string() } else { app.status.clone() };
+    // A long message takes a second line rather than being cut.
+    let status_h = if Line::from(msg.as_str()).width() > area.width as usize { 2 } else { 1 };
+    let [top, body, status, keys] = Layout::vertical([
+        Constraint::Length(1),
+        Constraint::Min(0),
+        Constraint::Length(status_h),
+        Constraint::Length(1),
+    ])
+    .areas(area);
     header(app, frame, top);
     match &app.screen {
         Screen::Setup => setup::render(app, frame, body),
         Screen::Summary(view) => summary::render(app, view, frame, body),
+        Screen::Session if app.transition().is_some() => overlays::transition(app, frame, body),
+        Screen::Session if app.participant_mode => questionnaire::render_participant(app, frame, body),
         Screen::Session => match app.session().map(|s| s.prompt()) {
             Some(Prompt::Present(_) | Prompt::Grasp(_)) => trial::render(app, frame, body),
             Some(Prompt::Paused) => overlays::paused(app, frame, body),
@@ -36,9 +45,11 @@ pub fn render(app: &App, frame: &mut Frame) {
             Some(_) => questionnaire::render(app, frame, body),
         },
     }
-    let msg = if app.busy() { theme::COMPUTING.to_string() } else { app.status.clone() };
-    frame.render_widget(Paragraph::new(Line::from(Span::styled(msg, theme::instruction()))), status);
-    frame.render_widget(Paragraph::new(key_hints(app)), keys);
+    frame.render_widget(
+        Paragraph::new(Line::from(Span::styled(msg, theme::instruction()))).wrap(Wrap { trim: false }),
+        status,
+    );
+    frame.render_widget(Paragraph::new(key_hints(app, area.width)), keys);
     match &app.overlay {
         Some(Overlay::Help) => overlays::help(app, frame, area),
         Some(Overlay::ConfirmQuit) => overlays::confirm_quit(app, frame, area),
@@ -64,9 +75,15 @@ pub fn render(app: &App, frame: &mut Frame) {
     }
 }
 
+/// The header: who, whether it is a rehearsal, how long the session has run (from its
+/// logged start, so a resumed session keeps its clock), and the protocol (cut first).
 fn header(app: &App, frame: &mut Frame, area: Rect) {
     let mut spans = vec![Span::styled(format!(" {} ", theme::APP), theme::title())];
-    spans.push(Span::raw(format!("— {} ", app.config.study.protocol.name)));
+    if app.participant_mode {
+        spans.push(Span::raw("— questionnaire"));
+        frame.render_widget(Paragraph::new(Line::from(spans)), area);
+        return;
+    }
     if let Some(s) = app.session() {
         spans.push(Span::raw(format!("— participant {} ", s.start().participant)));
         if s.start().pilot {
@@ -75,22 +92,49 @@ fn header(app: &App, frame: &mut Frame, area: Rect) {
     }
     if let Some(t0) = app.session_started_ns {
         let secs = app.now_ns.saturating_sub(t0) / 1_000_000_000;
-        spans.push(Span::raw(format!("— elapsed {:02}:{:02}", secs / 60, secs % 60)));
+        let clock = if secs >= 3600 {
+            format!("{}:{:02}:{:02}", secs / 3600, secs / 60 % 60, secs % 60)
+        } else {
+            format!("{:02}:{:02}", secs / 60, secs % 60)
+        };
+        spans.push(Span::raw(format!("— elapsed {clock} ")));
     }
+    spans.push(Span::raw(format!("— {}", app.config.study.protocol.name)));
     frame.render_widget(Paragraph::new(Line::from(spans)), area);
 }
 
-fn hint<'a>(k: &'a str, what: &'a str) -> [Span<'a>; 2] {
-    [Span::styled(format!(" {k} "), theme::key()), Span::raw(format!(" {what}  "))]
-}
+/// Footer hints that give way first when the footer does not fit, most dispensable first.
+const DISPENSABLE: [&str; 5] = ["joints", "choice", "move", "pause", "note"];
 
-fn key_hints(app: &App) -> Line<'static> {
+/// The footer: the keys that act now, spaced out when they fit, packed when not, and at the
+/// narrowest the most dispensable dropped, then the last ones (help and quit are always
+/// listed).
+fn key_hints(app: &App, width: u16) -> Line<'static> {
     let pairs = super::keys::hints(app.mode(), app.counts());
-    Line::from(
-        pairs
-            .iter()
-            .flat_map(|(k, w)| hint(k, w))
-            .map(|s| Span::styled(s.content.into_owned(), s.style))
-            .collect::<Vec<_>>(),
-    )
+    let build = |pairs: &[(String, &'static str)], gap: &str| -> Line<'static> {
+        Line::from(
+            pairs
+                .iter()
+                .flat_map(|(k, w)| [Span::styled(format!(" {k} "), theme::key()), Span::raw(format!(" {w}{gap}"))])
+                .collect::<Vec<_>>(),
+        )
+    };
+    let mut pairs = pairs;
+    let wide = build(&pairs, "  ");
+    if wide.width() <= width as usize {
+        return wide;
+    }
+    loop {
+        let packed = build(&pairs, "");
+        if packed.width() <= width as usize || pairs.len() <= 1 {
+            return packed;
+        }
+        let dispensable = DISPENSABLE.iter().find_map(|d| pairs.iter().position(|(_, w)| w == d));
+        match dispensable.or_else(|| pairs.iter().rposition(|(k, _)| k != "?" && k != "q")) {
+            Some(i) => {
+                pairs.remove(i);
+            }
+            None => return packed,
+        }
+    }
 }

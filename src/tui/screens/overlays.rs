@@ -6,7 +6,8 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Clear, Paragraph, Wrap};
 
 use crate::session::VoidReason;
-use crate::tui::app::App;
+use crate::tui::app::{App, Stage};
+use crate::tui::keys::Mode;
 use crate::tui::theme;
 
 fn centred(area: Rect, width: u16, height: u16) -> Rect {
@@ -24,15 +25,58 @@ fn dialog(frame: &mut Frame, area: Rect, title: &str, lines: Vec<Line>, width: u
     );
 }
 
+/// The keys, the section of the screen below first; it scrolls (↑/↓) when taller than the
+/// terminal.
 pub fn help(app: &App, frame: &mut Frame, area: Rect) {
+    let mut sections = crate::tui::keys::help(app.counts());
+    let first = match app.screen_mode() {
+        Mode::Questionnaire | Mode::Participant => "Questionnaire",
+        Mode::Setup => "Setup",
+        _ => "Trials",
+    };
+    sections.sort_by_key(|(heading, _)| *heading != first);
     let mut lines: Vec<Line> = Vec::new();
-    for (heading, keys) in crate::tui::keys::help(app.counts()) {
+    for (heading, keys) in sections {
         lines.push(Line::from(Span::styled(heading.to_string(), theme::title())));
         for (k, w) in keys {
             lines.push(Line::from(vec![Span::styled(format!(" {k:<6} "), theme::key()), Span::raw(format!(" {w}"))]));
         }
     }
-    dialog(frame, area, " Keys (Esc closes) ", lines, 72);
+    let width = lines.iter().map(Line::width).max().unwrap_or(0) as u16 + 2;
+    let r = centred(area, width, lines.len() as u16 + 2);
+    let visible = r.height.saturating_sub(2);
+    let overflow = (lines.len() as u16).saturating_sub(visible);
+    let offset = app.help_scroll.min(overflow);
+    let title = if overflow > 0 {
+        format!(" Keys ({}–{} of {}; ↑/↓ scroll, Esc closes) ", offset + 1, offset + visible, lines.len())
+    } else {
+        " Keys (Esc closes) ".to_string()
+    };
+    frame.render_widget(Clear, r);
+    frame.render_widget(Paragraph::new(lines).scroll((offset, 0)).block(Block::bordered().title(title)), r);
+}
+
+/// Between phases: what to tell the participant, from the protocol; Enter goes on.
+pub fn transition(app: &App, frame: &mut Frame, area: Rect) {
+    let Some(stage) = app.transition() else { return };
+    let heading = match stage {
+        Stage::Program(k) => {
+            app.session().map_or(String::new(), |s| format!("{} is next", s.start().program_labels[k]))
+        }
+        Stage::Test => "The test phase is next".into(),
+        Stage::Questionnaire => "The questionnaire is next".into(),
+    };
+    let lines = vec![
+        Line::from(Span::styled(heading, theme::title())),
+        Line::from(""),
+        Line::from(Span::styled(app.transition_text(stage), theme::instruction())),
+        Line::from(""),
+        Line::from("Press Enter once the participant has been told."),
+    ];
+    frame.render_widget(
+        Paragraph::new(lines).wrap(Wrap { trim: false }).block(Block::bordered().title(" Between phases ")),
+        area,
+    );
 }
 
 pub fn confirm_quit(app: &App, frame: &mut Frame, area: Rect) {

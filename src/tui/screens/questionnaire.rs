@@ -5,7 +5,7 @@ use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Paragraph, Wrap};
 
-use crate::session::{Prompt, program_letter};
+use crate::session::{Prompt, Session, program_letter};
 use crate::tui::app::App;
 use crate::tui::theme;
 
@@ -28,26 +28,12 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
             theme::instruction(),
         )));
         lines.push(Line::from(""));
-        let answer = s.likert_answers().get(&(program, item)).copied();
-        for (k, p) in q.scale.iter().enumerate() {
-            let chosen = answer == Some(p.value);
-            lines.push(Line::from(vec![
-                Span::styled(format!(" {} ", k + 1), if chosen { theme::selected() } else { theme::key() }),
-                Span::raw(format!(" {}{}", p.label, if chosen { "   ← answered" } else { "" })),
-            ]));
-        }
+        lines.extend(scale_lines(s, program, item, "← answered"));
     } else if app.cursor == n {
         title = " Questionnaire · forced choice ".to_string();
         lines.push(Line::from(Span::styled(format!("  “{}”", q.forced_choice), theme::instruction())));
         lines.push(Line::from(""));
-        for (p, label) in labels.iter().enumerate() {
-            let chosen = s.forced_choice() == Some(p);
-            let key = if p == 0 { "a" } else { "b" };
-            lines.push(Line::from(vec![
-                Span::styled(format!(" {key} "), if chosen { theme::selected() } else { theme::key() }),
-                Span::raw(format!(" {label}{}", if chosen { "   ← chosen" } else { "" })),
-            ]));
-        }
+        lines.extend(choice_lines(s, "← chosen"));
     } else {
         title = " Questionnaire · review ".to_string();
         let answered = s.likert_answers().len();
@@ -76,4 +62,81 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
         )));
     }
     frame.render_widget(Paragraph::new(lines).wrap(Wrap { trim: false }).block(Block::bordered().title(title)), area);
+}
+
+/// The questionnaire in the participant's hands: one statement, large and centred, its
+/// scale, and nothing else (no condition, no belief, no setup); at the end, a request to
+/// hand the keyboard back.
+pub fn render_participant(app: &App, frame: &mut Frame, area: Rect) {
+    let Some(s) = app.session() else { return };
+    let q = &s.study().protocol.questionnaire;
+    let order = s.likert_order();
+    let n = order.len();
+    let labels = &s.start().program_labels;
+    let mut lines = Vec::new();
+    let hint;
+    if app.cursor < n {
+        let (program, item) = order[app.cursor];
+        lines.push(Line::from(Span::styled(format!("Statement {} of {n}", app.cursor + 1), theme::dim())));
+        lines.push(Line::from(""));
+        lines.push(Line::from(Span::styled(
+            q.items[item].statement.replace("{program}", &labels[program]),
+            theme::instruction(),
+        )));
+        lines.push(Line::from(""));
+        lines.extend(scale_lines(s, program, item, "← your answer"));
+        hint = "Press a number to answer, then Enter for the next statement (← goes back).";
+    } else if app.cursor == n {
+        lines.push(Line::from(Span::styled("Last question", theme::dim())));
+        lines.push(Line::from(""));
+        lines.push(Line::from(Span::styled(q.forced_choice.clone(), theme::instruction())));
+        lines.push(Line::from(""));
+        lines.extend(choice_lines(s, "← your answer"));
+        hint = "Press a or b to answer, then Enter (← goes back).";
+    } else if s.prompt() == Prompt::Finish {
+        lines.push(Line::from(Span::styled(theme::HAND_BACK, theme::instruction())));
+        hint = "";
+    } else {
+        lines.push(Line::from(Span::styled("Some questions have no answer yet.", theme::instruction())));
+        hint = "Press ← to go back to them.";
+    }
+    if !hint.is_empty() {
+        lines.push(Line::from(""));
+        lines.push(Line::from(hint));
+    }
+    let outer = Block::bordered().title(" Questionnaire ");
+    let inner = outer.inner(area);
+    frame.render_widget(outer, area);
+    // A readable column in the middle, the text starting a third of the way down.
+    let width = inner.width.min(72);
+    let x = inner.x + (inner.width - width) / 2;
+    let top = (inner.height / 4).min(inner.height.saturating_sub(lines.len() as u16 + 2));
+    let column = Rect { x, y: inner.y + top, width, height: inner.height - top };
+    frame.render_widget(Paragraph::new(lines).wrap(Wrap { trim: false }), column);
+}
+
+/// The scale's points for a statement, its answer marked.
+fn scale_lines(s: &Session, program: usize, item: usize, mark: &str) -> Vec<Line<'static>> {
+    let answer = s.likert_answers().get(&(program, item)).copied();
+    let scale = &s.study().protocol.questionnaire.scale;
+    scale
+        .iter()
+        .enumerate()
+        .map(|(k, p)| option_line(&(k + 1).to_string(), &p.label, answer == Some(p.value), mark))
+        .collect()
+}
+
+/// The forced choice's programs (keys a, b, …), the choice marked.
+fn choice_lines(s: &Session, mark: &str) -> Vec<Line<'static>> {
+    let labels = &s.start().program_labels;
+    (labels.iter().enumerate())
+        .map(|(p, label)| option_line(&program_letter(p).to_lowercase(), label, s.forced_choice() == Some(p), mark))
+        .collect()
+}
+
+fn option_line(key: &str, label: &str, chosen: bool, mark: &str) -> Line<'static> {
+    Line::from(vec![
+        Span::styled(format!(" {key} "), if chosen { theme::selected() } else { theme::key() }),
+        Span::raw(format!("  {label}{}", if chosen { format!("   {mark}") } else { String::new() })),
+    ])
 }

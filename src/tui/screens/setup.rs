@@ -11,19 +11,21 @@ use crate::tui::theme;
 pub fn render(app: &App, frame: &mut Frame, area: Rect) {
     let study = &app.config.study;
     let p = &study.protocol;
-    let mut lines = vec![
-        Line::from(Span::styled(format!("Protocol: {}", p.name), theme::title())),
-        Line::from(format!("  {}", p.description)),
-        Line::from(format!(
-            "  {} training queries, {} test queries; {} training trials per program; {} particles, α = {}",
-            study.training.len(),
-            study.test.len(),
-            p.session.trials_per_condition,
-            p.learning.particles,
-            p.learning.alpha
-        )),
-        Line::from(""),
-    ];
+    let can_start = app.plan.as_ref().is_some_and(|p| p.error.is_none());
+    // What to do comes first: the rest may be cut on a small terminal, never this.
+    let mut lines = vec![Line::from(Span::styled(
+        if can_start {
+            "Press Enter to start the session."
+        } else if app.config.simulate {
+            "The session cannot start; q quits."
+        } else {
+            "The session cannot start: e enters another participant id ('new' for a new one), q quits."
+        },
+        if can_start { theme::instruction() } else { theme::warning() },
+    ))];
+    if let Some(e) = app.plan.as_ref().and_then(|p| p.error.as_ref()) {
+        lines.push(Line::from(Span::styled(format!("Cannot start: {e}"), theme::warning())));
+    }
     match &app.plan {
         Some(plan) => {
             let who = if plan.simulated.is_some() {
@@ -31,7 +33,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
             } else if plan.new_record.is_some() {
                 format!("{} (new; created when the session starts)", plan.start.participant)
             } else if plan.error.is_some() {
-                format!("{} (cannot be used: see below)", plan.start.participant)
+                format!("{} (cannot be used: see above)", plan.start.participant)
             } else {
                 format!("{} (existing record)", plan.start.participant)
             };
@@ -51,13 +53,16 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
                     .pose_scaling
                     .map_or(String::new(), |p| format!(" of the protocol's {} m body", p.reference_body_height_m))
             )));
-            lines.push(Line::from(Span::styled(
-                format!("Order (slot {}), experimenter's view only:", plan.start.slot),
-                theme::title(),
-            )));
-            for (i, c) in plan.start.condition_order.iter().enumerate() {
-                lines.push(Line::from(format!("  {} = {}", plan.start.program_labels[i], c.name())));
-            }
+            let order: Vec<String> = (plan.start.condition_order.iter().enumerate())
+                .map(|(i, c)| format!("{} = {}", plan.start.program_labels[i], c.name()))
+                .collect();
+            lines.push(Line::from(vec![
+                Span::styled(
+                    format!("Order (slot {}; the experimenter's view only): ", plan.start.slot),
+                    theme::title(),
+                ),
+                Span::raw(order.join(", ")),
+            ]));
             lines
                 .push(Line::from(vec![Span::styled("Seed: ", theme::title()), Span::raw(plan.start.seed.to_string())]));
             lines.push(Line::from(vec![
@@ -73,9 +78,6 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
                     "  New study folders: counterbalancing starts afresh. Is this the study directory you meant?",
                     theme::warning(),
                 )));
-            }
-            if let Some(e) = &plan.error {
-                lines.push(Line::from(Span::styled(format!("Cannot start: {e}"), theme::warning())));
             }
         }
         None => lines.push(Line::from("No plan")),
@@ -93,18 +95,16 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
         };
         lines.push(Line::from(vec![Span::styled("Arm measurement: ", theme::title()), Span::raw(measuring)]));
     }
-    lines.push(Line::from(""));
-    let can_start = app.plan.as_ref().is_some_and(|p| p.error.is_none());
-    lines.push(Line::from(Span::styled(
-        if can_start {
-            "Press Enter to start the session."
-        } else if app.config.simulate {
-            "The session cannot start (see above); q quits."
-        } else {
-            "The session cannot start (see above): e enters another participant id ('new' for a new one), q quits."
-        },
-        if can_start { theme::instruction() } else { theme::warning() },
+    lines.push(Line::from(vec![Span::styled("Protocol: ", theme::title()), Span::raw(p.name.clone())]));
+    lines.push(Line::from(format!(
+        "  {} training queries, {} test queries; {} training trials per program; {} particles, α = {}",
+        study.training.len(),
+        study.test.len(),
+        p.session.trials_per_condition,
+        p.learning.particles,
+        p.learning.alpha
     )));
+    lines.push(Line::from(format!("  {}", p.description)));
     frame.render_widget(
         Paragraph::new(lines).wrap(Wrap { trim: false }).block(Block::bordered().title(" Setup ")),
         area,

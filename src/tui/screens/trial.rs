@@ -14,6 +14,10 @@ use crate::session::{Phase, Prompt, RobotState, Session, TrialView};
 use crate::tui::app::App;
 use crate::tui::theme;
 
+/// The belief panel's narrowest useful width: a side column narrower than this puts the
+/// instruction on top, at the whole width.
+const SIDE_MIN_WIDTH: u16 = 40;
+
 pub fn render(app: &App, frame: &mut Frame, area: Rect) {
     let Some(session) = app.session() else { return };
     let (view, awaiting_grasp) = match session.prompt() {
@@ -21,21 +25,43 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
         Prompt::Grasp(v) => (v, true),
         _ => return,
     };
-    let [left, right] = Layout::horizontal([Constraint::Percentage(58), Constraint::Percentage(42)]).areas(area);
-    let [instr, grasp, history] =
-        Layout::vertical([Constraint::Length(11), Constraint::Length(6), Constraint::Min(3)]).areas(left);
-    instruction(session, &view, awaiting_grasp, robot_line(app, session), frame, instr);
+    // The instruction has priority: its panel is as wide and tall as its lines, at every size
+    // the console accepts; the grasp, history and belief share what is left.
+    let lines = instruction_lines(session, &view, awaiting_grasp, robot_line(app, session));
+    let instr_w = lines.iter().map(Line::width).max().unwrap_or(0) as u16 + 2;
+    let instr_h = lines.len() as u16 + 2;
+    let grasp_h = session.query(view.query).regions.len() as u16 + 3;
+    let (instr, grasp, history, side) = if area.width >= instr_w + SIDE_MIN_WIDTH {
+        let left_w = instr_w.max(area.width * 58 / 100);
+        let [left, right] = Layout::horizontal([Constraint::Length(left_w), Constraint::Min(0)]).areas(area);
+        let [instr, grasp, history] =
+            Layout::vertical([Constraint::Length(instr_h), Constraint::Length(grasp_h), Constraint::Min(3)])
+                .areas(left);
+        (instr, grasp, history, right)
+    } else {
+        let [instr, rest] = Layout::vertical([Constraint::Length(instr_h), Constraint::Min(0)]).areas(area);
+        let [left, right] = Layout::horizontal([Constraint::Percentage(50), Constraint::Percentage(50)]).areas(rest);
+        let [grasp, history] = Layout::vertical([Constraint::Length(grasp_h), Constraint::Min(3)]).areas(left);
+        (instr, grasp, history, right)
+    };
+    frame.render_widget(
+        Paragraph::new(lines).wrap(Wrap { trim: false }).block(Block::bordered().title(phase_title(session, &view))),
+        instr,
+    );
     grasp_prompt(session, &view, awaiting_grasp, frame, grasp);
     history_panel(session, &view, frame, history);
     if view.phase == Phase::Training {
-        belief_panel(app, session, view.program.unwrap_or(0), frame, right);
+        belief_panel(app, session, view.program.unwrap_or(0), frame, side);
     } else {
         let text = vec![
             Line::from("Test phase: no learning."),
             Line::from("Each object at each test pose once,"),
             Line::from("in this participant's shuffled order."),
         ];
-        frame.render_widget(Paragraph::new(text).block(Block::bordered().title(" Test ")), right);
+        frame.render_widget(
+            Paragraph::new(text).wrap(Wrap { trim: false }).block(Block::bordered().title(" Test ")),
+            side,
+        );
     }
 }
 
@@ -46,9 +72,9 @@ fn phase_title(session: &Session, v: &TrialView) -> String {
     }
 }
 
-/// What the robot is doing about this trial (a blank line without a robot).
-fn robot_line(app: &App, session: &Session) -> Line<'static> {
-    let Some(robot) = app.robot() else { return Line::from("") };
+/// What the robot is doing about this trial (none without a robot).
+fn robot_line(app: &App, session: &Session) -> Option<Line<'static>> {
+    let robot = app.robot()?;
     let (text, style) = match session.robot() {
         None => ("not sent yet: s sends the pose".to_string(), theme::key()),
         Some(t) => {
@@ -66,36 +92,42 @@ fn robot_line(app: &App, session: &Session) -> Line<'static> {
             }
         }
     };
-    Line::from(vec![Span::raw("  robot        "), Span::styled(text, style)])
+    Some(Line::from(vec![Span::raw("  robot        "), Span::styled(text, style)]))
 }
 
-fn instruction(session: &Session, v: &TrialView, done: bool, robot: Line<'static>, frame: &mut Frame, area: Rect) {
+/// The robot operator's instruction, in full: the object, the pose, where (the object's
+/// centre, in the participant's shoulder frame) and how it is turned, whose hand and whose
+/// left. Shared by the console and `handover follow`.
+pub fn instruction_lines(
+    session: &Session,
+    v: &TrialView,
+    done: bool,
+    robot: Option<Line<'static>>,
+) -> Vec<Line<'static>> {
     let q = session.query(v.query);
     let object = session.study().object(q);
     let [x, y, z] = q.pose.position;
     let [r, p, yaw] = q.pose.rpy_deg;
     let side = session.study().arm.side;
-    let lines = vec![
+    let mut lines = vec![
         Line::from(Span::styled(theme::PRESENT, if done { theme::dim() } else { theme::instruction() })),
         Line::from(vec![
             Span::styled(format!("  {}", object.label), theme::title()),
             Span::raw(format!("  (query {})", q.query.id)),
         ]),
-        Line::from(format!("  pose: {}", q.query.label)),
-        Line::from(format!("  position     x {x:+.3}  y {y:+.3}  z {z:+.3} m")),
+        Line::from(format!("  pose         {}", q.query.label)),
+        Line::from(format!("  position     x {x:+.3}  y {y:+.3}  z {z:+.3} m, of the object's centre")),
         Line::from(format!("  orientation  roll {r:+.1}°  pitch {p:+.1}°  yaw {yaw:+.1}°")),
-        Line::from(format!("  frame        {} shoulder (x forward, y left, z up)", side.name())),
+        Line::from(format!("  frame        {}", theme::frame_of(side))),
         Line::from(format!("  hand         {}", theme::hand_sides(side))),
-        robot,
-        Line::from(Span::styled(
-            if done { "Presented." } else { theme::PRESENT_DONE },
-            if done { theme::dim() } else { theme::instruction() },
-        )),
+        Line::from(format!("  left, right  {}", theme::WHOSE_LEFT)),
     ];
-    frame.render_widget(
-        Paragraph::new(lines).wrap(Wrap { trim: false }).block(Block::bordered().title(phase_title(session, v))),
-        area,
-    );
+    lines.extend(robot);
+    lines.push(Line::from(Span::styled(
+        if done { "Presented." } else { theme::PRESENT_DONE },
+        if done { theme::dim() } else { theme::instruction() },
+    )));
+    lines
 }
 
 fn grasp_prompt(session: &Session, v: &TrialView, active: bool, frame: &mut Frame, area: Rect) {
@@ -106,7 +138,8 @@ fn grasp_prompt(session: &Session, v: &TrialView, active: bool, frame: &mut Fram
     for (k, &r) in q.regions.iter().enumerate() {
         lines.push(Line::from(vec![
             Span::styled(format!(" {} ", k + 1), if active { theme::key() } else { theme::dim() }),
-            Span::raw(format!(" {}", object.regions[r].label)),
+            Span::raw(format!(" {}  ", object.regions[r].label)),
+            Span::styled(object.regions[r].id.clone(), theme::dim()),
         ]));
     }
     frame.render_widget(Paragraph::new(lines).block(Block::bordered().title(" Grasp ")), area);
@@ -140,7 +173,13 @@ fn history_panel(session: &Session, v: &TrialView, frame: &mut Frame, area: Rect
     let skip = n.saturating_sub(area.height.saturating_sub(3) as usize);
     let table = Table::new(
         rows.into_iter().skip(skip).map(|(_, _, row)| row),
-        [Constraint::Length(4), Constraint::Length(22), Constraint::Min(10)],
+        // Narrow: the grip (or the void's reason) before the query's id, which the
+        // instruction shows whole for the trial under way.
+        if area.width >= 62 {
+            [Constraint::Length(3), Constraint::Length(22), Constraint::Fill(1)]
+        } else {
+            [Constraint::Length(3), Constraint::Fill(1), Constraint::Fill(2)]
+        },
     )
     .header(Row::new(vec!["#", "query", "grip taken"]).style(theme::title()))
     .block(Block::bordered().title(" History of this phase "));
@@ -169,43 +208,65 @@ fn belief_panel(app: &App, session: &Session, run: usize, frame: &mut Frame, are
     let supports = belief.support();
     let free = belief.free().to_vec();
     let block_title = format!(" Belief · {} · iteration {} ", session.start().program_labels[run], learner.iteration);
-    let outer = Block::bordered().title(block_title);
+    let last = learner.entropies.last().copied().unwrap_or(0.0);
+    let inner_h = area.height.saturating_sub(2);
+    let inner_w = area.width.saturating_sub(2);
+    // A short panel gives up the sparkline (the entropy goes to the bottom border), then the
+    // particles, then the table's last rows (counted there); a narrow one names the
+    // components by their symbol only.
+    let n_rows = free.len().min(7);
+    let rows_wanted = n_rows as u16 + 1;
+    let spark_h = if inner_h >= rows_wanted + 3 + 4 { 3 } else { 0 };
+    let table_h = rows_wanted.min(inner_h.saturating_sub(spark_h));
+    let shown_rows = (table_h as usize).saturating_sub(1).min(n_rows);
+    let mut bottom = if spark_h == 0 { format!(" entropy {last:.2} nats ") } else { String::new() };
+    if shown_rows < n_rows {
+        bottom.push_str(&format!("· {} more when taller ", n_rows - shown_rows));
+    }
+    let outer = Block::bordered().title(block_title).title_bottom(bottom);
     let inner = outer.inner(area);
     frame.render_widget(outer, area);
     let [spark_area, table_area, canvas_area] =
-        Layout::vertical([Constraint::Length(3), Constraint::Length(free.len().min(7) as u16 + 1), Constraint::Min(4)])
-            .areas(inner);
-    let scale = 1000.0;
-    let data: Vec<u64> = learner.entropies.iter().map(|h| (h * scale).max(0.0) as u64).collect();
-    let last = learner.entropies.last().copied().unwrap_or(0.0);
-    frame.render_widget(
-        Sparkline::default()
-            .data(&data)
-            .style(Style::new().fg(Color::Magenta))
-            .block(Block::new().title(format!("entropy per iteration (now {last:.2} nats)"))),
-        spark_area,
-    );
+        Layout::vertical([Constraint::Length(spark_h), Constraint::Length(table_h), Constraint::Min(0)]).areas(inner);
+    if spark_h > 0 {
+        let scale = 1000.0;
+        let data: Vec<u64> = learner.entropies.iter().map(|h| (h * scale).max(0.0) as u64).collect();
+        frame.render_widget(
+            Sparkline::default()
+                .data(&data)
+                .style(Style::new().fg(Color::Magenta))
+                .block(Block::new().title(format!("entropy per iteration (now {last:.2} nats)"))),
+            spark_area,
+        );
+    }
+    let compact = inner_w < 44;
     // The posterior mean and its 90 % credible interval against the prior's range.
     let summary = &learner.summary;
     let (mean, low, high) = (summary.mean.to_vec(), summary.ci_low.to_vec(), summary.ci_high.to_vec());
     let rows: Vec<Row> = free
         .iter()
-        .take(7)
+        .take(shown_rows)
         .map(|&c| {
             let (lo, hi) = supports[c];
             Row::new(vec![
-                component_name(c),
+                if compact { short(c) } else { component_name(c) },
                 format!("{:.0}…{:.0}", shown(c, lo), shown(c, hi)),
                 format!("{:+.1}", shown(c, mean[c])),
                 format!("{:.0}…{:.0}", shown(c, low[c]), shown(c, high[c])),
             ])
         })
         .collect();
+    let name_w = if compact { Constraint::Length(4) } else { Constraint::Min(14) };
     frame.render_widget(
-        Table::new(rows, [Constraint::Min(14), Constraint::Length(9), Constraint::Length(6), Constraint::Length(9)])
-            .header(Row::new(vec!["learned (deg)", "prior", "mean", "90% CI"]).style(theme::title())),
+        Table::new(rows, [name_w, Constraint::Length(9), Constraint::Length(6), Constraint::Length(9)]).header(
+            Row::new(vec![if compact { "λ" } else { "learned (q*: deg)" }, "prior", "mean", "90% CI"])
+                .style(theme::title()),
+        ),
         table_area,
     );
+    if canvas_area.height < 4 {
+        return;
+    }
     let pairs = joint_pairs(&free);
     let (a, b) = pairs[app.joint_pair % pairs.len()];
     let pts: Vec<(f64, f64)> =
