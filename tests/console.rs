@@ -155,6 +155,9 @@ fn every_screen_at_three_sizes() {
     press(&mut a, KeyCode::Esc);
     keys(&mut a, "x");
     snap!("void_reason", &mut a);
+    keys(&mut a, "4");
+    keys(&mut a, "fire alarm");
+    snap!("void_detail", &mut a);
     press(&mut a, KeyCode::Esc);
     keys(&mut a, "n");
     keys(&mut a, "water break");
@@ -165,7 +168,12 @@ fn every_screen_at_three_sizes() {
     keys(&mut a, "p");
     keys(&mut a, "q");
     snap!("confirm_quit", &mut a);
-    keys(&mut a, "n");
+    keys(&mut a, "a");
+    snap!("abort_reason", &mut a);
+    press(&mut a, KeyCode::Esc);
+    a.overlay = Some(Overlay::WriteFailed { message: "No space left on device (os error 28)".into(), last_event: 3 });
+    snap!("write_failed", &mut a);
+    a.overlay = None;
     trials(&mut a, 4, '1');
     snap!("transition_between_programs", &mut a);
     trials(&mut a, 5, '1');
@@ -566,6 +574,10 @@ fn the_operator_sends_the_pose_to_the_robot_and_confirms_it() {
     until_robot(&mut a, RobotState::AtPose);
     let text = screen(&mut a, 100, 30);
     assert!(text.contains("robot        at_pose (attempt 1, "), "with the seconds it took: {text}");
+    // With the robot's line too the instruction is whole at the smallest size.
+    assert_full_instruction(&mut a);
+    let small = screen(&mut a, 80, 24);
+    assert!(small.contains("robot        at_pose (attempt 1, ") && small.contains("1  Left grip"), "{small}");
     assert!(!mode_is_grasp(&a), "the operator confirms (present_on: operator)");
     press(&mut a, KeyCode::Enter);
     assert!(mode_is_grasp(&a));
@@ -813,5 +825,73 @@ fn a_resumed_session_shows_its_elapsed_time_and_whole_status() {
     let name = path.file_name().unwrap().to_string_lossy().to_string();
     let flat: String = s.lines().map(|l| l.trim_matches('"').trim_end()).collect::<Vec<_>>().join("");
     assert!(flat.contains(&format!("Resumed {name} after")), "the status is whole:\n{s}");
+    keys(&mut r, "qy");
+}
+
+/// The robot operator's screen (`handover follow`) reads the log the console writes: the
+/// current instruction whole at every size, brought up to date as the log grows, and carried
+/// into the continuation when the session is resumed; it writes nothing.
+#[test]
+fn follow_shows_the_current_instruction_from_the_live_log() {
+    use handover::record::Follower;
+    use handover::tui::follow::{FollowView, render as render_follow};
+    let dir = PathBuf::from("target/console-follow");
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut a = app(&dir);
+    press(&mut a, KeyCode::Enter);
+    let path = a.log_path().unwrap();
+    let mut view = FollowView::new(Follower::open(&path).unwrap());
+    let draw = |view: &FollowView, w: u16, h: u16| {
+        let mut t = Terminal::new(TestBackend::new(w, h)).unwrap();
+        t.draw(|f| render_follow(view, f)).unwrap();
+        t.backend().to_string()
+    };
+    view.tick(T0);
+    let query_now = |a: &App| match a.session().unwrap().prompt() {
+        handover::session::Prompt::Present(v) | handover::session::Prompt::Grasp(v) => {
+            a.session().unwrap().query(v.query).query.id.clone()
+        }
+        p => panic!("{p:?}"),
+    };
+    let first = query_now(&a);
+    let text = SIZES.iter().map(|&(w, h)| format!("{w}×{h}\n{}", draw(&view, w, h))).collect::<Vec<_>>().join("\n");
+    insta::with_settings!({filters => vec![
+        (r"p-[a-z0-9]{8}", "p-XXXXXXXX"),
+        (r"\d{8}T\d{6}Z(-\d+)?", "TIME"),
+        (r"last event \d+ s ago", "last event N s ago"),
+    ]}, {
+        insta::assert_snapshot!("follow", text);
+    });
+    for (w, h) in SIZES {
+        let s = draw(&view, w, h);
+        assert!(
+            s.contains(&format!("(query {first})")) && s.contains("of the object's centre") && s.contains("z up"),
+            "{s}"
+        );
+    }
+    let before = std::fs::read(&path).unwrap();
+    // Two trials on: the follower catches up.
+    trials(&mut a, 2, '1');
+    let third = query_now(&a);
+    view.tick(T0 + 1);
+    assert_eq!(view.follower.session().event_count(), a.session().unwrap().event_count());
+    assert!(draw(&view, 80, 24).contains(&format!("(query {third})")));
+    press(&mut a, KeyCode::Enter);
+    view.tick(T0 + 2);
+    assert!(draw(&view, 80, 24).contains("The participant is taking the object."));
+    // Quit and resume: the follower says so, then follows the continuation.
+    keys(&mut a, "qy");
+    drop(a);
+    view.tick(T0 + 3);
+    assert!(draw(&view, 80, 24).contains("waiting for it to be resumed"));
+    let log = read_log(&path).unwrap();
+    let mut r = App::resume(config(&dir, false), &log).unwrap();
+    r.wait_idle();
+    view.tick(T0 + 4);
+    assert_eq!(view.follower.path(), &r.log_path().unwrap());
+    keys(&mut r, "1");
+    view.tick(T0 + 5);
+    assert_eq!(view.follower.session().event_count(), r.session().unwrap().event_count());
+    assert!(std::fs::read(&path).unwrap().starts_with(&before), "the follower wrote nothing");
     keys(&mut r, "qy");
 }

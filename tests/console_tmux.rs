@@ -296,3 +296,56 @@ fn signals_restore_the_terminal_and_leave_the_session_resumable() {
     }
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// The robot operator's screen in a second terminal: `handover follow` on the log the
+/// console is writing shows the console's current query, whole at 80×24, and moves on with
+/// it; q leaves it without touching the session.
+#[test]
+fn follow_in_a_second_terminal_tracks_the_console() {
+    if !has_tmux() {
+        assert!(std::env::var_os("CI").is_none(), "CI must install tmux (.ci/run does)");
+        eprintln!("tmux is not installed: skipping");
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("handover-follow-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let proto = small_protocol(&dir);
+    let console = format!("handover-follow-console-{}", std::process::id());
+    let cmd = format!(
+        "{} run --protocol {} --study-dir {} --seed 5; sleep 30",
+        env!("CARGO_BIN_EXE_handover"),
+        proto.display(),
+        dir.display()
+    );
+    tmux(&["new-session", "-d", "-s", &console, "-x", "80", "-y", "24", &cmd]);
+    let _g1 = Session(console.clone());
+    wait_for(&console, "Press Enter to start the session.");
+    send(&console, &["Enter"]);
+    let query_of = |screen: &str| -> String {
+        let l = screen.lines().find(|l| l.contains("(query ")).expect("a query on screen");
+        l.split("(query ").nth(1).and_then(|r| r.split(')').next()).unwrap().to_string()
+    };
+    let first = query_of(&wait_for(&console, "trial 1/5"));
+    let log = mcap_files(&dir.join("logs")).pop().expect("the console's log");
+    let follower = format!("handover-follow-reader-{}", std::process::id());
+    let fcmd = format!("{} follow {}; echo \"exit=$?\"; sleep 30", env!("CARGO_BIN_EXE_handover"), log.display());
+    tmux(&["new-session", "-d", "-s", &follower, "-x", "80", "-y", "24", &fcmd]);
+    let _g2 = Session(follower.clone());
+    let screen = wait_for(&follower, &format!("(query {first})"));
+    assert!(screen.contains("of the object's centre") && screen.contains("read-only"), "{screen}");
+    send(&console, &["Enter"]);
+    wait_for(&follower, "The participant is taking the object.");
+    send(&console, &["1"]);
+    let second = query_of(&wait_for(&console, "trial 2/5"));
+    let screen = wait_for(&follower, "Training · Program A · trial 2/5");
+    assert!(screen.contains(&format!("(query {second})")), "{screen}");
+    send(&follower, &["q"]);
+    wait_for(&follower, "exit=0");
+    // The console goes on unaffected.
+    send(&console, &["Enter", "2"]);
+    wait_for(&console, "trial 3/5");
+    send(&console, &["q", "y"]);
+    wait_for(&console, "handover resume");
+    let _ = std::fs::remove_dir_all(dir);
+}

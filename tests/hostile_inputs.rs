@@ -117,6 +117,16 @@ fn try_log(root: &Path, name: &str, bytes: &[u8]) -> (i32, i32) {
     assert_contained(&verify, &format!("{name}: analyze --verify"), "case.mcap");
     let resume = run_in(&case, &["resume", "--dry-run", "logs/p-case/case.mcap"]);
     assert_contained(&resume, &format!("{name}: resume --dry-run"), "case.mcap");
+    // The follower reads the log first, then wants a terminal (none here): a bad log is
+    // named, a good one gets as far as asking for a terminal; never a crash.
+    let follow = run_in(&case, &["follow", "logs/p-case/case.mcap"]);
+    assert_eq!(follow.code, 2, "{name}: follow\n{}", follow.stderr);
+    assert!(
+        !follow.stderr.contains("panicked")
+            && (follow.stderr.contains("case.mcap") || follow.stderr.contains("interactive terminal")),
+        "{name}: follow\n{}",
+        follow.stderr
+    );
     // Writes stay beside the log: nothing appears outside the case's log folder.
     let after = tree(root);
     for p in &after {

@@ -70,7 +70,7 @@ impl RunArgs {
     }
 }
 
-fn require_terminal() -> Result<()> {
+pub fn require_terminal() -> Result<()> {
     use std::io::IsTerminal;
     if !std::io::stdout().is_terminal() || !std::io::stdin().is_terminal() {
         return Err(bad("the console needs an interactive terminal (for scripted sessions use `handover dry-run`)"));

@@ -27,6 +27,7 @@ mod by_body;
 mod console;
 mod dry_run;
 mod feasible;
+mod follow;
 mod front;
 mod input;
 mod live;
@@ -127,6 +128,10 @@ enum Command {
     /// Writes: a new log beside the old one (the old one is kept, never changed) holding every
     /// event of the old one and the rest of the session; a finished session is only read.
     Resume(resume::ResumeArgs),
+    /// Follow a session's log from a second terminal: the robot operator's read-only screen.
+    ///
+    /// Writes: nothing (reads the log as the console writes it).
+    Follow(follow::FollowArgs),
     /// Analyse session logs (Fig. 10, Table I), optionally verifying every derived value.
     ///
     /// Writes: a table (or JSON) on stdout; with --out DIR, the tidy CSVs of docs/outputs.md,
@@ -165,6 +170,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::DryRun(args) => dry_run::run(args),
         Command::Plan(args) => plan::run(args),
         Command::Resume(args) => resume::run(args),
+        Command::Follow(args) => follow::run(args),
         Command::Analyze(args) => analyze::run(args),
         Command::Completions { shell } => {
             use clap::CommandFactory;

@@ -2,8 +2,9 @@
 //! unchunked and synced to disk after every event, so that a crash loses nothing.
 //! `recorder` writes, `reader` reads back, `replay` folds the events into a session,
 //! `recorded` is the session whose events are logged before they are adopted, `lineage`
-//! follows continuations, `paths` names the files.
+//! follows continuations, `follow` reads a log as it is written, `paths` names the files.
 
+mod follow;
 pub mod foxglove;
 mod integrity;
 mod lineage;
@@ -24,12 +25,13 @@ use std::path::{Path, PathBuf};
 use crate::protocol::ProtocolError;
 use crate::session::SessionError;
 
+pub use follow::Follower;
 pub use lineage::{Lineage, is_over, lineage};
 pub use paths::{continuation_path, is_log_file_name, log_folder, log_path_in, mcap_files, new_log_path};
 pub use reader::{LogContents, LoggedMessage, MAX_LOG_BYTES, MAX_TEXT_BYTES, read_log, study_of, validate_start};
 pub use recorded::{RecordedSession, SubmitError};
 pub use recorder::{Recorder, SharedTap, Tap};
-pub use replay::{ReplayStep, replay_with};
+pub use replay::{ReplayStep, replay_rest, replay_with};
 
 pub use messages::{event_from_message, messages_for, start_messages, topic_of as event_topic};
 pub use schemas::schema;

@@ -16,17 +16,29 @@ pub fn replay_with(
     log: &LogContents,
     mut visit: impl FnMut(&Session, Option<ReplayStep>),
 ) -> Result<Session, RecordError> {
-    let err = |index: usize, event: &Event, source: SessionError| RecordError::Replay {
+    let mut session = Session::new(study, log.start.clone()).map_err(|e| replay_error(log, 0, &Event::Ended, e))?;
+    visit(&session, None);
+    for (i, s) in log.events.iter().enumerate() {
+        let applied = session.apply(&s.event).map_err(|e| replay_error(log, i + 1, &s.event, e))?;
+        visit(&session, Some((i + 1, s, &applied)));
+    }
+    Ok(session)
+}
+
+/// Folds the log's events after the first `done` into a session already folded over those
+/// (a log followed as it grows).
+pub fn replay_rest(session: &mut Session, log: &LogContents, done: usize) -> Result<(), RecordError> {
+    for (i, s) in log.events.iter().enumerate().skip(done) {
+        session.apply(&s.event).map_err(|e| replay_error(log, i + 1, &s.event, e))?;
+    }
+    Ok(())
+}
+
+fn replay_error(log: &LogContents, index: usize, event: &Event, source: SessionError) -> RecordError {
+    RecordError::Replay {
         path: log.path.clone(),
         index,
         topic: messages::topic_of(event).to_string(),
         source: Box::new(source),
-    };
-    let mut session = Session::new(study, log.start.clone()).map_err(|e| err(0, &Event::Ended, e))?;
-    visit(&session, None);
-    for (i, s) in log.events.iter().enumerate() {
-        let applied = session.apply(&s.event).map_err(|e| err(i + 1, &s.event, e))?;
-        visit(&session, Some((i + 1, s, &applied)));
     }
-    Ok(session)
 }

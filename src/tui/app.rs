@@ -641,9 +641,12 @@ impl App {
         self.status = match (&t.measured, measured) {
             (Some(g), _) if !g.agrees(t.region) => {
                 let q = session.query(t.query);
-                let implied = &session.study().object(q).regions[q.regions[g.implied_region]].id;
+                let object = session.study().object(q);
+                let implied = &object.regions[q.regions[g.implied_region]];
+                let keyed = object.regions.iter().find(|r| r.id == *region).map_or(region.as_str(), |r| &r.label);
                 format!(
-                    "The measured arm is nearest a '{implied}' configuration, the key said '{region}': the belief learned from the measurement; u undoes the key if it was wrong"
+                    "The measured arm is nearest a {} ({}) configuration, the key said {keyed} ({region}): the belief learned from the measurement; u undoes the key if it was wrong",
+                    implied.label, implied.id
                 )
             }
             (None, _) => {

@@ -3,6 +3,7 @@
 //! the backend. The only module that uses ratatui and crossterm.
 
 pub mod app;
+pub mod follow;
 pub mod keys;
 mod screens;
 pub mod theme;
@@ -15,6 +16,8 @@ use std::time::Duration;
 
 use ratatui::Terminal;
 use ratatui::backend::Backend;
+
+use crate::record;
 use ratatui::crossterm::event::{self, Event as TermEvent};
 
 pub use app::{App, AppConfig};
@@ -99,6 +102,15 @@ fn watchdog(stop: impl Fn() -> Option<i32> + Send + 'static) {
 /// goes away without a signal (treated as SIGHUP); each ends the session as a quit does,
 /// resumable.
 pub fn run_terminal(mut app: App) -> Result<Outcome, String> {
+    let signal = on_terminal(|terminal, stop| run_loop(terminal, &mut app, stop))?;
+    Ok(Outcome { message: app.exit_message.take(), signal })
+}
+
+/// Runs `body` on the real terminal with the console's signal handling (the signals, a
+/// vanished terminal, the watchdog) and restores the terminal however it ends.
+fn on_terminal<T>(
+    body: impl FnOnce(&mut ratatui::DefaultTerminal, &dyn Fn() -> Option<i32>) -> Result<T, String>,
+) -> Result<T, String> {
     let signal = Arc::new(AtomicUsize::new(0));
     for sig in TERMINATING_SIGNALS {
         signal_hook::flag::register_usize(sig, Arc::clone(&signal), sig as usize).map_err(|e| e.to_string())?;
@@ -116,7 +128,35 @@ pub fn run_terminal(mut app: App) -> Result<Outcome, String> {
     };
     watchdog(stop.clone());
     let mut terminal = ratatui::init();
-    let result = run_loop(&mut terminal, &mut app, &stop);
+    let result = body(&mut terminal, &stop);
     ratatui::restore();
-    result.map(|signal| Outcome { message: app.exit_message.take(), signal })
+    result
+}
+
+/// `handover follow`: the log followed on the real terminal until q, Esc or a signal (the
+/// signal's number is returned); nothing is written.
+pub fn run_follow(follower: record::Follower) -> Result<Option<i32>, String> {
+    let mut view = follow::FollowView::new(follower);
+    on_terminal(|terminal, stop| {
+        loop {
+            if let Some(sig) = stop() {
+                return Ok(Some(sig));
+            }
+            view.tick(crate::dryrun::now_ns());
+            terminal.draw(|f| follow::render(&view, f)).map_err(|e| e.to_string())?;
+            let ready = match event::poll(follow::POLL) {
+                Ok(ready) => ready,
+                Err(_) if stop().is_some() => continue,
+                Err(e) => return Err(e.to_string()),
+            };
+            if ready {
+                match event::read() {
+                    Ok(TermEvent::Key(k)) if follow::quits(k) => return Ok(None),
+                    Ok(_) => {}
+                    Err(_) if stop().is_some() => continue,
+                    Err(e) => return Err(e.to_string()),
+                }
+            }
+        }
+    })
 }

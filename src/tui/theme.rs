@@ -32,6 +32,7 @@ pub fn warning() -> Style {
 pub const APP: &str = "handover";
 pub const PRESENT: &str = "ROBOT OPERATOR — command the robot to hand over:";
 pub const PRESENT_DONE: &str = "Press Enter when the robot holds the object there.";
+pub const FOLLOW_PRESENT_DONE: &str = "Tell the experimenter when the robot holds the object there.";
 pub const GRASP: &str = "Which grip did the participant take?";
 pub const COMPUTING: &str = "computing…";
 pub const HAND_BACK: &str = "Thank you. Please hand the keyboard back to the experimenter.";

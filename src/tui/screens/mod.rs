@@ -4,7 +4,7 @@ mod overlays;
 mod questionnaire;
 mod setup;
 mod summary;
-mod trial;
+pub(super) mod trial;
 
 use ratatui::Frame;
 use ratatui::layout::{Constraint, Layout, Rect};

@@ -38,8 +38,15 @@ pub fn render(_app: &App, view: &SummaryView, frame: &mut Frame, area: Rect) {
             Row::new(cells)
         })
         .collect();
-    let mut widths = vec![Constraint::Length(22)];
-    widths.extend((0..iterations).map(|_| Constraint::Length(9)));
+    // The label column as wide as its longest cell; the iterations share the rest (at
+    // least 6 columns each: "-123.4").
+    let label_w =
+        (a.runs.iter().map(|r| format!("{} = {}", a.start.program_labels[r.program], r.condition).chars().count()))
+            .chain(std::iter::once(header[0].chars().count()))
+            .max()
+            .unwrap_or(0) as u16;
+    let mut widths = vec![Constraint::Length(label_w)];
+    widths.extend((0..iterations).map(|_| Constraint::Min(6)));
     frame.render_widget(
         Table::new(rows, widths)
             .header(Row::new(header).style(theme::title()))

@@ -65,7 +65,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
     }
 }
 
-fn phase_title(session: &Session, v: &TrialView) -> String {
+pub fn phase_title(session: &Session, v: &TrialView) -> String {
     match v.program {
         Some(p) => format!(" Training · {} · trial {}/{} ", session.start().program_labels[p], v.trial, v.of),
         None => format!(" Test · trial {}/{} ", v.trial, v.of),
@@ -75,10 +75,16 @@ fn phase_title(session: &Session, v: &TrialView) -> String {
 /// What the robot is doing about this trial (none without a robot).
 fn robot_line(app: &App, session: &Session) -> Option<Line<'static>> {
     let robot = app.robot()?;
+    Some(robot_status(session, robot.elapsed(), "not sent yet: s sends the pose"))
+}
+
+/// The robot's line of the instruction: what was sent and last reported, `unsent` before
+/// anything is sent; `since` the time since it was sent, when known.
+pub fn robot_status(session: &Session, since: Option<std::time::Duration>, unsent: &str) -> Line<'static> {
     let (text, style) = match session.robot() {
-        None => ("not sent yet: s sends the pose".to_string(), theme::key()),
+        None => (unsent.to_string(), theme::key()),
         Some(t) => {
-            let secs = robot.elapsed().map_or(String::new(), |d| format!(", {:.1} s", d.as_secs_f64()));
+            let secs = since.map_or(String::new(), |d| format!(", {:.1} s", d.as_secs_f64()));
             match &t.last {
                 None => (format!("sent (attempt {}{secs}), no answer yet", t.attempts), Style::default()),
                 // The detail is in the status line: this line keeps to the panel's width.
@@ -92,7 +98,7 @@ fn robot_line(app: &App, session: &Session) -> Option<Line<'static>> {
             }
         }
     };
-    Some(Line::from(vec![Span::raw("  robot        "), Span::styled(text, style)]))
+    Line::from(vec![Span::raw("  robot        "), Span::styled(text, style)])
 }
 
 /// The robot operator's instruction, in full: the object, the pose, where (the object's

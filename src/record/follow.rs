@@ -1,0 +1,85 @@
+//! A log followed as it is written, by a second, read-only screen (`handover follow`): the
+//! session folded over the events on disk so far, brought up to date when the file grows,
+//! and carried over to the continuation when the session is resumed in a new log.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use super::{LogContents, RecordError, is_over, lineage, read_log, replay_rest, replay_with, study_of};
+use crate::session::Session;
+
+/// The session of a log being written, as far as it is on disk. Reads only; never locks.
+pub struct Follower {
+    log: LogContents,
+    session: Session,
+    /// The file's length when last read.
+    len: u64,
+}
+
+impl Follower {
+    /// Reads and replays the log (everything in it untrusted, as for any log).
+    pub fn open(path: &Path) -> Result<Self, RecordError> {
+        let log = read_log(path)?;
+        let study = Arc::new(study_of(&log)?);
+        let session = replay_with(study, &log, |_, _| {})?;
+        let len = file_len(path);
+        Ok(Self { log, session, len })
+    }
+
+    /// Brings the session up to date: the events appended since the last read are folded
+    /// in; a log left unfinished and continued elsewhere is followed into its newest
+    /// continuation. Whether anything changed.
+    pub fn poll(&mut self) -> Result<bool, RecordError> {
+        let len = file_len(&self.log.path);
+        if len != self.len {
+            let log = read_log(&self.log.path)?;
+            self.len = len;
+            let done = self.log.events.len();
+            if log.start != self.log.start || log.events.len() < done || log.events[..done] != self.log.events[..] {
+                // Not the file it was (replaced or cut): start over.
+                *self = Self::open(&self.log.path.clone())?;
+                return Ok(true);
+            }
+            replay_rest(&mut self.session, &log, done)?;
+            self.log = log;
+            return Ok(true);
+        }
+        if self.log.finished
+            && !is_over(&self.log)
+            && let Some(newest) = lineage(&self.log).newest
+        {
+            *self = Self::open(&newest.path)?;
+            return Ok(true);
+        }
+        Ok(false)
+    }
+
+    pub fn session(&self) -> &Session {
+        &self.session
+    }
+
+    /// The log followed now (a continuation once the session was resumed).
+    pub fn path(&self) -> &PathBuf {
+        &self.log.path
+    }
+
+    /// The log time of the last event on disk (ns), if any.
+    pub fn last_event_ns(&self) -> Option<u64> {
+        self.log.events.last().map(|e| e.time_ns)
+    }
+
+    /// When the robot was last sent a pose (ns, log time), if a robot is in the loop.
+    pub fn last_robot_command_ns(&self) -> Option<u64> {
+        let commanded = |e: &&crate::session::Stamped| matches!(e.event, crate::session::Event::RobotCommanded { .. });
+        self.log.events.iter().rev().find(commanded).map(|e| e.time_ns)
+    }
+
+    /// Whether the log was closed (a quit or the end) rather than still being written.
+    pub fn closed(&self) -> bool {
+        self.log.finished
+    }
+}
+
+fn file_len(path: &Path) -> u64 {
+    std::fs::metadata(path).map_or(0, |m| m.len())
+}

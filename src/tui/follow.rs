@@ -1,0 +1,129 @@
+//! `handover follow LOG`: a read-only screen for a second terminal (the robot operator's)
+//! that follows the live log and shows only what the robot must do now, large, with the
+//! robot's status when a robot is in the loop. It reads the log; it never writes or locks.
+
+use std::time::Duration;
+
+use ratatui::Frame;
+use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyEventKind};
+use ratatui::layout::{Constraint, Layout};
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Block, Paragraph, Wrap};
+
+use super::screens::trial::{instruction_lines, robot_status};
+use super::theme;
+use crate::record::Follower;
+use crate::session::{Prompt, Session};
+
+/// How often the log is looked at.
+pub const POLL: Duration = Duration::from_millis(200);
+
+/// The followed log and what became of the last look at it.
+pub struct FollowView {
+    pub follower: Follower,
+    /// Why the last look failed (the screen keeps the last good state).
+    pub error: Option<String>,
+    pub now_ns: u64,
+}
+
+impl FollowView {
+    pub fn new(follower: Follower) -> Self {
+        Self { follower, error: None, now_ns: 0 }
+    }
+
+    /// Looks at the log again.
+    pub fn tick(&mut self, now_ns: u64) {
+        self.now_ns = now_ns;
+        match self.follower.poll() {
+            Ok(_) => self.error = None,
+            Err(e) => self.error = Some(e.to_string()),
+        }
+    }
+}
+
+/// Whether a key leaves the follower (q, Esc, Ctrl+C).
+pub fn quits(k: KeyEvent) -> bool {
+    k.kind != KeyEventKind::Release
+        && (matches!(k.code, KeyCode::Char('q') | KeyCode::Esc)
+            || (k.code == KeyCode::Char('c') && k.modifiers.contains(ratatui::crossterm::event::KeyModifiers::CONTROL)))
+}
+
+pub fn render(view: &FollowView, frame: &mut Frame) {
+    let area = frame.area();
+    let [top, body, status, keys] =
+        Layout::vertical([Constraint::Length(1), Constraint::Min(0), Constraint::Length(1), Constraint::Length(1)])
+            .areas(area);
+    let session = view.follower.session();
+    let name = view.follower.path().file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
+    frame.render_widget(
+        Paragraph::new(Line::from(vec![
+            Span::styled(format!(" {} follow ", theme::APP), theme::title()),
+            Span::raw(format!("— participant {} — read-only", session.start().participant)),
+        ])),
+        top,
+    );
+    let (title, lines) = now(view, session);
+    // Large: the lines spaced out when the screen has room for it.
+    let inner_h = body.height.saturating_sub(2) as usize;
+    let spaced: Vec<Line> =
+        if lines.len() * 2 <= inner_h { lines.into_iter().flat_map(|l| [l, Line::from("")]).collect() } else { lines };
+    frame.render_widget(Paragraph::new(spaced).wrap(Wrap { trim: false }).block(Block::bordered().title(title)), body);
+    let message = match (&view.error, view.follower.last_event_ns()) {
+        (Some(e), _) => Span::styled(format!("Cannot read the log now: {e}"), theme::warning()),
+        (None, Some(t)) => {
+            Span::raw(format!("Following {name}; last event {} s ago", view.now_ns.saturating_sub(t) / 1_000_000_000))
+        }
+        (None, None) => Span::raw(format!("Following {name}; no event yet")),
+    };
+    frame.render_widget(Paragraph::new(Line::from(message)).wrap(Wrap { trim: false }), status);
+    frame.render_widget(
+        Paragraph::new(Line::from(vec![
+            Span::styled(" q ", theme::key()),
+            Span::raw(" quit (the session is not affected)"),
+        ])),
+        keys,
+    );
+}
+
+/// The panel's title and lines for what the session waits for now.
+fn now(view: &FollowView, session: &Session) -> (String, Vec<Line<'static>>) {
+    let robot = view.follower.last_robot_command_ns().map(|t| {
+        let since = session.robot().map(|_| Duration::from_nanos(view.now_ns.saturating_sub(t)));
+        robot_status(session, since, "not sent yet")
+    });
+    let (title, mut lines) = match session.prompt() {
+        Prompt::Present(v) => {
+            let mut lines = instruction_lines(session, &v, false, robot);
+            // The experimenter confirms it, on the console.
+            lines.pop();
+            lines.push(Line::from(Span::styled(theme::FOLLOW_PRESENT_DONE, theme::instruction())));
+            (super::screens::trial::phase_title(session, &v), lines)
+        }
+        Prompt::Grasp(v) => {
+            let mut lines = instruction_lines(session, &v, true, robot);
+            lines.push(Line::from(Span::styled("The participant is taking the object.", theme::instruction())));
+            (super::screens::trial::phase_title(session, &v), lines)
+        }
+        Prompt::Paused => {
+            (" Paused ".into(), vec![Line::from(Span::styled("PAUSED — wait for the experimenter", theme::warning()))])
+        }
+        Prompt::Likert { .. } | Prompt::ForcedChoice | Prompt::Finish => (
+            " Questionnaire ".into(),
+            vec![Line::from(Span::styled("The questionnaire: the robot is not needed.", theme::instruction()))],
+        ),
+        Prompt::Done { completed } => (
+            " Over ".into(),
+            vec![Line::from(Span::styled(
+                if completed { "The session is complete." } else { "The session was ended early." },
+                theme::title(),
+            ))],
+        ),
+    };
+    if view.follower.closed() && !matches!(session.prompt(), Prompt::Done { .. }) {
+        lines.push(Line::from(Span::styled(
+            "The console left this session (resumable): waiting for it to be resumed.",
+            theme::warning(),
+        )));
+    }
+    (title, lines)
+}
