@@ -77,6 +77,12 @@ pub fn render(app: &App, frame: &mut Frame) {
 
 /// The header: who, whether it is a rehearsal, how long the session has run (from its
 /// logged start, so a resumed session keeps its clock), and the protocol (cut first).
+/// Lines spaced out by blank lines when `rows` has room for it: large text for someone
+/// reading from a distance (the participant, the robot operator).
+pub(crate) fn spaced(lines: Vec<Line<'static>>, rows: usize) -> Vec<Line<'static>> {
+    if lines.len() * 2 <= rows { lines.into_iter().flat_map(|l| [l, Line::from("")]).collect() } else { lines }
+}
+
 fn header(app: &App, frame: &mut Frame, area: Rect) {
     let mut spans = vec![Span::styled(format!(" {} ", theme::APP), theme::title())];
     if app.participant_mode {
