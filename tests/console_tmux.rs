@@ -56,6 +56,8 @@ struct Shown {
     query: String,
     position: String,
     orientation: String,
+    /// The grasp panel's lines ("1  Left grip (blue)  left-grip").
+    grips: Vec<String>,
 }
 
 /// Reads the whole instruction off a trial screen: the query's id and the full position,
@@ -73,7 +75,14 @@ fn instruction_on(screen: &str) -> Shown {
     assert!(orientation.contains("yaw ") && orientation.ends_with('°'), "cut: '{orientation}'");
     assert!(line("frame        participant's").ends_with("y to their left, z up"), "{screen}");
     assert!(line("left, right ").ends_with("as they face the robot"), "{screen}");
-    Shown { query, position, orientation }
+    let grips = (1..=9)
+        .map_while(|k| {
+            let key = format!("│ {k}  ");
+            let l = screen.lines().find(|l| l.starts_with(&key))?;
+            Some(l.split('│').nth(1)?.trim().to_string())
+        })
+        .collect();
+    Shown { query, position, orientation, grips }
 }
 
 /// A whole session at the smallest size the console accepts (80×24), driven by keys as an
@@ -174,6 +183,12 @@ fn the_console_runs_a_session_in_a_real_terminal() {
         let [r, p, w] = q.pose.rpy_deg;
         assert!(s.position.contains(&format!("x {x:+.3}  y {y:+.3}  z {z:+.3} m")), "{}: {}", s.query, s.position);
         assert!(s.orientation.contains(&format!("roll {r:+.1}°  pitch {p:+.1}°  yaw {w:+.1}°")), "{}", s.orientation);
+        // Each grip offered, whole: its key, the protocol's label and the id the CSVs use.
+        let object = &study.protocol.objects[q.object];
+        let expected: Vec<String> = (q.regions.iter().enumerate())
+            .map(|(k, &r)| format!("{}  {}  {}", k + 1, object.regions[r].label, object.regions[r].id))
+            .collect();
+        assert_eq!(s.grips, expected, "{}", s.query);
     }
     let _ = std::fs::remove_dir_all(dir);
 }

@@ -18,6 +18,20 @@ use crate::tui::theme;
 /// instruction on top, at the whole width.
 const SIDE_MIN_WIDTH: u16 = 40;
 
+/// The belief panel's width with short names (component, prior, mean, interval).
+const BELIEF_COMPACT_WIDTH: u16 = 34;
+
+/// The grasp panel's width: its widest line (key, label, id) and its borders.
+fn grasp_width(session: &Session, v: &TrialView) -> u16 {
+    let q = session.query(v.query);
+    let object = session.study().object(q);
+    let widest = q
+        .regions
+        .iter()
+        .map(|&r| 4 + object.regions[r].label.chars().count() + 2 + object.regions[r].id.chars().count());
+    (widest.chain([theme::GRASP.chars().count()]).max().unwrap_or(0) + 2) as u16
+}
+
 pub fn render(app: &App, frame: &mut Frame, area: Rect) {
     let Some(session) = app.session() else { return };
     let (view, awaiting_grasp) = match session.prompt() {
@@ -40,7 +54,11 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
         (instr, grasp, history, right)
     } else {
         let [instr, rest] = Layout::vertical([Constraint::Length(instr_h), Constraint::Min(0)]).areas(area);
-        let [left, right] = Layout::horizontal([Constraint::Percentage(50), Constraint::Percentage(50)]).areas(rest);
+        // The grips are keyed from: their column is as wide as their lines (the belief keeps
+        // at least its compact width).
+        let grasp_w =
+            grasp_width(session, &view).max(area.width / 2).min(area.width.saturating_sub(BELIEF_COMPACT_WIDTH));
+        let [left, right] = Layout::horizontal([Constraint::Length(grasp_w), Constraint::Min(0)]).areas(rest);
         let [grasp, history] = Layout::vertical([Constraint::Length(grasp_h), Constraint::Min(3)]).areas(left);
         (instr, grasp, history, right)
     };
@@ -154,6 +172,16 @@ fn grasp_prompt(session: &Session, v: &TrialView, active: bool, frame: &mut Fram
 /// The phase's trials so far, each voided presentation (with its reason) before the trial it
 /// was repeated as.
 fn history_panel(session: &Session, v: &TrialView, frame: &mut Frame, area: Rect) {
+    // Narrow: the grip (or the void's reason) only; the query's id needs the width.
+    let with_query = area.width >= 62;
+    let row = |trial: usize, query: &str, what: String| {
+        let mut cells = vec![trial.to_string()];
+        if with_query {
+            cells.push(query.to_string());
+        }
+        cells.push(what);
+        Row::new(cells)
+    };
     let mut rows: Vec<(usize, usize, Row)> = session
         .trials()
         .iter()
@@ -161,7 +189,7 @@ fn history_panel(session: &Session, v: &TrialView, frame: &mut Frame, area: Rect
         .map(|t| {
             let q = session.query(t.query);
             let region = &session.study().object(q).regions[q.regions[t.region]].label;
-            (t.trial, 1, Row::new(vec![t.trial.to_string(), q.query.id.clone(), region.clone()]))
+            (t.trial, 1, row(t.trial, &q.query.id, region.clone()))
         })
         .collect();
     rows.extend(session.voids().iter().filter(|x| x.phase == v.phase && x.run == v.program).map(|x| {
@@ -171,24 +199,20 @@ fn history_panel(session: &Session, v: &TrialView, frame: &mut Frame, area: Rect
         } else {
             format!("voided: {} — {}", x.reason.label(), x.detail)
         };
-        (x.trial, 0, Row::new(vec![x.trial.to_string(), q.query.id.clone(), why]).style(theme::dim()))
+        (x.trial, 0, row(x.trial, &q.query.id, why).style(theme::dim()))
     }));
     // Stable: voids of a trial in the order they happened, before the trial's grasp.
     rows.sort_by_key(|(trial, kind, _)| (*trial, *kind));
     let n = rows.len();
     let skip = n.saturating_sub(area.height.saturating_sub(3) as usize);
-    let table = Table::new(
-        rows.into_iter().skip(skip).map(|(_, _, row)| row),
-        // Narrow: the grip (or the void's reason) before the query's id, which the
-        // instruction shows whole for the trial under way.
-        if area.width >= 62 {
-            [Constraint::Length(3), Constraint::Length(22), Constraint::Fill(1)]
-        } else {
-            [Constraint::Length(3), Constraint::Fill(1), Constraint::Fill(2)]
-        },
-    )
-    .header(Row::new(vec!["#", "query", "grip taken"]).style(theme::title()))
-    .block(Block::bordered().title(" History of this phase "));
+    let (widths, header) = if with_query {
+        (vec![Constraint::Length(3), Constraint::Length(22), Constraint::Fill(1)], vec!["#", "query", "grip taken"])
+    } else {
+        (vec![Constraint::Length(3), Constraint::Fill(1)], vec!["#", "grip taken"])
+    };
+    let table = Table::new(rows.into_iter().skip(skip).map(|(_, _, row)| row), widths)
+        .header(Row::new(header).style(theme::title()))
+        .block(Block::bordered().title(" History of this phase "));
     frame.render_widget(table, area);
 }
 
