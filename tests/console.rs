@@ -578,6 +578,14 @@ fn the_operator_sends_the_pose_to_the_robot_and_confirms_it() {
     assert_full_instruction(&mut a);
     let small = screen(&mut a, 80, 24);
     assert!(small.contains("robot        at_pose (attempt 1, ") && small.contains("1  Left grip"), "{small}");
+    // The robot operator's screen shows the robot's status from the log.
+    let mut view =
+        handover::tui::follow::FollowView::new(handover::record::Follower::open(&a.log_path().unwrap()).unwrap());
+    view.tick(handover::dryrun::now_ns());
+    let mut t = Terminal::new(TestBackend::new(80, 24)).unwrap();
+    t.draw(|f| handover::tui::follow::render(&view, f)).unwrap();
+    let followed = t.backend().to_string();
+    assert!(followed.contains("robot        at_pose (attempt 1, "), "{followed}");
     assert!(!mode_is_grasp(&a), "the operator confirms (present_on: operator)");
     press(&mut a, KeyCode::Enter);
     assert!(mode_is_grasp(&a));
