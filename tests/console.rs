@@ -903,3 +903,24 @@ fn follow_shows_the_current_instruction_from_the_live_log() {
     assert!(std::fs::read(&path).unwrap().starts_with(&before), "the follower wrote nothing");
     keys(&mut r, "qy");
 }
+
+/// A protocol's long pose label wraps inside the instruction, which grows for it: at 80×24
+/// every other line of the instruction is still on screen whole.
+#[test]
+fn a_long_pose_label_wraps_and_the_instruction_stays_whole() {
+    let dir = tmpdir("long-label");
+    let mut cfg = config(&dir, false);
+    let mut v: serde_json::Value = serde_json::from_str(&cfg.protocol_text).unwrap();
+    let long = "Handlebars held at chest height and turned to the participant's left, as a rider would take them from a stand beside the bicycle, end";
+    for q in v["training_menu"].as_array_mut().unwrap() {
+        q["label"] = long.into();
+    }
+    cfg.protocol_text = v.to_string();
+    cfg.study = Arc::new(Study::from_json(&cfg.protocol_text, "long").unwrap());
+    let mut a = App::new(cfg);
+    a.tick(T0);
+    press(&mut a, KeyCode::Enter);
+    assert_full_instruction(&mut a);
+    let s = screen(&mut a, 80, 24);
+    assert!(s.contains("beside the bicycle, end") && s.contains("Press Enter when the robot holds"), "{s}");
+}

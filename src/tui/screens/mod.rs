@@ -83,6 +83,24 @@ pub(crate) fn spaced(lines: Vec<Line<'static>>, rows: usize) -> Vec<Line<'static
     if lines.len() * 2 <= rows { lines.into_iter().flat_map(|l| [l, Line::from("")]).collect() } else { lines }
 }
 
+/// The rows a line takes when word-wrapped at `width` columns (as the paragraph wraps it).
+pub(super) fn wrapped_rows(line: &Line, width: usize) -> usize {
+    let text = line.to_string();
+    let mut rows = 1;
+    let mut used = 0;
+    for word in text.split(' ') {
+        let w = word.chars().count();
+        let needed = if used == 0 { w } else { used + 1 + w };
+        if needed <= width {
+            used = needed;
+        } else {
+            rows += 1 + w.saturating_sub(1) / width;
+            used = if w > width { w % width } else { w };
+        }
+    }
+    rows
+}
+
 fn header(app: &App, frame: &mut Frame, area: Rect) {
     let mut spans = vec![Span::styled(format!(" {} ", theme::APP), theme::title())];
     if app.participant_mode {

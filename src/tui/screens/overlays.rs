@@ -18,7 +18,7 @@ fn centred(area: Rect, width: u16, height: u16) -> Rect {
 
 fn dialog(frame: &mut Frame, area: Rect, title: &str, lines: Vec<Line>, width: u16) {
     let inner = width.min(area.width).saturating_sub(2).max(1) as usize;
-    let height: usize = lines.iter().map(|l| wrapped_rows(&l.to_string(), inner)).sum();
+    let height: usize = lines.iter().map(|l| super::wrapped_rows(l, inner)).sum();
     let r = centred(area, width, height as u16 + 2);
     frame.render_widget(Clear, r);
     frame.render_widget(
@@ -29,23 +29,6 @@ fn dialog(frame: &mut Frame, area: Rect, title: &str, lines: Vec<Line>, width: u
 
 /// The keys, the section of the screen below first; it scrolls (↑/↓) when taller than the
 /// terminal.
-/// The rows a line takes when word-wrapped at `width` columns (as the paragraph wraps it).
-fn wrapped_rows(text: &str, width: usize) -> usize {
-    let mut rows = 1;
-    let mut used = 0;
-    for word in text.split(' ') {
-        let w = word.chars().count();
-        let needed = if used == 0 { w } else { used + 1 + w };
-        if needed <= width {
-            used = needed;
-        } else {
-            rows += 1 + w.saturating_sub(1) / width;
-            used = if w > width { w % width } else { w };
-        }
-    }
-    rows
-}
-
 pub fn help(app: &App, frame: &mut Frame, area: Rect) {
     let mut sections = crate::tui::keys::help(app.counts());
     let first = match app.screen_mode() {
