@@ -924,3 +924,28 @@ fn a_long_pose_label_wraps_and_the_instruction_stays_whole() {
     let s = screen(&mut a, 80, 24);
     assert!(s.contains("beside the bicycle, end") && s.contains("Press Enter when the robot holds"), "{s}");
 }
+
+/// A long statement in the participant's hands wraps and leaves the scale and the hint on
+/// screen at 80×24.
+#[test]
+fn a_long_statement_keeps_its_scale_on_the_participant_s_screen() {
+    let dir = tmpdir("long-statement");
+    let mut cfg = config(&dir, false);
+    let mut v: serde_json::Value = serde_json::from_str(&cfg.protocol_text).unwrap();
+    let long = "When {program} handed me the bicycle handlebars or the lock, I could take them without bending, reaching far or turning my wrist in a way that felt awkward, and I would be happy to take objects from it in the same way again tomorrow, end";
+    for (k, item) in v["questionnaire"]["items"].as_array_mut().unwrap().iter_mut().enumerate() {
+        item["statement"] = format!("{long} {k}").into();
+    }
+    cfg.protocol_text = v.to_string();
+    cfg.study = Arc::new(Study::from_json(&cfg.protocol_text, "long").unwrap());
+    let mut a = App::new(cfg);
+    a.tick(T0);
+    press(&mut a, KeyCode::Enter);
+    trials(&mut a, 26, '1');
+    past_transition(&mut a);
+    keys(&mut a, "h");
+    let s = screen(&mut a, 80, 24);
+    for needle in ["again tomorrow, end ", "Strongly disagree", "Strongly agree", "Press a number to answer"] {
+        assert!(s.contains(needle), "'{needle}':\n{s}");
+    }
+}

@@ -64,7 +64,8 @@ pub fn render(view: &FollowView, frame: &mut Frame) {
     );
     let (title, lines) = now(view, session);
     // Large: the lines spaced out when the screen has room for it.
-    let spaced = super::screens::spaced(lines, body.height.saturating_sub(2) as usize);
+    let spaced =
+        super::screens::spaced(lines, body.height.saturating_sub(2) as usize, body.width.saturating_sub(2) as usize);
     frame.render_widget(Paragraph::new(spaced).wrap(Wrap { trim: false }).block(Block::bordered().title(title)), body);
     let message = match (&view.error, view.follower.last_event_ns()) {
         (Some(e), _) => Span::styled(format!("Cannot read the log now: {e}"), theme::warning()),

@@ -77,14 +77,24 @@ pub fn render(app: &App, frame: &mut Frame) {
 
 /// The header: who, whether it is a rehearsal, how long the session has run (from its
 /// logged start, so a resumed session keeps its clock), and the protocol (cut first).
-/// Lines spaced out by blank lines when `rows` has room for it: large text for someone
-/// reading from a distance (the participant, the robot operator).
-pub(crate) fn spaced(lines: Vec<Line<'static>>, rows: usize) -> Vec<Line<'static>> {
-    if lines.len() * 2 <= rows { lines.into_iter().flat_map(|l| [l, Line::from("")]).collect() } else { lines }
+/// Lines spaced out by blank lines when `rows` rows of `width` columns have room for them
+/// (wrapped): large text for someone reading from a distance (the participant, the robot
+/// operator).
+pub(crate) fn spaced(lines: Vec<Line<'static>>, rows: usize, width: usize) -> Vec<Line<'static>> {
+    if rows_of(&lines, width) + lines.len() <= rows {
+        lines.into_iter().flat_map(|l| [l, Line::from("")]).collect()
+    } else {
+        lines
+    }
+}
+
+/// The rows lines take when word-wrapped at `width` columns.
+pub(crate) fn rows_of(lines: &[Line], width: usize) -> usize {
+    lines.iter().map(|l| wrapped_rows(l, width.max(1))).sum()
 }
 
 /// The rows a line takes when word-wrapped at `width` columns (as the paragraph wraps it).
-pub(super) fn wrapped_rows(line: &Line, width: usize) -> usize {
+fn wrapped_rows(line: &Line, width: usize) -> usize {
     let text = line.to_string();
     let mut rows = 1;
     let mut used = 0;

@@ -18,7 +18,7 @@ fn centred(area: Rect, width: u16, height: u16) -> Rect {
 
 fn dialog(frame: &mut Frame, area: Rect, title: &str, lines: Vec<Line>, width: u16) {
     let inner = width.min(area.width).saturating_sub(2).max(1) as usize;
-    let height: usize = lines.iter().map(|l| super::wrapped_rows(l, inner)).sum();
+    let height = super::rows_of(&lines, inner);
     let r = centred(area, width, height as u16 + 2);
     frame.render_widget(Clear, r);
     frame.render_widget(

@@ -110,8 +110,9 @@ pub fn render_participant(app: &App, frame: &mut Frame, area: Rect) {
     // A readable column in the middle, the text starting a third of the way down.
     let width = inner.width.min(72);
     let x = inner.x + (inner.width - width) / 2;
-    let lines = super::spaced(lines, inner.height as usize * 3 / 4);
-    let top = (inner.height / 4).min(inner.height.saturating_sub(lines.len() as u16 + 2));
+    let lines = super::spaced(lines, inner.height as usize * 3 / 4, width as usize);
+    let rows = super::rows_of(&lines, width as usize) as u16;
+    let top = (inner.height / 4).min(inner.height.saturating_sub(rows + 1));
     let column = Rect { x, y: inner.y + top, width, height: inner.height - top };
     frame.render_widget(Paragraph::new(lines).wrap(Wrap { trim: false }), column);
 }

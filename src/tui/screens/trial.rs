@@ -45,9 +45,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
     let instr_w = lines.iter().map(Line::width).max().unwrap_or(0) as u16 + 2;
     // Stacked, a line longer than the screen (a long label) wraps: the panel grows for it.
     let wrap_w = if area.width >= instr_w + SIDE_MIN_WIDTH { instr_w } else { area.width };
-    let instr_h = lines.iter().map(|l| super::wrapped_rows(l, wrap_w.saturating_sub(2).max(1) as usize)).sum::<usize>()
-        as u16
-        + 2;
+    let instr_h = super::rows_of(&lines, wrap_w.saturating_sub(2) as usize) as u16 + 2;
     let grasp_h = session.query(view.query).regions.len() as u16 + 3;
     let (instr, grasp, history, side) = if area.width >= instr_w + SIDE_MIN_WIDTH {
         let left_w = instr_w.max(area.width * 58 / 100);
