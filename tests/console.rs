@@ -45,6 +45,18 @@ fn config(dir: &Path, simulate: bool) -> AppConfig {
     }
 }
 
+/// A console on the test protocol as `edit` changes it.
+fn app_with_protocol(dir: &Path, edit: impl FnOnce(&mut serde_json::Value)) -> App {
+    let mut cfg = config(dir, false);
+    let mut v: serde_json::Value = serde_json::from_str(&cfg.protocol_text).unwrap();
+    edit(&mut v);
+    cfg.protocol_text = v.to_string();
+    cfg.study = Arc::new(Study::from_json(&cfg.protocol_text, "edited").unwrap());
+    let mut a = App::new(cfg);
+    a.tick(T0);
+    a
+}
+
 fn app(dir: &Path) -> App {
     let mut a = App::new(config(dir, false));
     a.tick(T0);
@@ -712,17 +724,12 @@ fn a_measured_protocol_without_a_measuring_system_learns_from_the_handle_and_say
 #[test]
 fn transitions_wait_for_the_experimenter_with_the_protocol_s_text() {
     let dir = tmpdir("transitions");
-    let mut cfg = config(&dir, false);
-    let mut v: serde_json::Value = serde_json::from_str(&cfg.protocol_text).unwrap();
-    v["session"]["transitions"] = serde_json::json!({
+    let transitions = serde_json::json!({
         "between_programs": "Say: {done} has finished and {next} starts.",
         "before_test": "Say: now the test.",
         "before_questionnaire": "Say: now the statements."
     });
-    cfg.protocol_text = v.to_string();
-    cfg.study = Arc::new(Study::from_json(&cfg.protocol_text, "transitions").unwrap());
-    let mut a = App::new(cfg);
-    a.tick(T0);
+    let mut a = app_with_protocol(&dir, |v| v["session"]["transitions"] = transitions);
     press(&mut a, KeyCode::Enter);
     assert_eq!(a.transition(), None, "the first program starts at once");
     trials(&mut a, 5, '1');
@@ -745,6 +752,7 @@ fn transitions_wait_for_the_experimenter_with_the_protocol_s_text() {
     press(&mut a, KeyCode::Enter);
     assert_eq!(a.mode(), handover::tui::keys::Mode::Questionnaire);
     // A protocol whose text names an unknown placeholder is refused, naming the field.
+    let mut v: serde_json::Value = serde_json::from_str(&a.config.protocol_text).unwrap();
     v["session"]["transitions"]["before_test"] = "now {program}".into();
     let err = Study::from_json(&v.to_string(), "bad.json").unwrap_err().to_string();
     assert!(err.contains("session.transitions.before_test") && err.contains("no placeholder"), "{err}");
@@ -909,16 +917,12 @@ fn follow_shows_the_current_instruction_from_the_live_log() {
 #[test]
 fn a_long_pose_label_wraps_and_the_instruction_stays_whole() {
     let dir = tmpdir("long-label");
-    let mut cfg = config(&dir, false);
-    let mut v: serde_json::Value = serde_json::from_str(&cfg.protocol_text).unwrap();
     let long = "Handlebars held at chest height and turned to the participant's left, as a rider would take them from a stand beside the bicycle, end";
-    for q in v["training_menu"].as_array_mut().unwrap() {
-        q["label"] = long.into();
-    }
-    cfg.protocol_text = v.to_string();
-    cfg.study = Arc::new(Study::from_json(&cfg.protocol_text, "long").unwrap());
-    let mut a = App::new(cfg);
-    a.tick(T0);
+    let mut a = app_with_protocol(&dir, |v| {
+        for q in v["training_menu"].as_array_mut().unwrap() {
+            q["label"] = long.into();
+        }
+    });
     press(&mut a, KeyCode::Enter);
     assert_full_instruction(&mut a);
     let s = screen(&mut a, 80, 24);
@@ -930,16 +934,12 @@ fn a_long_pose_label_wraps_and_the_instruction_stays_whole() {
 #[test]
 fn a_long_statement_keeps_its_scale_on_the_participant_s_screen() {
     let dir = tmpdir("long-statement");
-    let mut cfg = config(&dir, false);
-    let mut v: serde_json::Value = serde_json::from_str(&cfg.protocol_text).unwrap();
     let long = "When {program} handed me the bicycle handlebars or the lock, I could take them without bending, reaching far or turning my wrist in a way that felt awkward, and I would be happy to take objects from it in the same way again tomorrow, end";
-    for (k, item) in v["questionnaire"]["items"].as_array_mut().unwrap().iter_mut().enumerate() {
-        item["statement"] = format!("{long} {k}").into();
-    }
-    cfg.protocol_text = v.to_string();
-    cfg.study = Arc::new(Study::from_json(&cfg.protocol_text, "long").unwrap());
-    let mut a = App::new(cfg);
-    a.tick(T0);
+    let mut a = app_with_protocol(&dir, |v| {
+        for (k, item) in v["questionnaire"]["items"].as_array_mut().unwrap().iter_mut().enumerate() {
+            item["statement"] = format!("{long} {k}").into();
+        }
+    });
     press(&mut a, KeyCode::Enter);
     trials(&mut a, 26, '1');
     past_transition(&mut a);
