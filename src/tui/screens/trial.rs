@@ -43,11 +43,12 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
     // the console accepts; the grasp, history and belief share what is left.
     let lines = instruction_lines(session, &view, awaiting_grasp, robot_line(app, session));
     let instr_w = lines.iter().map(Line::width).max().unwrap_or(0) as u16 + 2;
+    let side_by_side = area.width >= instr_w + SIDE_MIN_WIDTH;
     // Stacked, a line longer than the screen (a long label) wraps: the panel grows for it.
-    let wrap_w = if area.width >= instr_w + SIDE_MIN_WIDTH { instr_w } else { area.width };
+    let wrap_w = if side_by_side { instr_w } else { area.width };
     let instr_h = super::rows_of(&lines, wrap_w.saturating_sub(2) as usize) as u16 + 2;
     let grasp_h = session.query(view.query).regions.len() as u16 + 3;
-    let (instr, grasp, history, side) = if area.width >= instr_w + SIDE_MIN_WIDTH {
+    let (instr, grasp, history, side) = if side_by_side {
         let left_w = instr_w.max(area.width * 58 / 100);
         let [left, right] = Layout::horizontal([Constraint::Length(left_w), Constraint::Min(0)]).areas(area);
         let [instr, grasp, history] =
