@@ -499,6 +499,9 @@ fn a_left_handed_short_participant_gets_mirrored_scaled_poses_named_from_both_si
         trial.contains("frame        participant's left shoulder") && trial.contains("LEFT hand (on your right"),
         "{trial}"
     );
+    // The protocol's labels are written for a right hand: mirrored, their "left" is the
+    // participant's right, and the screen says so.
+    assert!(trial.contains("left, right  mirrored: a label's 'left' is their right; colours hold"), "{trial}");
     // The pose shown is the protocol's, scaled by the reach (1.55 / 1.75) and mirrored (y negated).
     let handover::session::Prompt::Present(view) = a.session().unwrap().prompt() else { panic!("a trial is prompted") };
     let q = a.session().unwrap().query(view.query).clone();

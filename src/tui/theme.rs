@@ -38,8 +38,16 @@ pub const COMPUTING: &str = "computing…";
 pub const HAND_BACK: &str = "Thank you. Please hand the keyboard back to the experimenter.";
 pub const PAUSED: &str = "PAUSED — press p to resume";
 
-/// Whose left and right the screen, the protocol's labels and the poses mean.
-pub const WHOSE_LEFT: &str = "always the participant's, as they face the robot";
+/// Whose left and right the screen and the protocol's labels mean. The protocol writes its
+/// poses and labels for a right hand; a left hand's poses are mirrored (docs/kinematics.md),
+/// so a label's "left" (a grip, "turned left") is then on the participant's right, and the
+/// grips keep their colours.
+pub fn whose_left(hand: crate::kinematics::Hand) -> &'static str {
+    match hand {
+        crate::kinematics::Hand::Right => "always the participant's, as they face the robot",
+        crate::kinematics::Hand::Left => "mirrored: a label's 'left' is their right; colours hold",
+    }
+}
 
 /// The frame a pose is written in: the participant's shoulder, their axes.
 pub fn frame_of(hand: crate::kinematics::Hand) -> String {

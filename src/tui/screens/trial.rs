@@ -147,7 +147,7 @@ pub fn instruction_lines(
         Line::from(format!("  orientation  roll {r:+.1}°  pitch {p:+.1}°  yaw {yaw:+.1}°")),
         Line::from(format!("  frame        {}", theme::frame_of(side))),
         Line::from(format!("  hand         {}", theme::hand_sides(side))),
-        Line::from(format!("  left, right  {}", theme::WHOSE_LEFT)),
+        Line::from(format!("  left, right  {}", theme::whose_left(side))),
     ];
     lines.extend(robot);
     lines.push(Line::from(Span::styled(
