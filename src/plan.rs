@@ -112,7 +112,7 @@ pub fn simulate_study(
             let mut analyser = Analyser::new(START_NS, false, false);
             let (log, session) =
                 drive_in_memory(text, Arc::clone(&fitted), &p, |s, step| analyser.visit(s, step)).map_err(err)?;
-            Ok(analyser.finish(&session, &fitted, &log))
+            analyser.finish(&session, &fitted, &log).map_err(|e| err(e.to_string()))
         })
         .collect()
 }
@@ -338,7 +338,7 @@ mod tests {
         let (text, fitted, p) = participant(text, &study, study_seed(3, 0), 0).unwrap();
         let mut analyser = Analyser::new(START_NS, false, true);
         let (log, session) = drive_in_memory(text, Arc::clone(&fitted), &p, |s, step| analyser.visit(s, step)).unwrap();
-        let driven = analyser.finish(&session, &fitted, &log);
+        let driven = analyser.finish(&session, &fitted, &log).unwrap();
         let replayed = crate::analysis::analyse(&log).unwrap();
         assert!(replayed.completed && driven.completed);
         assert_eq!(replayed.runs.len(), 2);

@@ -98,7 +98,7 @@ pub fn analyse_and_verify(log: &LogContents, verify: bool) -> Result<(SessionAna
     let mut analyser = Analyser::new(log.start_time_ns, verify, true);
     let session = replay_with(Arc::clone(&study), log, |session, step| analyser.visit(session, step))?;
     let differences = if verify { analyser.verifier.differences(log) } else { Vec::new() };
-    Ok((analyser.finish(&session, &study, log), differences))
+    Ok((analyser.finish(&session, &study, log)?, differences))
 }
 
 /// The analysis of a session as it is driven, step by step, rather than replayed from its
@@ -142,22 +142,29 @@ impl Analyser {
         if self.snapshots.is_empty() {
             self.snapshots = (0..session.learners().len()).map(|run| vec![snapshot(session, run)]).collect();
         }
+        // A training step's snapshot, kept per run (training views carry their run).
+        let training_run = |view: &crate::session::TrialView| match (view.phase, view.program) {
+            (Phase::Training, Some(run)) if run < self.snapshots.len() => Some(run),
+            _ => None,
+        };
         match step.map(|(_, _, applied)| applied) {
-            Some(Applied::Responded { view, .. }) if view.phase == Phase::Training => {
-                let run = view.program.expect("training has a program");
-                self.snapshots[run].push(snapshot(session, run));
+            Some(Applied::Responded { view, .. }) => {
+                if let Some(run) = training_run(view) {
+                    let point = snapshot(session, run);
+                    self.snapshots[run].push(point);
+                }
             }
-            Some(Applied::Undone { view, .. }) | Some(Applied::Voided { view, retracted: true })
-                if view.phase == Phase::Training =>
-            {
-                self.snapshots[view.program.expect("training has a program")].pop();
+            Some(Applied::Undone { view, .. }) | Some(Applied::Voided { view, retracted: true }) => {
+                if let Some(run) = training_run(view) {
+                    self.snapshots[run].pop();
+                }
             }
             _ => {}
         }
     }
 
     /// The session's results, from its final state and its log's start.
-    pub fn finish(self, session: &Session, study: &Study, log: &LogContents) -> SessionAnalysis {
+    pub fn finish(self, session: &Session, study: &Study, log: &LogContents) -> Result<SessionAnalysis, RecordError> {
         let runs = log.start.condition_order.len();
         let Self { rows, snapshots, predictive, .. } = self;
         let ctx = session.context();
@@ -178,8 +185,12 @@ impl Analyser {
                     if predictive {
                         beliefs
                             .iter()
-                            .map(|b| posterior_predictive_log_likelihood(b, &tests, ctx.alpha).expect("logged indices"))
-                            .collect()
+                            .map(|b| posterior_predictive_log_likelihood(b, &tests, ctx.alpha))
+                            .collect::<Result<_, _>>()
+                            .map_err(|e| RecordError::NotALog {
+                                path: log.path.clone(),
+                                why: format!("its test trials cannot be scored by the belief: {e}"),
+                            })?
                     } else {
                         Vec::new()
                     },
@@ -217,7 +228,7 @@ impl Analyser {
         };
         let items = &study.protocol.questionnaire.items;
         let completed = matches!(session.prompt(), crate::session::Prompt::Done { completed: true });
-        SessionAnalysis {
+        Ok(SessionAnalysis {
             body: crate::protocol::Body { height_m: study.protocol.arm.body_height_m, hand: study.arm.side },
             trial_rows: rows.trials,
             notes: rows.notes,
@@ -237,6 +248,6 @@ impl Analyser {
             choice: session.forced_choice(),
             completed,
             alpha_evidence,
-        }
+        })
     }
 }

@@ -360,6 +360,8 @@ pub struct Study {
     /// SHA-256 (hex) of the protocol text.
     pub sha256: String,
     pub arm: HumanArm,
+    /// The learners' prior over λ (`learning.prior()`, checked when the study is built).
+    pub prior: Prior,
     pub training: Vec<ResolvedQuery>,
     pub test: Vec<ResolvedQuery>,
 }
@@ -415,15 +417,13 @@ impl Study {
 
     /// The population simulated participants are drawn from.
     pub fn population(&self) -> Population {
-        let l = &self.protocol.learning;
-        Population::new(self.protocol.population.as_ref(), &l.prior().expect("a validated protocol's prior"), l.alpha)
+        Population::new(self.protocol.population.as_ref(), &self.prior, self.protocol.learning.alpha)
     }
 
     /// People drawn from the robot's own prior, with the protocol's α (`dry-run --population
     /// prior`).
     pub fn prior_population(&self) -> Population {
-        let l = &self.protocol.learning;
-        Population::from_prior(&l.prior().expect("a validated protocol's prior"), l.alpha)
+        Population::from_prior(&self.prior, self.protocol.learning.alpha)
     }
 
     /// The factor the queries' positions are scaled by for this study's arm.

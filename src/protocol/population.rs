@@ -146,7 +146,7 @@ mod tests {
     #[test]
     fn the_default_population_is_centred_on_the_prior_and_narrower_than_it() {
         let study = Study::default_study();
-        let prior = study.protocol.learning.prior().unwrap();
+        let prior = study.prior.clone();
         let pop = Population::new(None, &prior, 5.0);
         let draws: Vec<Lambda> = (0..4000).map(|i| pop.draw(7, i)).collect();
         for (j, c) in prior.components().iter().enumerate().take(7) {
@@ -167,7 +167,7 @@ mod tests {
     #[test]
     fn a_population_without_spread_is_one_person_and_draws_are_seeded() {
         let study = Study::default_study();
-        let prior = study.protocol.learning.prior().unwrap();
+        let prior = study.prior.clone();
         let spec = PopulationSpec {
             q_star_deg: [10.0, 10.0, 0.0, 85.0, 0.0, 0.0, 0.0].map(|mean| Spread { mean, sd: 0.0 }).to_vec(),
             w: vec![Spread { mean: 1.0, sd: 0.0 }; 7],

@@ -701,8 +701,19 @@ pub(super) fn study(protocol: Protocol, name: &str, sha256: String) -> Result<St
             );
         }
     }
-    match (p.0.is_empty(), arm) {
-        (true, Some(arm)) => Ok(Study { protocol, source_name: name.to_string(), sha256, arm, training, test }),
+    // The prior as learners use it (its ranges, the learn-mask and the known values), built
+    // once: every later use takes the study's.
+    let prior = match protocol.learning.prior() {
+        Ok(prior) => Some(prior),
+        Err(e) => {
+            p.add("learning.prior", e.to_string());
+            None
+        }
+    };
+    match (p.0.is_empty(), arm, prior) {
+        (true, Some(arm), Some(prior)) => {
+            Ok(Study { protocol, source_name: name.to_string(), sha256, arm, prior, training, test })
+        }
         _ => Err(ProtocolError::new(name, p.0)),
     }
 }

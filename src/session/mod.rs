@@ -289,7 +289,7 @@ impl Session {
             )));
         }
         let learning = &study.protocol.learning;
-        let prior = learning.prior().map_err(|e| SessionError::BadStart(e.to_string()))?;
+        let prior = study.prior.clone();
         let supports: Vec<(f64, f64)> = prior.components().iter().map(|c| c.support()).collect();
         let ctx = LearningContext {
             alpha: learning.alpha,
