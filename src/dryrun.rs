@@ -87,7 +87,7 @@ pub fn plan_from(
     let id = format!("pilot-{:06x}-{:02}", derive_seed(seed, 0, purpose::ID) & 0xff_ffff, index + 1);
     let slot = index % 2;
     let truth = truth.cloned().unwrap_or_else(|| population.draw(seed, index));
-    let session_seed = derive_seed(seed, i, purpose::SESSION);
+    let session_seed = crate::session_seed(derive_seed(seed, i, purpose::SESSION));
     let order = condition_order(study, slot);
     let start = SessionStart {
         session_id: format!("{session_seed:016x}"),

@@ -39,6 +39,16 @@ pub fn derive_seed(seed: u64, unit: u64, purpose: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// The largest session seed: 2^53 − 1, the largest integer every JSON and CSV reader
+/// (JavaScript, R, pandas' float columns) reads exactly, so a log or a table carries its seed
+/// in one number.
+pub const MAX_SESSION_SEED: u64 = (1 << 53) - 1;
+
+/// A session seed from 64 random bits: their top 53, below [`MAX_SESSION_SEED`].
+pub fn session_seed(bits: u64) -> u64 {
+    bits >> 11
+}
+
 /// Nanoseconds since the Unix epoch: the one clock events, samples and logs are stamped with.
 pub fn now_ns() -> u64 {
     std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64)

@@ -2,8 +2,10 @@
 //! WebSocket protocol (`foxglove.websocket.v1`, by the official `foxglove` crate's server).
 //! Every message is served once it is on disk, on the log's topics with the log's schemas, so
 //! the app shows the same 3D scene, plots and notes as the log opened later
-//! (`docs/foxglove-layout.json`). A viewer that connects late gets each topic's latest
-//! message when it subscribes, so the frames and the body are there at once.
+//! (`docs/foxglove-layout.json`). Every topic a session may publish is advertised before its
+//! first message, so a viewer connected from the start subscribes in time to get every
+//! message in order; one that connects late gets each topic's latest message when it
+//! subscribes (the body is in every `/human/arm`), so the scene is there at once.
 
 use std::collections::HashMap;
 use std::net::SocketAddr;
@@ -74,25 +76,37 @@ impl LiveView {
     }
 }
 
+impl LiveView {
+    /// The topic's channel, advertised to every viewer when it is made.
+    fn channel(&self, shared: &mut Shared, topic: Topic) -> Option<Arc<RawChannel>> {
+        if let Some(c) = shared.channels.get(&topic) {
+            return Some(Arc::clone(c));
+        }
+        let (name, text) = schema(topic);
+        let built = self
+            .context
+            .channel_builder(topic.name())
+            .message_encoding("json")
+            .schema(Schema::new(name, "jsonschema", text.into_bytes()))
+            .build_raw();
+        // A channel that cannot be made is left out of the view; the log has it.
+        let c = built.ok()?;
+        shared.channels.insert(topic, Arc::clone(&c));
+        Some(c)
+    }
+}
+
 impl Tap for LiveView {
+    fn declare(&mut self, topics: &[Topic]) {
+        let mut shared = lock(&self.shared);
+        for &topic in topics {
+            self.channel(&mut shared, topic);
+        }
+    }
+
     fn publish(&mut self, topic: Topic, time_ns: u64, data: &[u8]) {
         let mut shared = lock(&self.shared);
-        let channel = match shared.channels.get(&topic) {
-            Some(c) => Arc::clone(c),
-            None => {
-                let (name, text) = schema(topic);
-                let built = self
-                    .context
-                    .channel_builder(topic.name())
-                    .message_encoding("json")
-                    .schema(Schema::new(name, "jsonschema", text.into_bytes()))
-                    .build_raw();
-                // A channel that cannot be made is left out of the view; the log has it.
-                let Ok(c) = built else { return };
-                shared.channels.insert(topic, Arc::clone(&c));
-                c
-            }
-        };
+        let Some(channel) = self.channel(&mut shared, topic) else { return };
         shared.latest.insert(topic, (time_ns, data.to_vec()));
         drop(shared);
         channel.log_with_meta(data, PartialMetadata { log_time: Some(time_ns) });

@@ -80,6 +80,7 @@ pub fn drive_in_memory(
         protocol_text: text,
         start: p.start.clone(),
         start_time_ns: START_NS,
+        format: crate::record::LOG_FORMAT,
         events,
         messages: Vec::new(),
         finished: true,

@@ -65,7 +65,7 @@ pub enum SetupError {
 /// The plan of a new session.
 pub fn plan_session(c: &SetupConfig) -> Plan {
     let study = c.study;
-    let seed = c.seed.unwrap_or_else(|| rand::rng().random());
+    let seed = c.seed.unwrap_or_else(|| crate::session_seed(rand::rng().random()));
     let now = chrono::Utc::now();
     let started_at = now.to_rfc3339_opts(chrono::SecondsFormat::Millis, true);
     if c.simulate {

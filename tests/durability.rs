@@ -128,7 +128,7 @@ fn fill(dir: &Path) {
 fn a_full_disk_names_its_cause_and_leaves_only_whole_files() {
     let dir = tmpdir("full");
     let disk = dir.join("disk");
-    if !mount_small(&disk, 1024) {
+    if !mount_small(&disk, 1152) {
         eprintln!("cannot mount a small tmpfs here (not root?): skipping the full-disk test");
         return;
     }

@@ -1,6 +1,7 @@
 //! The live view as Foxglove sees it: a WebSocket client speaking the Foxglove WebSocket
-//! protocol connects to a dry run's `--live` server, reads its advertisements, subscribes, and
-//! gets the messages the log holds.
+//! protocol connects to a dry run's `--live` server, reads its advertisements, subscribes to
+//! every topic, and gets every message the log holds, byte for byte and in order; a viewer
+//! that joins half-way gets the scene at once, the body included.
 //!
 //! The official server (the `foxglove` crate) negotiates the protocol as `foxglove.sdk.v1`,
 //! the name `foxglove.websocket.v1` has had since the SDK took it over (the wire format is the
@@ -74,51 +75,116 @@ fn a_foxglove_client_gets_the_logged_messages_live() {
     assert_eq!(info["op"], "serverInfo");
     assert!(info["name"].as_str().unwrap().starts_with("handover "), "{info}");
 
-    // Advertisements name the log's topics with the log's schemas.
-    let mut channels: std::collections::BTreeMap<String, u64> = Default::default();
+    // Every topic of the session is advertised at once, with the log's schemas; the client
+    // subscribes to each as it is advertised, as a viewer does.
+    let mut topics: std::collections::HashMap<u32, String> = Default::default();
+    let mut got: Vec<(String, u64, Vec<u8>)> = Vec::new();
+    let mut late: Option<Socket> = None;
+    let mut late_arm: Option<Value> = None;
     let t = Instant::now();
-    while !(channels.contains_key("/tf") && channels.contains_key("/trial/query")) {
-        assert!(t.elapsed() < Duration::from_secs(60), "advertised: {channels:?}");
-        if let Got::Text(m) = next(&mut ws)
-            && m["op"] == "advertise"
-        {
-            for c in m["channels"].as_array().unwrap() {
-                let topic = Topic::from_name(c["topic"].as_str().unwrap()).unwrap();
-                let (name, text) = schema(topic);
-                assert_eq!((c["encoding"].as_str(), c["schemaName"].as_str()), (Some("json"), Some(name)));
-                assert_eq!(c["schemaEncoding"], "jsonschema");
-                assert_eq!(c["schema"].as_str().unwrap(), text, "{topic}");
-                channels.insert(topic.name().to_string(), c["id"].as_u64().unwrap());
+    if let MaybeTlsStream::Plain(stream) = ws.get_mut() {
+        stream.set_read_timeout(Some(Duration::from_millis(100))).unwrap();
+    }
+    loop {
+        assert!(t.elapsed() < Duration::from_secs(120), "the session did not end");
+        let frame = match ws.read() {
+            Ok(f) => f,
+            Err(tungstenite::Error::Io(e))
+                if e.kind() == std::io::ErrorKind::WouldBlock || e.kind() == std::io::ErrorKind::TimedOut =>
+            {
+                if child.try_wait().unwrap().is_some() {
+                    break;
+                }
+                continue;
             }
+            Err(_) => break, // the dry run ended and its server with it
+        };
+        match frame {
+            Message::Text(text) => {
+                let m: Value = serde_json::from_str(&text).unwrap();
+                if m["op"] != "advertise" {
+                    continue;
+                }
+                let mut subscriptions = Vec::new();
+                for c in m["channels"].as_array().unwrap() {
+                    let topic = Topic::from_name(c["topic"].as_str().unwrap()).unwrap();
+                    let (name, text) = schema(topic);
+                    assert_eq!((c["encoding"].as_str(), c["schemaName"].as_str()), (Some("json"), Some(name)));
+                    assert_eq!(c["schemaEncoding"], "jsonschema");
+                    assert_eq!(c["schema"].as_str().unwrap(), text, "{topic}");
+                    let id = topics.len() as u32 + 1;
+                    topics.insert(id, topic.name().to_string());
+                    subscriptions.push(json!({"id": id, "channelId": c["id"]}));
+                }
+                let subscribe = json!({"op": "subscribe", "subscriptions": subscriptions});
+                ws.send(Message::text(subscribe.to_string())).unwrap();
+            }
+            Message::Binary(b) => {
+                assert_eq!(b[0], 1, "opcode 1: a message data frame");
+                let id = u32::from_le_bytes(b[1..5].try_into().unwrap());
+                let time = u64::from_le_bytes(b[5..13].try_into().unwrap());
+                got.push((topics[&id].clone(), time, b[13..].to_vec()));
+            }
+            _ => {}
+        }
+        // Half-way through, a second viewer joins: it gets the scene at once, body included.
+        if late.is_none() && got.iter().filter(|g| g.0 == "/trial/response").count() == 5 {
+            let (mut w, _) = tungstenite::connect(request("foxglove.sdk.v1")).unwrap();
+            let mut arm_channel = None;
+            while arm_channel.is_none() {
+                if let Got::Text(m) = next(&mut w)
+                    && m["op"] == "advertise"
+                {
+                    arm_channel = m["channels"]
+                        .as_array()
+                        .unwrap()
+                        .iter()
+                        .find(|c| c["topic"] == "/human/arm")
+                        .map(|c| c["id"].clone());
+                }
+            }
+            let subscribe = json!({"op": "subscribe", "subscriptions": [{"id": 1, "channelId": arm_channel}]});
+            w.send(Message::text(subscribe.to_string())).unwrap();
+            while late_arm.is_none() {
+                if let Got::Data(1, payload) = next(&mut w) {
+                    late_arm = Some(serde_json::from_slice(&payload).unwrap());
+                }
+            }
+            late = Some(w);
         }
     }
-    let subscribe = json!({"op": "subscribe", "subscriptions": [
-        {"id": 1, "channelId": channels["/tf"]},
-        {"id": 2, "channelId": channels["/trial/query"]},
-    ]});
-    ws.send(Message::text(subscribe.to_string())).unwrap();
-    // The frames come at once (the latest, sent to a late subscriber); a query as it happens.
-    let (mut tf, mut query) = (None, None);
-    while tf.is_none() || query.is_none() {
-        assert!(t.elapsed() < Duration::from_secs(60));
-        if let Got::Data(id, payload) = next(&mut ws) {
-            let v: Value = serde_json::from_slice(&payload).unwrap();
-            match id {
-                1 => tf = Some(v),
-                2 => query = Some(v),
-                other => panic!("subscription {other}"),
-            }
-        }
-    }
-    assert!(tf.unwrap()["transforms"].as_array().is_some_and(|t| !t.is_empty()));
-    drop(ws);
     assert!(child.wait().unwrap().success());
-    // What was served is what the log holds.
-    let log = read_log(&mcap_files(&dir.join("logs"))[0]).unwrap();
-    let query = query.unwrap();
-    assert!(
-        log.messages.iter().any(|m| m.topic == "/trial/query" && m.value == query),
-        "the served /trial/query is in the log: {query}"
-    );
+    drop(late);
+    let ids: Vec<&str> = late_arm.as_ref().expect("a late viewer got /human/arm")["entities"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["id"].as_str().unwrap())
+        .collect();
+    assert!(ids.contains(&"body") && ids.contains(&"human_arm"), "the late viewer sees the body and the arm: {ids:?}");
+
+    // What was served is every message the log holds, byte for byte, in the log's order.
+    let path = &mcap_files(&dir.join("logs"))[0];
+    let bytes = std::fs::read(path).unwrap();
+    let logged: Vec<(String, u64, Vec<u8>)> = mcap::MessageStream::new(&bytes)
+        .unwrap()
+        .map(|m| {
+            let m = m.unwrap();
+            (m.channel.topic.clone(), m.log_time, m.data.to_vec())
+        })
+        .collect();
+    assert_eq!(got.len(), logged.len(), "every message of the session reaches the viewer, none lost");
+    // The start's messages may come as each topic is subscribed (its latest); from the first
+    // event on, in the order logged.
+    let start = logged.iter().filter(|m| m.1 == logged[0].1).count();
+    let sorted = |v: &[(String, u64, Vec<u8>)]| {
+        let mut v = v.to_vec();
+        v.sort();
+        v
+    };
+    assert_eq!(sorted(&got[..start]), sorted(&logged[..start]), "the start's messages");
+    assert_eq!(got[start..], logged[start..], "every event's messages, in order");
+    let read = read_log(path).unwrap();
+    assert!(read.finished);
     let _ = std::fs::remove_dir_all(&dir);
 }

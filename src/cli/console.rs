@@ -42,8 +42,8 @@ pub struct RunArgs {
     /// Milliseconds between the simulated participant's actions.
     #[arg(long, value_name = "MS", default_value_t = 800)]
     pace: u64,
-    /// The session seed (random by default; recorded in the log).
-    #[arg(long)]
+    /// The session seed, 0 to 2^53 − 1 (random by default; recorded in the log).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(0..=handover::MAX_SESSION_SEED))]
     seed: Option<u64>,
     /// A robot in the loop: `s` sends each query's pose to it (see README "With a robot").
     #[command(flatten)]

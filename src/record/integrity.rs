@@ -23,7 +23,7 @@ fn le_u64(b: &[u8]) -> u64 {
     u64::from_le_bytes(b[..8].try_into().unwrap_or([0; 8]))
 }
 
-/// Walks the records of an MCAP file and checks its CRCs: each attachment's, the data end's
+/// Walks the records of an MCAP file and checks its CRCs: each attachment's and chunk's, the data end's
 /// CRC of the data section and the footer's CRC of the summary (a CRC of 0 means "not
 /// computed", as the format allows). An unfinished file has only attachment CRCs to check.
 pub fn check_crcs(bytes: &[u8]) -> Vec<String> {
@@ -43,6 +43,17 @@ pub fn check_crcs(bytes: &[u8]) -> Vec<String> {
                 let crc = le_u32(crc);
                 if crc != 0 && crc32fast::hash(content) != crc {
                     problems.push(format!("the attachment record at byte {at} fails its CRC"));
+                }
+            }
+            // A chunk: start and end time, uncompressed size and CRC, compression, records.
+            0x06 if body.len() >= 32 => {
+                let crc = le_u32(&body[24..]);
+                let compression_len = le_u32(&body[28..]) as usize;
+                let records = body.get(32 + compression_len + 8..);
+                if crc != 0 && compression_len == 0 && records.is_none_or(|r| crc32fast::hash(r) != crc) {
+                    problems.push(format!(
+                        "the chunk at byte {at} fails its CRC (a byte of an event's messages was changed)"
+                    ));
                 }
             }
             0x0F if body.len() >= 4 => {
@@ -66,14 +77,17 @@ pub fn check_crcs(bytes: &[u8]) -> Vec<String> {
     problems
 }
 
-/// Checks that every channel is one of this program's topics, in JSON, with that topic's
-/// schema; for a log written by this version, that every schema is byte for byte the one
-/// this version writes (a log of another version: that it is JSON).
-pub fn check_declarations(d: &Declared, same_version: bool) -> Vec<String> {
+/// Checks that every channel is one of this program's topics (or a topic an earlier format
+/// had), in JSON, with that topic's schema; for a log of the format this version writes, that
+/// every schema is byte for byte the one it writes (a log of an earlier format: that it is
+/// JSON).
+pub fn check_declarations(d: &Declared, current_format: bool) -> Vec<String> {
     let mut problems = Vec::new();
     for (id, topic, schema_id, encoding) in &d.channels {
         let Some(known) = Topic::from_name(topic) else {
-            problems.push(format!("channel {id} has the unknown topic '{}'", topic.escape_debug()));
+            if !Topic::FORMER_NAMES.contains(&topic.as_str()) {
+                problems.push(format!("channel {id} has the unknown topic '{}'", topic.escape_debug()));
+            }
             continue;
         };
         if encoding != "json" {
@@ -94,7 +108,7 @@ pub fn check_declarations(d: &Declared, same_version: bool) -> Vec<String> {
             if name != want_name {
                 problems.push(format!("{topic}: schema name '{}', expected '{want_name}'", name.escape_debug()));
             }
-            if same_version {
+            if current_format {
                 if data.as_slice() != want.as_bytes() {
                     problems.push(format!("{topic}: the schema differs from the one this version writes"));
                 }

@@ -3,7 +3,7 @@
 use serde_json::Value;
 
 use super::Topic;
-use super::foxglove::{self, PoseInFrame, SceneUpdate, Time};
+use super::foxglove::{self, PoseInFrame, Time};
 use super::scene;
 use super::types::{
     BeliefMessage, EndStatus, ForcedChoice, Interval, JointAngles, LearnedFrom, LikertAnswer, MeasuredResponse,
@@ -73,13 +73,15 @@ pub fn start_messages(session: &Session, time_ns: u64) -> Vec<(Topic, Value)> {
     let start = SessionStartMessage {
         event_index: 0,
         start: session.start().clone(),
-        seed_decimal: Some(session.start().seed.to_string()),
+        // Only a seed past 2^53 (a session before seeds were bounded, resumed) needs its text.
+        seed_decimal: (session.start().seed > crate::MAX_SESSION_SEED).then(|| session.start().seed.to_string()),
+        log_format: Some(super::LOG_FORMAT),
     };
     let arm = &session.study().arm;
     let mut out = vec![
         (Topic::SessionStart, value(&start)),
         (Topic::Transforms, value(&scene::start_transforms(time_ns, arm))),
-        (Topic::HumanArm, value(&SceneUpdate { deletions: Vec::new(), entities: vec![scene::body(time_ns, arm)] })),
+        (Topic::HumanArm, value(&scene::body_only(time_ns, arm))),
     ];
     out.extend(
         (0..session.learners().len()).map(|run| belief_message(0, run, &session.learners()[run].summary, session)),
@@ -246,14 +248,15 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                 if log_likelihood.is_empty() {
                     continue;
                 }
+                let condition = session.learners()[run].condition;
                 let m = TestLogLikelihood {
                     event_index: index as u32,
-                    condition: session.learners()[run].condition.name().to_string(),
+                    condition: condition.name().to_string(),
                     program: program_letter(run),
                     log_likelihood,
                     test_trials: tests.len() as u32,
                 };
-                out.push((Topic::TestLogLikelihood, value(&m)));
+                out.push((Topic::TestLogLikelihood(condition), value(&m)));
             }
         }
         (Event::RobotCommanded { link, pose, .. }, Applied::RobotCommanded { view, attempt }) => {

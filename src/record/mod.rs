@@ -1,5 +1,6 @@
 //! The session log: one MCAP file per session, JSON messages with a JSON Schema per topic,
-//! unchunked and synced to disk after every event, so that a crash loses nothing.
+//! one chunk and its message indexes per event, synced to disk after every event, so that a
+//! crash loses nothing and a viewer seeks through the index.
 //! `recorder` writes, `reader` reads back, `replay` folds the events into a session,
 //! `recorded` is the session whose events are logged before they are adopted, `lineage`
 //! follows continuations, `follow` reads a log as it is written, `paths` names the files.
@@ -37,6 +38,14 @@ pub use messages::{event_from_message, messages_for, start_messages, topic_of as
 pub use schemas::schema;
 pub use topic::Topic;
 pub use writer::{McapWriter, Sink};
+
+/// The log format this version writes (`/session/start`'s `log_format`; a log without one is
+/// format 1). Readers accept every format up to it; a change to a topic's name, schema or
+/// message shape, or to the file's layout, raises it (`docs/log-format.md`, "Formats").
+/// 1: unindexed records, `/test/log_likelihood` for every condition, the body only at the start.
+/// 2: one chunk and its message indexes per event, schemas in the viewers' subset,
+///    `/test/log_likelihood/<condition>`, the body in every `/human/arm`, seeds below 2^53.
+pub const LOG_FORMAT: u32 = 2;
 
 /// Name of the attachment that holds the protocol text.
 pub const PROTOCOL_ATTACHMENT: &str = "protocol.json";

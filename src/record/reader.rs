@@ -28,6 +28,8 @@ pub struct LogContents {
     pub protocol_text: String,
     pub start: SessionStart,
     pub start_time_ns: u64,
+    /// Its log format ([`super::LOG_FORMAT`]; 1 for a log that does not say).
+    pub format: u32,
     /// The events in order.
     pub events: Vec<Stamped>,
     /// Every message, in file order.
@@ -142,7 +144,9 @@ pub fn read_log(path: &Path) -> Result<LogContents, RecordError> {
     if !bytes.starts_with(mcap::MAGIC) {
         return Err(not_log("it does not start with the MCAP magic bytes"));
     }
-    let reader = mcap::read::LinearReader::new_with_options(&bytes, mcap::read::Options::IgnoreEndMagic.into())
+    // Chunks are unpacked in place (each event's messages are one chunk). Their CRCs are
+    // checked by `integrity`, so that a changed byte is named, not taken for a cut tail.
+    let reader = mcap::read::ChunkFlattener::new_with_options(&bytes, mcap::read::Options::IgnoreEndMagic.into())
         .map_err(mcap_err(path))?;
     let mut topics: HashMap<u16, String> = HashMap::new();
     let mut declared = integrity::Declared::default();
@@ -189,11 +193,30 @@ pub fn read_log(path: &Path) -> Result<LogContents, RecordError> {
         .ok_or_else(|| not_log("it has no /session/start"))?;
     let start_time_ns = first.log_time;
     let mut start_value = first.value.clone();
-    let mut seed_decimal = None;
+    let (mut seed_decimal, mut format) = (None, None);
     if let Some(o) = start_value.as_object_mut() {
         o.remove("event_index");
         seed_decimal = o.remove("seed_decimal");
+        format = o.remove("log_format");
     }
+    let format = match format {
+        None => 1,
+        Some(v) => match v.as_u64() {
+            Some(f @ 2..) if f <= u64::from(super::LOG_FORMAT) => f as u32,
+            Some(f) if f > u64::from(super::LOG_FORMAT) => {
+                return Err(not_log(&format!(
+                    "/session/start: log_format is {f}: written by a newer handover (this one reads formats 1 to {})",
+                    super::LOG_FORMAT
+                )));
+            }
+            _ => {
+                return Err(not_log(&format!(
+                    "/session/start: log_format is {v}, expected an integer from 2 to {}",
+                    super::LOG_FORMAT
+                )));
+            }
+        },
+    };
     let start: SessionStart =
         serde_json::from_value(start_value).map_err(|e| not_log(&format!("/session/start: {e}")))?;
     validate_start(&start).map_err(|e| not_log(&format!("/session/start: {e}")))?;
@@ -213,12 +236,13 @@ pub fn read_log(path: &Path) -> Result<LogContents, RecordError> {
     }
     events.sort_by_key(|(s, _)| *s);
     let mut problems = integrity::check_crcs(&bytes);
-    problems.extend(integrity::check_declarations(&declared, start.software_version == env!("CARGO_PKG_VERSION")));
+    problems.extend(integrity::check_declarations(&declared, format == super::LOG_FORMAT));
     Ok(LogContents {
         path: path.to_path_buf(),
         protocol_text,
         start,
         start_time_ns,
+        format,
         events: events.into_iter().map(|(_, e)| e).collect(),
         messages,
         finished,

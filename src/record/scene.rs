@@ -31,7 +31,12 @@ const MEASURED: Color = Color { r: 0.1, g: 0.75, b: 0.85, a: 1.0 };
 const BODY: Color = Color { r: 0.55, g: 0.55, b: 0.6, a: 1.0 };
 const NOT_OFFERED: Color = Color { r: 0.6, g: 0.6, b: 0.6, a: 0.35 };
 const OBJECT_BODY: Color = Color { r: 0.2, g: 0.2, b: 0.2, a: 1.0 };
-const WHITE: Color = Color { r: 1.0, g: 1.0, b: 1.0, a: 1.0 };
+/// A grip's label where its grip is not offered: mid grey, read on a light and a dark theme.
+const NOT_OFFERED_TEXT: Color = Color { r: 0.45, g: 0.45, b: 0.5, a: 1.0 };
+/// The smallest side of a grip's box, so that a grip reads at the layout's camera distance.
+const MIN_GRIP_SIDE: f64 = 0.05;
+/// How far a grip's label is from its box's centre (m).
+const LABEL_OFFSET: f64 = 0.07;
 
 /// The colour a grip's label names (`"Left grip (blue)"`), else one of a fixed palette.
 pub fn grip_colour(label: &str, index: usize) -> Color {
@@ -128,11 +133,18 @@ pub fn body(time_ns: u64, arm: &HumanArm) -> SceneEntity {
     e
 }
 
-/// `/human/arm`: the arm of a configuration in `shoulder` (shoulder, elbow, wrist, grasp).
+/// `/human/arm` at the start: the body alone.
+pub fn body_only(time_ns: u64, arm: &HumanArm) -> SceneUpdate {
+    SceneUpdate { deletions: Vec::new(), entities: vec![body(time_ns, arm)] }
+}
+
+/// `/human/arm` of a grasp: the body again (a viewer that seeks, or joins a live session late,
+/// shows only a topic's latest message) and the arm of a configuration in `shoulder`
+/// (shoulder, elbow, wrist, grasp).
 pub fn arm(time_ns: u64, arm: &HumanArm, q: &ArmConfig) -> SceneUpdate {
     let mut e = SceneEntity::new(time_ns, SHOULDER, "human_arm");
     e.lines.push(strip(arm.points(q).into_iter().map(point).collect(), 0.03, ARM));
-    SceneUpdate { deletions: Vec::new(), entities: vec![e] }
+    SceneUpdate { deletions: Vec::new(), entities: vec![body(time_ns, arm), e] }
 }
 
 /// The arm as a measuring system saw it, beside [`arm`]'s: entity `measured_arm`, thinner, in
@@ -176,7 +188,8 @@ fn axes(length: f64) -> Vec<ArrowPrimitive> {
 }
 
 /// `/scene/object`: the object of a presented query in `object`: each grip a box spanning its
-/// TSR's translation bounds (at least 3 cm) in the colour its label names, labelled, the
+/// TSR's translation bounds (at least [`MIN_GRIP_SIDE`]) in the colour its label names,
+/// labelled in that colour (one that reads on a light and a dark theme) above or below the box, the
 /// offered ones opaque and the others faint; a bar through the grips; the object's axes
 /// (x red, y green, z blue: the offered pose).
 pub fn object(time_ns: u64, object: &Object, q: &ResolvedQuery) -> SceneUpdate {
@@ -186,7 +199,7 @@ pub fn object(time_ns: u64, object: &Object, q: &ResolvedQuery) -> SceneUpdate {
         let b = region.tsr.bw;
         let centre = NVector3::new((b[0][0] + b[0][1]) / 2.0, (b[1][0] + b[1][1]) / 2.0, (b[2][0] + b[2][1]) / 2.0);
         let pose = region.tsr.t0_w.to_isometry() * Translation3::from(centre);
-        let extent = |k: usize| (b[k][1] - b[k][0]).max(0.03);
+        let extent = |k: usize| (b[k][1] - b[k][0]).max(MIN_GRIP_SIDE);
         let offered = q.regions.contains(&i);
         let color = if offered { grip_colour(&region.label, i) } else { NOT_OFFERED };
         e.cubes.push(CubePrimitive {
@@ -194,13 +207,18 @@ pub fn object(time_ns: u64, object: &Object, q: &ResolvedQuery) -> SceneUpdate {
             size: Vector3 { x: extent(0), y: extent(1), z: extent(2) },
             color,
         });
-        let above = Isometry3::translation(pose.translation.x, pose.translation.y, pose.translation.z + 0.06);
+        // Labels alternate above and below their grips (up as the participant stands, whatever
+        // the object's turn), so that the labels of neighbouring grips never overlap.
+        let side = if i % 2 == 0 { LABEL_OFFSET } else { -LABEL_OFFSET };
+        let up = q.pose.to_isometry().rotation.inverse() * NVector3::z();
+        let above =
+            Isometry3::from_parts(Translation3::from(pose.translation.vector + up * side), UnitQuaternion::identity());
         e.texts.push(TextPrimitive {
             pose: Pose::from_isometry(&above),
             billboard: true,
-            font_size: 14.0,
+            font_size: 13.0,
             scale_invariant: true,
-            color: WHITE,
+            color: if offered { color } else { NOT_OFFERED_TEXT },
             text: if offered { region.label.clone() } else { format!("{} (not offered)", region.label) },
         });
         centres.push(point(Point3::from(pose.translation.vector)));

@@ -180,7 +180,7 @@ fn read_back(topic: Topic, v: &Value) -> Result<Value, serde_json::Error> {
         Topic::SessionPause | Topic::SessionResume => again::<t::SessionMark>(v),
         Topic::SessionEnd => again::<t::SessionEnd>(v),
         Topic::HumanJoints => again::<t::JointAngles>(v),
-        Topic::TestLogLikelihood => again::<t::TestLogLikelihood>(v),
+        Topic::TestLogLikelihood(_) => again::<t::TestLogLikelihood>(v),
         Topic::RobotHandoverPose => again::<fx::PoseInFrame>(v),
         Topic::HumanArm | Topic::ObjectScene => again::<fx::SceneUpdate>(v),
         Topic::Transforms => again::<fx::FrameTransforms>(v),
@@ -336,6 +336,7 @@ fn a_log_name_says_when_it_was_created() {
 struct Collect(Arc<std::sync::Mutex<Vec<(Topic, u64)>>>);
 
 impl super::Tap for Collect {
+    fn declare(&mut self, _topics: &[Topic]) {}
     fn publish(&mut self, topic: Topic, time_ns: u64, _data: &[u8]) {
         self.0.lock().unwrap().push((topic, time_ns));
     }

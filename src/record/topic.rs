@@ -22,7 +22,8 @@ pub enum Topic {
     HumanJoints,
     Transforms,
     ObjectScene,
-    TestLogLikelihood,
+    /// The test-set log-likelihood of one training condition (written at the session's end).
+    TestLogLikelihood(SelectorKind),
     Notes,
     /// What was sent to the robot (sessions with a robot only).
     RobotCommand,
@@ -32,7 +33,7 @@ pub enum Topic {
 
 impl Topic {
     /// Every topic, in a fixed order (channels are registered in it).
-    pub const ALL: [Topic; 25] = [
+    pub const ALL: [Topic; 30] = [
         Topic::SessionStart,
         Topic::TrialQuery,
         Topic::TrialResponse,
@@ -54,7 +55,12 @@ impl Topic {
         Topic::HumanJoints,
         Topic::Transforms,
         Topic::ObjectScene,
-        Topic::TestLogLikelihood,
+        Topic::TestLogLikelihood(SelectorKind::Active),
+        Topic::TestLogLikelihood(SelectorKind::ActivePaper),
+        Topic::TestLogLikelihood(SelectorKind::Passive),
+        Topic::TestLogLikelihood(SelectorKind::Random),
+        Topic::TestLogLikelihood(SelectorKind::Hybrid),
+        Topic::TestLogLikelihood(SelectorKind::Budgeted),
         Topic::Notes,
         Topic::RobotCommand,
         Topic::RobotStatus,
@@ -86,7 +92,14 @@ impl Topic {
             Topic::HumanJoints => "/human/joints",
             Topic::Transforms => "/tf",
             Topic::ObjectScene => "/scene/object",
-            Topic::TestLogLikelihood => "/test/log_likelihood",
+            Topic::TestLogLikelihood(k) => match k {
+                SelectorKind::Active => "/test/log_likelihood/active",
+                SelectorKind::ActivePaper => "/test/log_likelihood/active-paper",
+                SelectorKind::Passive => "/test/log_likelihood/passive",
+                SelectorKind::Random => "/test/log_likelihood/random",
+                SelectorKind::Hybrid => "/test/log_likelihood/hybrid",
+                SelectorKind::Budgeted => "/test/log_likelihood/budgeted",
+            },
             Topic::Notes => "/notes",
             Topic::RobotCommand => "/robot/command",
             Topic::RobotStatus => "/robot/status",
@@ -117,11 +130,16 @@ impl Topic {
         )
     }
 
+    /// Topics of logs written by earlier formats, still read: derived topics since renamed
+    /// (`/test/log_likelihood`, one topic for every condition, before one topic per condition).
+    pub const FORMER_NAMES: [&'static str; 1] = ["/test/log_likelihood"];
+
     /// Whether a session with training conditions `conditions` registers its channel at the
-    /// start (a belief topic per condition run, and every other topic but the robot's).
+    /// start (a belief and a test topic per condition run, and every other topic but the
+    /// robot's).
     pub fn used_by(self, conditions: &[SelectorKind]) -> bool {
         match self {
-            Topic::Belief(k) => conditions.contains(&k),
+            Topic::Belief(k) | Topic::TestLogLikelihood(k) => conditions.contains(&k),
             _ => !self.registered_on_use(),
         }
     }
@@ -153,6 +171,7 @@ mod tests {
         assert_eq!(names.len(), Topic::ALL.len());
         for k in SelectorKind::ALL {
             assert!(Topic::ALL.contains(&Topic::Belief(k)), "{k:?} has a belief topic");
+            assert!(Topic::ALL.contains(&Topic::TestLogLikelihood(k)), "{k:?} has a test topic");
         }
         assert_eq!(Topic::ALL.iter().filter(|t| t.is_event()).count(), 12);
     }

@@ -21,6 +21,10 @@ pub struct SessionStartMessage {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schemars(regex(pattern = r"^[0-9]{1,20}$"))]
     pub seed_decimal: Option<String>,
+    /// The log format ([`super::LOG_FORMAT`]); logs of format 1 lack it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(range(min = 2))]
+    pub log_format: Option<u32>,
 }
 
 /// The phase of a trial.
@@ -233,9 +237,9 @@ impl From<[f64; 7]> for JointValues {
     }
 }
 
-/// `/test/log_likelihood`: after the session ends, one per training condition: the test-set
-/// log-likelihood of its posterior-mean estimate after each iteration, as `analyze` computes
-/// it. An array indexed by iteration, so that Foxglove's Plot panel draws it against the
+/// `/test/log_likelihood/<condition>`: after the session ends, one per training condition:
+/// the test-set log-likelihood of its posterior-mean estimate after each iteration, as
+/// `analyze` computes it. An array indexed by iteration, so that Foxglove's Plot panel draws it against the
 /// index. Derived.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[schemars(title = "handover.TestLogLikelihood")]

@@ -1,14 +1,17 @@
-//! A durable, failure-safe writer of unchunked MCAP files.
+//! A durable, failure-safe writer of indexed MCAP files.
 //!
 //! The mcap crate's writer cannot take back a record once written (its statistics and data
 //! CRC already count it), so a failed write would leave its bytes queued for the next one.
 //! This writer builds each commit (one event's messages) as one buffer, writes it at the
 //! end of the last good commit, and syncs; if anything fails it truncates the file back to
 //! that offset, so the file is exactly the acknowledged commits and a retry writes each
-//! message once. The layout is MCAP's (<https://mcap.dev/spec>): magic, header, schemas,
-//! channels, attachments and messages; on `finish` a data end with the data section's
-//! CRC, a summary (schemas, channels, statistics, attachment index), summary offsets and a
-//! footer with the summary CRC.
+//! message once. The layout is MCAP's (<https://mcap.dev/spec>): magic, header, then per
+//! commit its new schemas, channels and attachments followed by one uncompressed chunk of its
+//! messages (with its CRC) and the chunk's message indexes; on `finish` a data end with the
+//! data section's CRC, a summary (schemas, channels, statistics, chunk indexes, attachment
+//! index), summary offsets and a footer with the summary CRC. A reader that seeks through
+//! the summary's indexes and one that streams the records read the same messages; a file cut
+//! by a crash streams up to its last whole commit.
 //!
 //! Its length: one binary format (the MCAP records this writer emits, their CRCs, the summary)
 //! and its failure tests.
@@ -52,6 +55,9 @@ mod op {
     pub const SCHEMA: u8 = 0x03;
     pub const CHANNEL: u8 = 0x04;
     pub const MESSAGE: u8 = 0x05;
+    pub const CHUNK: u8 = 0x06;
+    pub const MESSAGE_INDEX: u8 = 0x07;
+    pub const CHUNK_INDEX: u8 = 0x08;
     pub const ATTACHMENT: u8 = 0x09;
     pub const ATTACHMENT_INDEX: u8 = 0x0A;
     pub const STATISTICS: u8 = 0x0B;
@@ -127,6 +133,18 @@ struct AttachmentRef {
     media_type: String,
 }
 
+/// Where a committed chunk is, for the summary's chunk index.
+struct ChunkRef {
+    start_time: u64,
+    end_time: u64,
+    offset: u64,
+    length: u64,
+    /// Per channel, the file offset of its message index record after the chunk.
+    index_offsets: Vec<(u16, u64)>,
+    index_length: u64,
+    size: u64,
+}
+
 /// One message to write.
 pub struct Message<'a> {
     pub channel: u16,
@@ -154,13 +172,17 @@ pub struct McapWriter<S: Sink> {
     schemas: Vec<SchemaRec>,
     channels: Vec<ChannelRec>,
     attachments: Vec<AttachmentRef>,
+    chunks: Vec<ChunkRef>,
     /// Messages per channel, and the first and last log time, of committed messages.
     counts: BTreeMap<u16, u64>,
     times: Option<(u64, u64)>,
-    /// The records of the next commit.
+    /// The records of the next commit outside its chunk (schemas, channels, attachments).
     staged: Vec<u8>,
+    /// The message records of the next commit's chunk.
+    staged_chunk: Vec<u8>,
     staged_attachments: Vec<AttachmentRef>,
-    staged_counts: Vec<(u16, u64)>,
+    /// (channel, log time, offset in the chunk's records) of each staged message.
+    staged_counts: Vec<(u16, u64, u64)>,
     /// Schemas and channels staged with the next commit (the summary lists only committed ones).
     staged_schemas: Vec<SchemaRec>,
     staged_channels: Vec<ChannelRec>,
@@ -177,9 +199,11 @@ impl<S: Sink> McapWriter<S> {
             schemas: Vec::new(),
             channels: Vec::new(),
             attachments: Vec::new(),
+            chunks: Vec::new(),
             counts: BTreeMap::new(),
             times: None,
             staged: MAGIC.to_vec(),
+            staged_chunk: Vec::new(),
             staged_attachments: Vec::new(),
             staged_counts: Vec::new(),
             staged_schemas: Vec::new(),
@@ -232,12 +256,53 @@ impl<S: Sink> McapWriter<S> {
         });
     }
 
-    /// Stages a message.
+    /// Stages a message (in the next commit's chunk).
     pub fn message(&mut self, m: &Message) {
         let mut b = Body::default();
         b.u16(m.channel).u32(m.sequence).u64(m.log_time).u64(m.log_time).raw(m.data);
-        record(&mut self.staged, op::MESSAGE, &b);
-        self.staged_counts.push((m.channel, m.log_time));
+        let offset = self.staged_chunk.len() as u64;
+        record(&mut self.staged_chunk, op::MESSAGE, &b);
+        self.staged_counts.push((m.channel, m.log_time, offset));
+    }
+
+    /// Appends the staged messages to `self.staged` as one chunk and its message indexes
+    /// (channels in ascending order, each index's entries in message order); where it is.
+    fn stage_chunk(&mut self) -> Option<ChunkRef> {
+        if self.staged_counts.is_empty() {
+            return None;
+        }
+        let records = std::mem::take(&mut self.staged_chunk);
+        let start_time = self.staged_counts.iter().map(|c| c.1).min().unwrap_or(0);
+        let end_time = self.staged_counts.iter().map(|c| c.1).max().unwrap_or(0);
+        let offset = self.committed + self.staged.len() as u64;
+        let mut chunk = Body::default();
+        chunk
+            .u64(start_time)
+            .u64(end_time)
+            .u64(records.len() as u64)
+            .u32(crc32fast::hash(&records))
+            .str("")
+            .u64(records.len() as u64)
+            .raw(&records);
+        record(&mut self.staged, op::CHUNK, &chunk);
+        let length = self.committed + self.staged.len() as u64 - offset;
+        let mut per_channel: BTreeMap<u16, Vec<(u64, u64)>> = BTreeMap::new();
+        for &(channel, time, at) in &self.staged_counts {
+            per_channel.entry(channel).or_default().push((time, at));
+        }
+        let index_start = self.committed + self.staged.len() as u64;
+        let mut index_offsets = Vec::with_capacity(per_channel.len());
+        for (channel, entries) in per_channel {
+            index_offsets.push((channel, self.committed + self.staged.len() as u64));
+            let mut b = Body::default();
+            b.u16(channel).u32(entries.len() as u32 * 16);
+            for (time, at) in entries {
+                b.u64(time).u64(at);
+            }
+            record(&mut self.staged, op::MESSAGE_INDEX, &b);
+        }
+        let index_length = self.committed + self.staged.len() as u64 - index_start;
+        Some(ChunkRef { start_time, end_time, offset, length, index_offsets, index_length, size: records.len() as u64 })
     }
 
     /// Writes everything staged at the end of the last good commit and syncs. On failure
@@ -249,6 +314,7 @@ impl<S: Sink> McapWriter<S> {
                 restored: false,
             });
         }
+        let chunk = self.stage_chunk();
         let staged = std::mem::take(&mut self.staged);
         let result = self
             .sink
@@ -263,7 +329,8 @@ impl<S: Sink> McapWriter<S> {
                 self.attachments.append(&mut self.staged_attachments);
                 self.schemas.append(&mut self.staged_schemas);
                 self.channels.append(&mut self.staged_channels);
-                for (channel, t) in self.staged_counts.drain(..) {
+                self.chunks.extend(chunk);
+                for (channel, t, _) in self.staged_counts.drain(..) {
                     *self.counts.entry(channel).or_default() += 1;
                     self.times = Some(self.times.map_or((t, t), |(a, b)| (a.min(t), b.max(t))));
                 }
@@ -290,6 +357,7 @@ impl<S: Sink> McapWriter<S> {
     /// committed is dropped.
     pub fn finish(mut self) -> Result<S, CommitError> {
         self.staged.clear();
+        self.staged_chunk.clear();
         self.staged_counts.clear();
         self.staged_attachments.clear();
         self.staged_schemas.clear();
@@ -338,7 +406,7 @@ impl<S: Sink> McapWriter<S> {
             .u32(self.channels.len() as u32)
             .u32(self.attachments.len() as u32)
             .u32(0)
-            .u32(0)
+            .u32(self.chunks.len() as u32)
             .u64(first)
             .u64(last)
             .u32(self.counts.len() as u32 * 10);
@@ -346,6 +414,21 @@ impl<S: Sink> McapWriter<S> {
             stats.u16(*channel).u64(*n);
         }
         group(&mut out, op::STATISTICS, vec![stats]);
+        let chunk_indexes = self
+            .chunks
+            .iter()
+            .map(|c| {
+                let mut b = Body::default();
+                b.u64(c.start_time).u64(c.end_time).u64(c.offset).u64(c.length);
+                b.u32(c.index_offsets.len() as u32 * 10);
+                for (channel, at) in &c.index_offsets {
+                    b.u16(*channel).u64(*at);
+                }
+                b.u64(c.index_length).str("").u64(c.size).u64(c.size);
+                b
+            })
+            .collect();
+        group(&mut out, op::CHUNK_INDEX, chunk_indexes);
         let attachments = self
             .attachments
             .iter()
