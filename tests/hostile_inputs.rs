@@ -480,3 +480,49 @@ fn a_closed_standard_output_ends_every_command_quietly() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A finished log with any one byte changed is flagged: it does not read, or reads as damaged
+/// (`integrity`, which `analyze --verify` reports), or reads as not finished; never as the
+/// intact log it was. Every byte of a small finished log, in memory.
+#[test]
+fn every_one_byte_change_of_a_finished_log_is_flagged() {
+    let dir = tmpdir("flips");
+    let path = base_log(&dir);
+    let bytes = std::fs::read(&path).unwrap();
+    let intact = handover::record::read_log_bytes(&path, &bytes).unwrap();
+    assert!(intact.finished && intact.integrity.is_empty(), "{:?}", intact.integrity);
+    let mut unflagged = Vec::new();
+    let mut flipped = bytes.clone();
+    for at in 0..bytes.len() {
+        flipped[at] ^= 0xFF;
+        // The bytes' structure and CRCs first (cheap); the whole read only if they pass.
+        let flagged = !handover::record::integrity_problems(&flipped).is_empty()
+            || match handover::record::read_log_bytes(&path, &flipped) {
+                Err(_) => true,
+                Ok(log) => !log.integrity.is_empty() || !log.finished || log.cut_tail,
+            };
+        if !flagged {
+            unflagged.push(at);
+        }
+        flipped[at] = bytes[at];
+    }
+    assert!(
+        unflagged.is_empty(),
+        "{} of {} one-byte changes pass as intact, at {:?}",
+        unflagged.len(),
+        bytes.len(),
+        &unflagged[..unflagged.len().min(20)]
+    );
+    // A finished log with anything after its end, and one whose records stop before its footer.
+    let mut padded = bytes.clone();
+    padded.extend(std::iter::repeat_n(0u8, 4096));
+    let e = handover::record::read_log_bytes(&path, &padded).unwrap_err().to_string();
+    assert!(e.contains("4096 bytes follow its footer"), "{e}");
+    let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+    let second = summary.chunk_indexes[1].chunk_start_offset as usize;
+    let mut short = bytes.clone();
+    short[second + 1] ^= 0x01; // the second event's chunk length
+    let e = handover::record::read_log_bytes(&path, &short).unwrap_err().to_string();
+    assert!(e.contains("damaged") && e.contains("before its data end"), "{e}");
+    std::fs::remove_dir_all(dir).unwrap();
+}

@@ -23,6 +23,108 @@ fn le_u64(b: &[u8]) -> u64 {
     u64::from_le_bytes(b[..8].try_into().unwrap_or([0; 8]))
 }
 
+const MAGIC: &[u8] = b"\x89MCAP0\r\n";
+/// A footer record: opcode, length 20, summary start, summary offset start, summary CRC.
+const FOOTER_LEN: usize = 1 + 8 + 20;
+/// A data end record: opcode, length 4, the data section's CRC.
+const DATA_END_LEN: usize = 1 + 8 + 4;
+
+/// Where a file that ends as a finished log does (its footer and end magic): the offset of its
+/// data end record, or why its end is not a log's.
+fn finished_end(bytes: &[u8]) -> Option<Result<usize, String>> {
+    let len = bytes.len();
+    if len < MAGIC.len() + FOOTER_LEN + DATA_END_LEN + MAGIC.len() || !bytes.ends_with(MAGIC) {
+        return None;
+    }
+    let footer = len - MAGIC.len() - FOOTER_LEN;
+    if bytes[footer] != 0x02 || le_u64(&bytes[footer + 1..]) != 20 {
+        return Some(Err(format!("it ends with the MCAP magic but no footer before it (at byte {footer})")));
+    }
+    let summary_start = le_u64(&bytes[footer + 9..]) as usize;
+    let data_end = match summary_start {
+        0 => footer.checked_sub(DATA_END_LEN),
+        s if s <= footer => s.checked_sub(DATA_END_LEN),
+        _ => None,
+    };
+    let Some(data_end) = data_end.filter(|&d| d >= MAGIC.len()) else {
+        return Some(Err(format!("its footer's summary start {summary_start} is outside the file")));
+    };
+    if bytes[data_end] != 0x0F || le_u64(&bytes[data_end + 1..]) != 4 {
+        return Some(Err(format!("there is no data end record at byte {data_end}, before its summary")));
+    }
+    Some(Ok(data_end))
+}
+
+/// Whether the file's records follow one another from its magic to its end: for a finished
+/// log (footer and end magic), exactly to its data end, then its summary exactly to its
+/// footer, nothing after the end magic; for an unfinished one, up to a cut tail. A finished
+/// log whose records stop short is damaged (a changed length field), not cut off by a crash.
+pub fn check_structure(bytes: &[u8]) -> Result<(), String> {
+    let walk = |from: usize, to: usize| -> usize {
+        let mut at = from;
+        while at + 9 <= to {
+            let len = le_u64(&bytes[at + 1..]);
+            match usize::try_from(len).ok().and_then(|l| (at + 9).checked_add(l)).filter(|&e| e <= to) {
+                Some(end) => at = end,
+                None => break,
+            }
+        }
+        at
+    };
+    match finished_end(bytes) {
+        Some(Err(why)) => Err(format!("the log is damaged: {why}")),
+        Some(Ok(data_end)) => {
+            let reached = walk(MAGIC.len(), data_end);
+            if reached != data_end {
+                return Err(format!(
+                    "the log is damaged: its records stop at byte {reached}, before its data end at byte {data_end} \
+                     (a changed byte; a crash leaves no footer)"
+                ));
+            }
+            let footer = bytes.len() - MAGIC.len() - FOOTER_LEN;
+            let summary_start = le_u64(&bytes[footer + 9..]) as usize;
+            let summary_from = if summary_start == 0 { footer } else { summary_start };
+            if data_end + DATA_END_LEN != summary_from || walk(summary_from, footer) != footer {
+                return Err(format!(
+                    "the log is damaged: its summary's records do not lead to its footer at byte {footer}"
+                ));
+            }
+            Ok(())
+        }
+        None => {
+            // Unfinished: a footer inside means content after a finished log's end.
+            let mut at = MAGIC.len();
+            while at + 9 <= bytes.len() {
+                let len = le_u64(&bytes[at + 1..]);
+                let Some(end) =
+                    usize::try_from(len).ok().and_then(|l| (at + 9).checked_add(l)).filter(|&e| e <= bytes.len())
+                else {
+                    break;
+                };
+                if bytes[at] == 0x02 {
+                    return Err(match bytes.len().checked_sub(end + MAGIC.len()) {
+                        Some(0) => "the log is damaged: its end magic is changed".to_string(),
+                        Some(extra) => format!("the log is damaged: {extra} bytes follow its footer and end magic"),
+                        None => "the log is damaged: its end magic is cut".to_string(),
+                    });
+                }
+                at = end;
+            }
+            Ok(())
+        }
+    }
+}
+
+/// What is wrong with a log's bytes, without reading its messages: its structure
+/// ([`check_structure`]) and every CRC it carries ([`check_crcs`]). Empty for an intact log or
+/// one cut off by a crash.
+pub fn problems(bytes: &[u8]) -> Vec<String> {
+    match check_structure(bytes) {
+        Err(why) => vec![why],
+        Ok(()) => check_crcs(bytes),
+    }
+}
+
 /// Walks the records of an MCAP file and checks its CRCs: each attachment's and chunk's, the data end's
 /// CRC of the data section and the footer's CRC of the summary (a CRC of 0 means "not
 /// computed", as the format allows). An unfinished file has only attachment CRCs to check.

@@ -8,6 +8,7 @@
 mod follow;
 pub mod foxglove;
 mod integrity;
+pub use integrity::problems as integrity_problems;
 mod lineage;
 mod messages;
 mod paths;
@@ -29,7 +30,9 @@ use crate::session::SessionError;
 pub use follow::Follower;
 pub use lineage::{Lineage, is_over, lineage};
 pub use paths::{continuation_path, is_log_file_name, log_folder, log_path_in, mcap_files, new_log_path};
-pub use reader::{LogContents, LoggedMessage, MAX_LOG_BYTES, MAX_TEXT_BYTES, read_log, study_of, validate_start};
+pub use reader::{
+    LogContents, LoggedMessage, MAX_LOG_BYTES, MAX_TEXT_BYTES, read_log, read_log_bytes, study_of, validate_start,
+};
 pub use recorded::{RecordedSession, SubmitError};
 pub use recorder::{Recorder, SharedTap, Tap};
 pub use replay::{ReplayStep, replay_rest, replay_with};

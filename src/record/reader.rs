@@ -141,12 +141,19 @@ pub fn read_log(path: &Path) -> Result<LogContents, RecordError> {
     if bytes.len() as u64 > MAX_LOG_BYTES {
         return Err(not_log(&format!("it is over the budget of {MAX_LOG_BYTES} bytes for a log")));
     }
+    read_log_bytes(path, &bytes)
+}
+
+/// [`read_log`] of a log's bytes already in memory (`path` names it in errors).
+pub fn read_log_bytes(path: &Path, bytes: &[u8]) -> Result<LogContents, RecordError> {
+    let not_log = |why: &str| RecordError::NotALog { path: path.to_path_buf(), why: why.to_string() };
     if !bytes.starts_with(mcap::MAGIC) {
         return Err(not_log("it does not start with the MCAP magic bytes"));
     }
+    integrity::check_structure(bytes).map_err(|why| not_log(&why))?;
     // Chunks are unpacked in place (each event's messages are one chunk). Their CRCs are
     // checked by `integrity`, so that a changed byte is named, not taken for a cut tail.
-    let reader = mcap::read::ChunkFlattener::new_with_options(&bytes, mcap::read::Options::IgnoreEndMagic.into())
+    let reader = mcap::read::ChunkFlattener::new_with_options(bytes, mcap::read::Options::IgnoreEndMagic.into())
         .map_err(mcap_err(path))?;
     let mut topics: HashMap<u16, String> = HashMap::new();
     let mut declared = integrity::Declared::default();
@@ -235,7 +242,7 @@ pub fn read_log(path: &Path) -> Result<LogContents, RecordError> {
         events.push((m.sequence, Stamped { time_ns: m.log_time, event }));
     }
     events.sort_by_key(|(s, _)| *s);
-    let mut problems = integrity::check_crcs(&bytes);
+    let mut problems = integrity::check_crcs(bytes);
     problems.extend(integrity::check_declarations(&declared, format == super::LOG_FORMAT));
     Ok(LogContents {
         path: path.to_path_buf(),
