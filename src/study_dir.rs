@@ -25,6 +25,28 @@ impl StudyDirs {
         }
     }
 
+    /// The study a log belongs to, from the log's own place: a log at
+    /// `<study>/logs/<participant>/<file>.mcap` belongs to `<study>` (made absolute, no link
+    /// followed), so that who withdrew is decided the same from any current folder. None for a
+    /// log kept anywhere else.
+    pub fn of_log(log: &Path, participant: &str) -> Option<Self> {
+        let log = std::path::absolute(log).ok()?;
+        let folder = log.parent()?;
+        let logs = folder.parent()?;
+        let study = logs.parent()?;
+        (folder.file_name()? == participant && logs.file_name()? == "logs")
+            .then(|| Self::resolve(Some(study), None, None))
+    }
+
+    /// The study folders for a log: the ones given (`--study-dir`, `--participants-dir`) if
+    /// any, else the log's own study ([`Self::of_log`]), else the current folder's.
+    pub fn for_log(root: Option<&Path>, participants: Option<&Path>, log: &Path, participant: &str) -> Self {
+        if root.is_some() || participants.is_some() {
+            return Self::resolve(root, participants, None);
+        }
+        Self::of_log(log, participant).unwrap_or_else(|| Self::resolve(None, None, None))
+    }
+
     /// The folders that do not exist yet (a new study, or a typo in the path).
     pub fn missing(&self) -> Vec<&Path> {
         [self.participants.as_path(), self.logs.as_path()].into_iter().filter(|p| !p.is_dir()).collect()

@@ -14,7 +14,13 @@ use handover::record::{RecordedSession, mcap_files, new_log_path};
 use handover::session::Session;
 
 fn handover(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_handover")).args(args).stdin(Stdio::null()).output().unwrap();
+    handover_in(&std::env::temp_dir(), args)
+}
+
+/// The command run from `cwd`: a folder that is not the study's.
+fn handover_in(cwd: &Path, args: &[&str]) -> (i32, String, String) {
+    let out =
+        Command::new(env!("CARGO_BIN_EXE_handover")).args(args).current_dir(cwd).stdin(Stdio::null()).output().unwrap();
     (out.status.code().unwrap_or(-1), String::from_utf8(out.stdout).unwrap(), String::from_utf8(out.stderr).unwrap())
 }
 
@@ -101,6 +107,14 @@ fn a_withdrawn_participant_is_left_out_and_frees_their_slot() {
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert!(v["real"].is_null(), "no real session is counted: {}", v["real"]);
     assert_eq!(v["withdrawn_left_out"]["sessions"], 1);
+    // Run from another folder, without --study-dir: the log's own study decides, and says so.
+    let elsewhere = study_dir("keep-elsewhere");
+    let (code, json, err) =
+        handover_in(&elsewhere, &["analyze", logs.to_str().unwrap(), "--format", "json", "--alpha-particles", "200"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("left out 1 session(s) of 1 participant(s) who withdrew"), "{err}");
+    assert!(err.contains(&participants.display().to_string()), "the study folder used is named: {err}");
+    assert!(serde_json::from_str::<serde_json::Value>(&json).unwrap()["real"].is_null());
     // Withdrawing again keeps the first time.
     let first = rec.withdrawn_at.clone();
     let (code, _, _) = handover(&["participant", "withdraw", &id, "--study-dir", dir.to_str().unwrap()]);
@@ -116,6 +130,11 @@ fn an_interrupted_session_of_a_withdrawn_participant_is_not_continued() {
     let (code, _, err) = handover(&["participant", "withdraw", &id, "--study-dir", dir.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     let (code, _, err) = handover(&["resume", log.to_str().unwrap(), "--study-dir", dir.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("withdrew from the study; their session is not continued"), "{err}");
+    // From any folder, without --study-dir: the log's own study decides.
+    let elsewhere = study_dir("resume-elsewhere");
+    let (code, _, err) = handover_in(&elsewhere, &["resume", log.to_str().unwrap()]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("withdrew from the study; their session is not continued"), "{err}");
     assert_eq!(mcap_files(&dir.join("logs")).len(), 1, "no continuation written");

@@ -14,7 +14,7 @@ use handover::analysis::{
 };
 use handover::participant::has_withdrawn;
 use handover::plot::{LinePlot, PooledEvidence, Series, alpha_plot, bar_chart, mean_se_plot};
-use handover::record::{LOG_FORMAT, Topic, mcap_files, read_log, study_of};
+use handover::record::{LOG_FORMAT, LogContents, Topic, mcap_files, read_log, study_of};
 use handover::session::program_letter;
 use handover::study_dir::StudyDirs;
 use serde::Serialize;
@@ -157,24 +157,30 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
     }
     let (mut logs, mut warnings) = most_complete(logs);
     // Participants who withdrew are never counted.
-    let dirs = StudyDirs::resolve(args.study_dir.as_deref(), args.participants.as_deref(), None);
+    // Each log's study is the one given, else the log's own (`<study>/logs/<id>/`), else the
+    // current folder's: the same participants are left out from any folder.
+    let dirs_of = |l: &LogContents| {
+        StudyDirs::for_log(args.study_dir.as_deref(), args.participants.as_deref(), &l.path, &l.start.participant)
+    };
     let before = logs.len();
+    let mut consulted: Vec<PathBuf> = logs.iter().filter(|l| !l.start.pilot).map(|l| dirs_of(l).participants).collect();
+    consulted.sort();
+    consulted.dedup();
     let mut withdrawn: Vec<String> = logs
         .iter()
-        .filter(|l| !l.start.pilot && has_withdrawn(&dirs.participants, &l.start.participant))
+        .filter(|l| !l.start.pilot && has_withdrawn(&dirs_of(l).participants, &l.start.participant))
         .map(|l| l.start.participant.clone())
         .collect();
     logs.retain(|l| l.start.pilot || !withdrawn.contains(&l.start.participant));
+    if !consulted.is_empty() {
+        let names: Vec<String> = consulted.iter().map(|p| p.display().to_string()).collect();
+        eprintln!("withdrawals: participant records in {}", names.join(", "));
+    }
     withdrawn.sort();
     withdrawn.dedup();
     let left_out = WithdrawnLeftOut { sessions: before - logs.len(), participants: withdrawn.len() };
     if left_out.sessions > 0 {
-        eprintln!(
-            "left out {} session(s) of {} participant(s) who withdrew (records in {})",
-            left_out.sessions,
-            left_out.participants,
-            dirs.participants.display()
-        );
+        eprintln!("left out {} session(s) of {} participant(s) who withdrew", left_out.sessions, left_out.participants);
     }
     let mut analysed = Vec::new();
     for log in logs {

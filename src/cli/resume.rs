@@ -77,7 +77,8 @@ fn choose(given: LogContents, fork: bool) -> LogContents {
 pub fn run(args: ResumeArgs) -> Result<()> {
     let given = read_log(&args.log).map_err(|e| bad(e.to_string()))?;
     let old = choose(given, args.fork);
-    let dirs = StudyDirs::resolve(args.study_dir.as_deref(), None, None);
+    // The study the log belongs to decides withdrawal, whatever the current folder.
+    let dirs = StudyDirs::for_log(args.study_dir.as_deref(), None, &old.path, &old.start.participant);
     if is_over(&old) {
         eprintln!("{}: the session is over; opening it read-only (nothing is written)", old.path.display());
         if args.dry_run {
