@@ -5,25 +5,29 @@
 //! (`docs/foxglove-layout.json`). Every topic a session may publish is advertised before its
 //! first message, so a viewer connected from the start subscribes in time to get every
 //! message in order; one that connects late gets each topic's latest message when it
-//! subscribes (the body is in every `/human/arm`), so the scene is there at once.
+//! subscribes (the body is in every `/human/arm`), so the scene is there at once. A viewer
+//! gets each message once: it is sent to a subscriber only after that subscriber's replay,
+//! both under one lock, so a message published while a viewer subscribes is not sent twice.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::net::SocketAddr;
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use foxglove::websocket::{ChannelView, Client, ServerListener};
-use foxglove::{Context, PartialMetadata, RawChannel, Schema, WebSocketServer, WebSocketServerHandle};
+use foxglove::{Context, PartialMetadata, RawChannel, Schema, SinkId, WebSocketServer, WebSocketServerHandle};
 
 use crate::record::{Tap, Topic, schema};
 
 /// Where the live view listens unless told otherwise: this machine only, Foxglove's port.
 pub const DEFAULT_ADDR: &str = "127.0.0.1:8765";
 
-/// The channels, and each topic's latest message (time, JSON).
+/// The channels, each topic's latest message (time, JSON), and the viewers subscribed to
+/// each topic that have had its replay (the only ones new messages are sent to).
 #[derive(Default)]
 struct Shared {
     channels: HashMap<Topic, Arc<RawChannel>>,
     latest: HashMap<Topic, (u64, Vec<u8>)>,
+    subscribers: HashMap<Topic, HashSet<SinkId>>,
 }
 
 /// Replays a topic's latest message to a viewer that subscribes to it.
@@ -36,10 +40,20 @@ fn lock(m: &Mutex<Shared>) -> MutexGuard<'_, Shared> {
 
 impl ServerListener for Latch {
     fn on_subscribe(&self, client: Client, channel: ChannelView) {
-        let shared = lock(&self.0);
-        let Some(topic) = Topic::from_name(channel.topic()) else { return };
+        let mut shared = lock(&self.0);
+        let (Some(topic), Some(sink)) = (Topic::from_name(channel.topic()), client.sink_id()) else { return };
         if let (Some(ch), Some((time_ns, data))) = (shared.channels.get(&topic), shared.latest.get(&topic)) {
-            ch.log_with_meta_to_sink(data, PartialMetadata { log_time: Some(*time_ns) }, client.sink_id());
+            ch.log_with_meta_to_sink(data, PartialMetadata { log_time: Some(*time_ns) }, Some(sink));
+        }
+        shared.subscribers.entry(topic).or_default().insert(sink);
+    }
+
+    fn on_unsubscribe(&self, client: Client, channel: ChannelView) {
+        let mut shared = lock(&self.0);
+        if let (Some(topic), Some(sink)) = (Topic::from_name(channel.topic()), client.sink_id())
+            && let Some(sinks) = shared.subscribers.get_mut(&topic)
+        {
+            sinks.remove(&sink);
         }
     }
 }
@@ -108,8 +122,11 @@ impl Tap for LiveView {
         let mut shared = lock(&self.shared);
         let Some(channel) = self.channel(&mut shared, topic) else { return };
         shared.latest.insert(topic, (time_ns, data.to_vec()));
-        drop(shared);
-        channel.log_with_meta(data, PartialMetadata { log_time: Some(time_ns) });
+        // Under the lock: a viewer subscribing now gets this message either as its replay or
+        // here, never both. The server calls `on_subscribe` holding none of its own locks.
+        for &sink in shared.subscribers.get(&topic).into_iter().flatten() {
+            channel.log_with_meta_to_sink(data, PartialMetadata { log_time: Some(time_ns) }, Some(sink));
+        }
     }
 
     fn boxed_clone(&self) -> Box<dyn Tap> {
