@@ -10,6 +10,7 @@ pub mod counterbalance;
 pub mod dryrun;
 pub mod ergo;
 pub mod experiment;
+pub mod input_file;
 pub mod kinematics;
 pub mod live;
 pub mod participant;
@@ -24,6 +25,7 @@ pub mod session;
 pub mod setup;
 pub mod stats;
 pub mod study_dir;
+pub mod text;
 pub mod tui;
 
 /// The one seeded generator type used for every random draw: reproducible across

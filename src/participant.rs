@@ -190,28 +190,75 @@ impl ParticipantRecord {
 
     /// Reads and validates a participant's record (at most 64 KiB).
     pub fn load(dir: &std::path::Path, id: &str) -> Result<Self, RecordFileError> {
-        use std::io::Read;
         let path = Self::path(dir, id)?;
         let io = |source| RecordFileError::Io { path: path.clone(), source };
         let invalid = |message: String| RecordFileError::Invalid { path: path.clone(), message };
-        let mut text = String::new();
-        std::fs::File::open(&path).and_then(|f| f.take(MAX_RECORD_BYTES + 1).read_to_string(&mut text)).map_err(io)?;
-        if text.len() as u64 > MAX_RECORD_BYTES {
-            return Err(invalid(format!("over {MAX_RECORD_BYTES} bytes, expected a small participant record")));
-        }
-        let rec: Self = serde_json::from_str(&text).map_err(|e| invalid(e.to_string()))?;
+        let bytes = crate::input_file::read_regular(&path, MAX_RECORD_BYTES).map_err(io)?;
+        let rec: Self = crate::input_file::parse_json_bytes(&bytes).map_err(invalid)?;
         rec.validate().map_err(invalid)?;
         if rec.id != id {
-            return Err(invalid(format!("id is '{}', expected '{id}'", rec.id)));
+            return Err(invalid(format!("id is '{}', expected '{id}'", crate::text::printable(&rec.id))));
         }
         Ok(rec)
     }
 }
 
-/// Whether `participants/<id>.json` exists and says the participant withdrew (a missing or
-/// unreadable record says nothing).
+/// `participants/<id>.deleted.json`: all that is kept of a participant whose data was deleted
+/// on withdrawal — the id and the dates, no data — so that a copy of one of their logs (a
+/// backup, say) is still left out by `analyze` and never continued by `resume`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tombstone {
+    pub id: String,
+    /// When the participant withdrew (RFC 3339 UTC).
+    pub withdrawn_at: String,
+    /// When their logs and record were deleted (RFC 3339 UTC).
+    pub data_deleted_at: String,
+}
+
+impl Tombstone {
+    /// The tombstone's file in a participants directory.
+    pub fn path(dir: &std::path::Path, id: &str) -> Result<std::path::PathBuf, BadId> {
+        validate_id(id)?;
+        Ok(dir.join(format!("{id}.deleted.json")))
+    }
+
+    /// Writes the tombstone (owner-only, synced, atomically replacing an earlier one).
+    pub fn write(&self, dir: &std::path::Path) -> Result<std::path::PathBuf, RecordFileError> {
+        let path = Self::path(dir, &self.id)?;
+        let err = |source| RecordFileError::Io { path: path.clone(), source };
+        for t in [&self.withdrawn_at, &self.data_deleted_at] {
+            if chrono::DateTime::parse_from_rfc3339(t).is_err() {
+                let message = format!("'{}' is not an RFC 3339 time", t.escape_debug());
+                return Err(RecordFileError::Invalid { path: path.clone(), message });
+            }
+        }
+        let mut text = serde_json::to_string_pretty(self).map_err(|e| err(std::io::Error::other(e)))?;
+        text.push('\n');
+        crate::private_files::replace(&path, text.as_bytes()).map_err(err)?;
+        Ok(path)
+    }
+
+    /// Reads a participant's tombstone, if there is one (a regular file of at most 64 KiB).
+    pub fn load(dir: &std::path::Path, id: &str) -> Result<Self, RecordFileError> {
+        let path = Self::path(dir, id)?;
+        let invalid = |message: String| RecordFileError::Invalid { path: path.clone(), message };
+        let bytes = crate::input_file::read_regular(&path, MAX_RECORD_BYTES)
+            .map_err(|e| RecordFileError::Io { path: path.clone(), source: e })?;
+        let t: Self = crate::input_file::parse_json_bytes(&bytes).map_err(invalid)?;
+        if t.id != id {
+            return Err(invalid(format!("id is '{}', expected '{id}'", crate::text::printable(&t.id))));
+        }
+        Ok(t)
+    }
+}
+
+/// Whether the participant withdrew: `participants/<id>.json` says so, or their data was
+/// deleted and `participants/<id>.deleted.json` is all that is left (a missing or unreadable
+/// record says nothing).
 pub fn has_withdrawn(participants: &std::path::Path, id: &str) -> bool {
     ParticipantRecord::load(participants, id).is_ok_and(|r| r.is_withdrawn())
+        || Tombstone::load(participants, id).is_ok()
 }
 
 /// The body heights the arm model serves (m), as checked on a record and on the command line.

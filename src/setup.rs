@@ -114,7 +114,16 @@ pub fn plan_session(c: &SetupConfig) -> Plan {
                 }
                 Err(e) => (r.id, r.slot, None, Some(e.to_string())),
             },
-            Err(e) => (c.participant.to_string(), 0, None, Some(e.to_string())),
+            Err(e) => {
+                let why = match crate::participant::Tombstone::load(&c.dirs.participants, c.participant) {
+                    Ok(t) => format!(
+                        "participant {} withdrew from the study ({}) and their data was deleted: no new session can be started for them",
+                        t.id, t.withdrawn_at
+                    ),
+                    Err(_) => e.to_string(),
+                };
+                (c.participant.to_string(), 0, None, Some(why))
+            }
         }
     };
     let start = SessionStart {

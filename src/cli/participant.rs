@@ -5,9 +5,10 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 use handover::counterbalance::completed_per_slot;
-use handover::participant::{ParticipantRecord, new_id, validate_id};
+use handover::participant::{ParticipantRecord, Tombstone, new_id, validate_id};
+use handover::record::is_log_file_name;
 use handover::session::condition_order;
-use handover::study_dir::{ParticipantLock, StudyDirs};
+use handover::study_dir::{LOCK_FILE, ParticipantLock, StudyDirs};
 
 use super::input::{HandArg, bad, body_height as checked_height, load_protocol};
 use handover::protocol::{Body, for_body};
@@ -45,7 +46,10 @@ enum ParticipantCommand {
     /// their record), after listing the files and asking for the id to be typed back.
     ///
     /// Writes: the record's withdrawal time into PARTICIPANTS/<id>.json (an atomic rewrite);
-    /// with --delete-data, deletes their logs and record instead.
+    /// with --delete-data, deletes their logs and record and keeps only
+    /// PARTICIPANTS/<id>.deleted.json (the id and the dates), so that a copy of a deleted log
+    /// is still left out. Only the files this program wrote are deleted, never through a
+    /// link; anything else in their log folder is named and nothing is deleted.
     Withdraw {
         /// The participant's id.
         id: String,
@@ -137,8 +141,16 @@ pub fn run(args: ParticipantArgs) -> Result<()> {
         ParticipantCommand::Show { id, folders } => {
             validate_id(&id).map_err(|e| bad(e.to_string()))?;
             let dirs = folders.resolve();
-            let rec = ParticipantRecord::load(&dirs.participants, &id).map_err(|e| bad(e.to_string()))?;
-            outln!("{}", serde_json::to_string_pretty(&rec)?);
+            match ParticipantRecord::load(&dirs.participants, &id) {
+                Ok(rec) => outln!("{}", serde_json::to_string_pretty(&rec)?),
+                Err(e) => match Tombstone::load(&dirs.participants, &id) {
+                    Ok(t) => {
+                        outln!("{}", serde_json::to_string_pretty(&t)?);
+                        eprintln!("{id} withdrew and their data was deleted: this is all that is kept");
+                    }
+                    Err(_) => return Err(bad(e.to_string())),
+                },
+            }
             Ok(())
         }
     }
@@ -149,33 +161,41 @@ fn withdraw(id: &str, delete_data: bool, yes: bool, f: &Folders) -> Result<()> {
     validate_id(id).map_err(|e| bad(e.to_string()))?;
     let dirs = f.resolve();
     let record_path = ParticipantRecord::path(&dirs.participants, id).map_err(|e| bad(e.to_string()))?;
-    if !record_path.exists() {
+    if std::fs::symlink_metadata(&record_path).is_err() {
+        if let Ok(t) = Tombstone::load(&dirs.participants, id) {
+            eprintln!(
+                "{id} withdrew ({}) and their data was deleted ({}): nothing left to do",
+                t.withdrawn_at, t.data_deleted_at
+            );
+            return Ok(());
+        }
         return Err(bad(format!("{}: no such participant record", record_path.display())));
     }
     let log_dir = dirs.logs.join(id);
+    // Looked at without following a link: a link in place of their folder is refused, never
+    // entered (it could lead to another participant's logs or out of the study).
+    let log_dir_kind = std::fs::symlink_metadata(&log_dir).ok().map(|m| m.file_type());
     // No session of theirs may be live while their data changes.
-    let _lock =
-        if log_dir.is_dir() { Some(ParticipantLock::acquire(&log_dir, id, "participant withdraw")?) } else { None };
+    let _lock = if log_dir_kind.is_some_and(|t| t.is_dir()) {
+        Some(ParticipantLock::acquire(&log_dir, id, "participant withdraw")?)
+    } else {
+        None
+    };
     let now = chrono::Utc::now().to_rfc3339_opts(chrono::SecondsFormat::Secs, true);
     let rec = ParticipantRecord::withdraw(&dirs.participants, id, &now).map_err(|e| bad(e.to_string()))?;
-    eprintln!(
-        "{id} withdrew ({}): no new sessions; analyze leaves their sessions out",
-        rec.withdrawn_at.unwrap_or_default()
-    );
+    let withdrawn_at = rec.withdrawn_at.clone().unwrap_or_default();
+    eprintln!("{id} withdrew ({withdrawn_at}): no new sessions; analyze leaves their sessions out");
     if !delete_data {
         return Ok(());
     }
-    let mut files: Vec<PathBuf> = Vec::new();
-    if log_dir.is_dir() {
-        let mut stack = vec![log_dir.clone()];
-        while let Some(d) = stack.pop() {
-            for e in std::fs::read_dir(&d).with_context(|| format!("cannot list {}", d.display()))? {
-                let p = e?.path();
-                if p.is_dir() { stack.push(p) } else { files.push(p) }
-            }
-        }
+    if log_dir_kind.is_some_and(|t| !t.is_dir()) {
+        return Err(bad(format!(
+            "{}: is a link or a file, not the folder this program makes for a participant's logs; \
+             nothing deleted (the participant stays withdrawn): move it away and run again",
+            log_dir.display()
+        )));
     }
-    files.sort();
+    let mut files = if log_dir_kind.is_some() { files_to_delete(&log_dir)? } else { Vec::new() };
     files.push(record_path.clone());
     outln!("These {} file(s) of {id} will be deleted:", files.len());
     for p in &files {
@@ -194,14 +214,58 @@ fn withdraw(id: &str, delete_data: bool, yes: bool, f: &Folders) -> Result<()> {
             return Err(bad("deletion not confirmed"));
         }
     }
+    // The tombstone first: whatever happens next, a copy of a deleted log stays left out.
+    let tombstone = Tombstone { id: id.to_string(), withdrawn_at, data_deleted_at: now };
+    let tomb_path = tombstone.write(&dirs.participants).map_err(|e| bad(e.to_string()))?;
     for p in &files {
         std::fs::remove_file(p).with_context(|| format!("cannot delete {}", p.display()))?;
     }
-    if log_dir.is_dir() {
-        std::fs::remove_dir_all(&log_dir).with_context(|| format!("cannot delete {}", log_dir.display()))?;
+    if log_dir_kind.is_some() {
+        // Empty now: only the files listed were in it.
+        std::fs::remove_dir(&log_dir).with_context(|| format!("cannot delete {}", log_dir.display()))?;
     }
     handover::private_files::sync_parent(&record_path);
     handover::private_files::sync_parent(&log_dir);
-    eprintln!("deleted {} file(s) of {id}", files.len());
+    eprintln!("deleted {} file(s) of {id}; kept {} (the id and dates, no data)", files.len(), tomb_path.display());
     Ok(())
+}
+
+/// The files in a participant's log folder that `--delete-data` deletes: the regular files
+/// this program writes there (logs and the session lock), found without following any link.
+/// Anything else — a link, a folder, a FIFO, a file of another name — is named and nothing is
+/// deleted: the program did not make it, so it does not know what it is.
+fn files_to_delete(log_dir: &std::path::Path) -> Result<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    let mut strange = Vec::new();
+    for e in std::fs::read_dir(log_dir).with_context(|| format!("cannot list {}", log_dir.display()))? {
+        let e = e.with_context(|| format!("cannot list {}", log_dir.display()))?;
+        let t = e.file_type().with_context(|| format!("cannot inspect {}", e.path().display()))?;
+        let name = e.file_name();
+        let ours = name.to_str().is_some_and(|n| is_log_file_name(n) || n == LOCK_FILE);
+        if t.is_file() && ours {
+            files.push(e.path());
+        } else {
+            let what = if t.is_symlink() {
+                "a link"
+            } else if t.is_dir() {
+                "a folder"
+            } else if t.is_file() {
+                "a file this program does not write"
+            } else {
+                "not a regular file"
+            };
+            strange.push(format!("  {} ({what})", e.path().display()));
+        }
+    }
+    if !strange.is_empty() {
+        strange.sort();
+        return Err(bad(format!(
+            "{} holds what this program did not write; nothing deleted (the participant stays withdrawn). \
+             Move these away, then run again:\n{}",
+            log_dir.display(),
+            strange.join("\n")
+        )));
+    }
+    files.sort();
+    Ok(files)
 }

@@ -1,0 +1,114 @@
+//! Opening the files a command is given or finds: only regular files, never blocking on the
+//! open (a FIFO or a device named like a log is refused, not waited on), and never more bytes
+//! than a budget; JSON with nothing after its one document and no byte-order mark.
+
+use std::fs::File;
+use std::io::Read;
+use std::path::Path;
+
+/// What kind of file a non-regular one is, for a message.
+fn kind(m: &std::fs::Metadata) -> &'static str {
+    let t = m.file_type();
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_fifo() {
+            return "a FIFO (named pipe)";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+        if t.is_block_device() || t.is_char_device() {
+            return "a device";
+        }
+    }
+    if t.is_dir() { "a directory" } else { "not a regular file" }
+}
+
+/// Opens `path` for reading if it is a regular file. On Unix the open is non-blocking, so a
+/// FIFO without a writer is refused at once rather than hanging the command.
+pub fn open_regular(path: &Path) -> std::io::Result<File> {
+    let mut o = std::fs::OpenOptions::new();
+    o.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        o.custom_flags(libc::O_NONBLOCK);
+    }
+    let f = o.open(path)?;
+    let m = f.metadata()?;
+    if !m.is_file() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!("is {}, expected a regular file", kind(&m)),
+        ));
+    }
+    Ok(f)
+}
+
+/// Whether `path` is a regular file, without following a final symbolic link and without
+/// opening it (for walks through a folder: a link, FIFO or device found there is skipped).
+pub fn is_plain_file(path: &Path) -> bool {
+    std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_file())
+}
+
+/// The bytes of a regular file of at most `max` bytes.
+pub fn read_regular(path: &Path, max: u64) -> std::io::Result<Vec<u8>> {
+    let f = open_regular(path)?;
+    let mut bytes = Vec::new();
+    f.take(max + 1).read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > max {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("is over {max} bytes, the most read from such a file"),
+        ));
+    }
+    Ok(bytes)
+}
+
+/// Checks that JSON text does not start with a byte-order mark (named, since a parser would
+/// only say "expected value at line 1 column 1").
+pub fn check_no_bom(text: &str) -> Result<(), String> {
+    if text.starts_with('\u{feff}') {
+        Err("starts with a UTF-8 byte-order mark (EF BB BF), expected JSON text without one: save it as UTF-8 without BOM".into())
+    } else {
+        Ok(())
+    }
+}
+
+/// Parses one JSON document from UTF-8 bytes: no byte-order mark, nothing after the document
+/// but white space.
+pub fn parse_json_bytes<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> Result<T, String> {
+    let text = std::str::from_utf8(bytes).map_err(|e| format!("is not UTF-8 text ({e})"))?;
+    check_no_bom(text)?;
+    serde_json::from_str(text).map_err(|e| e.to_string())
+}
+
+#[cfg(all(test, unix))]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_fifo_is_refused_without_blocking() {
+        let dir = std::env::temp_dir().join(format!("handover-fifo-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let fifo = dir.join("x.mcap");
+        let c = std::ffi::CString::new(fifo.as_os_str().as_encoded_bytes()).unwrap();
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        let e = read_regular(&fifo, 10).unwrap_err();
+        assert!(e.to_string().contains("FIFO"), "{e}");
+        assert!(!is_plain_file(&fifo));
+        let e = read_regular(&dir, 10).unwrap_err();
+        assert!(e.to_string().contains("directory"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn json_with_a_bom_or_a_second_document_is_refused() {
+        assert!(parse_json_bytes::<serde_json::Value>(b"{} ").is_ok());
+        assert!(parse_json_bytes::<serde_json::Value>(b"{} {}").unwrap_err().contains("trailing"));
+        assert!(
+            parse_json_bytes::<serde_json::Value>("\u{feff}{}".as_bytes()).unwrap_err().contains("byte-order mark")
+        );
+    }
+}
