@@ -13,7 +13,7 @@ fn main() -> ExitCode {
         // A closed standard output (`handover … | head -1`) is not an error.
         Err(err) if cli::is_broken_pipe(&err) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("handover: {err:#}");
+            eprintln!("handover: {}", handover::text::printable_lines(&format!("{err:#}")));
             if err.chain().any(|e| e.is::<cli::BadInput>()) { ExitCode::from(2) } else { ExitCode::from(1) }
         }
     }

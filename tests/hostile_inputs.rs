@@ -396,10 +396,10 @@ fn hostile_score_inputs_exit_2_naming_the_field() {
         assert!(r.stderr.contains(&format!("{name}.json")) && r.stderr.contains(field), "{name}: {}", r.stderr);
         assert!(!r.stdout.contains("null"), "{name}: no undefined number is printed");
     }
-    // An endless input is cut at the budget, not read forever.
+    // An endless input is refused, not read forever: a device is not a regular file.
     let r = run_in(&dir, &["score", "/dev/zero"]);
     assert_eq!(r.code, 2, "{}", r.stderr);
-    assert!(r.stderr.contains("/dev/zero") && r.stderr.contains("budget"), "{}", r.stderr);
+    assert!(r.stderr.contains("/dev/zero") && r.stderr.contains("a device"), "{}", r.stderr);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -525,4 +525,103 @@ fn every_one_byte_change_of_a_finished_log_is_flagged() {
     let e = handover::record::read_log_bytes(&path, &short).unwrap_err().to_string();
     assert!(e.contains("damaged") && e.contains("before its data end"), "{e}");
     std::fs::remove_dir_all(dir).unwrap();
+}
+
+/// One dry run of `text` (a protocol accepted by `Study::from_json`), read back: the reader
+/// must accept every log a protocol `protocol check` accepts gives.
+fn log_of_accepted(dir: &Path, name: &str, text: &str) {
+    let study = std::sync::Arc::new(Study::from_json(text, name).unwrap());
+    let p = handover::dryrun::plan(&study, 1, 0, None, "2026-11-22T00:00:00Z".into());
+    let session = handover::session::Session::new(std::sync::Arc::clone(&study), p.start.clone()).unwrap();
+    let path = dir.join(format!("{name}.mcap"));
+    let mut rec = handover::record::RecordedSession::create(&path, text, session, handover::dryrun::now_ns()).unwrap();
+    handover::dryrun::drive(&mut rec, &p.participant, Duration::ZERO).unwrap();
+    rec.finish().unwrap();
+    let read =
+        read_log(&path).unwrap_or_else(|e| panic!("{name}: the protocol was accepted but its log is refused: {e}"));
+    assert!(read.finished, "{name}");
+}
+
+/// Protocol texts follow one rule, in bytes, from `protocol check` to the log reader: what the
+/// check refuses is named (control characters escaped on the terminal), and every protocol it
+/// accepts — named cases at the limits and random texts around them — gives a readable log.
+#[test]
+fn protocol_texts_follow_one_rule_from_check_to_log() {
+    let dir = tmpdir("texts");
+    let base: serde_json::Value = serde_json::from_str(&small_protocol_text()).unwrap();
+    let with = |path: &[&str], value: &str| {
+        let mut v = base.clone();
+        let mut at = &mut v;
+        for k in path {
+            at = match k.parse::<usize>() {
+                Ok(i) => &mut at[i],
+                Err(_) => &mut at[*k],
+            };
+        }
+        *at = value.into();
+        v.to_string()
+    };
+    let check = |name: &str, text: &str| {
+        let file = dir.join(format!("{name}.json"));
+        std::fs::write(&file, text).unwrap();
+        run_in(&dir, &["protocol", "check", file.to_str().unwrap()])
+    };
+    let refused: Vec<(&str, String, &str)> = vec![
+        ("tab-in-name", with(&["name"], "bike\thandover"), "U+0009"),
+        ("umlauts-300-bytes", with(&["name"], &"ü".repeat(150)), "300 bytes"),
+        ("label-122-bytes", with(&["session", "program_labels", "0"], &"ü".repeat(61)), "122 bytes"),
+        ("osc-in-object-label", with(&["objects", "0", "label"], "\u{1b}]0;x\u{7}bars"), "U+001B"),
+        ("clear-in-statement", with(&["questionnaire", "items", "0", "statement"], "\u{1b}[2J"), "U+001B"),
+        ("query-id-path", with(&["training_menu", "0", "id"], "../../../../x"), "is not an id"),
+        ("query-id-absolute", with(&["test_set", "0", "id"], "/tmp/x"), "is not an id"),
+        ("second-document", format!("{}\n{{}}", small_protocol_text()), "nothing after"),
+        ("byte-order-mark", format!("\u{feff}{}", small_protocol_text()), "byte-order mark"),
+    ];
+    for (name, text, why) in &refused {
+        let r = check(name, text);
+        assert_eq!(r.code, 2, "{name}: refused\n{}", r.stderr);
+        assert!(r.stderr.contains(why), "{name}: says {why}\n{}", r.stderr);
+        assert!(!r.stderr.contains('\u{1b}') && !r.stderr.contains('\u{7}'), "{name}: no raw control character");
+    }
+    let accepted = [
+        ("umlauts-200-bytes", with(&["name"], &"ü".repeat(100))),
+        ("label-100-bytes", with(&["session", "program_labels", "0"], &"ü".repeat(50))),
+        ("lines-in-description", with(&["description"], "first line\nsecond line")),
+    ];
+    for (name, text) in &accepted {
+        let r = check(name, text);
+        assert_eq!(r.code, 0, "{name}: accepted\n{}", r.stderr);
+        log_of_accepted(&dir, name, text);
+    }
+    // Random texts around the limits, from an alphabet of ASCII, two- to four-byte characters
+    // and control characters: whatever the validator accepts, the reader accepts.
+    let alphabet = ['a', 'Z', '7', ' ', '-', 'ü', '€', '𝄞', '\t', '\n', '\u{1b}', '\u{85}', '\u{7f}'];
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(33);
+    let (mut tried, mut ok) = (0, 0);
+    for case in 0..24 {
+        let field: &[&str] = match case % 3 {
+            0 => &["name"],
+            1 => &["session", "program_labels", "1"],
+            _ => &["objects", "1", "label"],
+        };
+        let len = rng.random_range(1..=70usize);
+        let clean = rng.random_bool(0.6);
+        let s: String = (0..len)
+            .map(|_| {
+                let n = if clean { 8 } else { alphabet.len() };
+                alphabet[rng.random_range(0..n)]
+            })
+            .collect();
+        let text = with(field, s.trim());
+        if s.trim().is_empty() {
+            continue;
+        }
+        tried += 1;
+        if Study::from_json(&text, "random").is_ok() {
+            ok += 1;
+            log_of_accepted(&dir, &format!("random-{case}"), &text);
+        }
+    }
+    assert!(ok > 3 && ok < tried, "both outcomes were tried: {ok} of {tried} accepted");
+    let _ = std::fs::remove_dir_all(&dir);
 }

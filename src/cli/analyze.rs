@@ -174,13 +174,13 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
     logs.retain(|l| l.start.pilot || !withdrawn.contains(&l.start.participant));
     if !consulted.is_empty() {
         let names: Vec<String> = consulted.iter().map(|p| p.display().to_string()).collect();
-        eprintln!("withdrawals: participant records in {}", names.join(", "));
+        errln!("withdrawals: participant records in {}", names.join(", "));
     }
     withdrawn.sort();
     withdrawn.dedup();
     let left_out = WithdrawnLeftOut { sessions: before - logs.len(), participants: withdrawn.len() };
     if left_out.sessions > 0 {
-        eprintln!("left out {} session(s) of {} participant(s) who withdrew", left_out.sessions, left_out.participants);
+        errln!("left out {} session(s) of {} participant(s) who withdrew", left_out.sessions, left_out.participants);
     }
     let mut analysed = Vec::new();
     for log in logs {
@@ -203,7 +203,7 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
                     // the topics derived from them are not.
                     let before = diffs.len();
                     diffs.retain(|d| Topic::from_name(&d.topic).is_some_and(Topic::is_event));
-                    eprintln!(
+                    errln!(
                         "verify: {}: log format {} (this version writes {LOG_FORMAT}): its events replay and are compared; \
                          its derived topics are in that format's shape and are not ({} such difference(s) not counted)",
                         log.path.display(),
@@ -269,7 +269,7 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
             let d = if is_pilot { dir.join("pilot") } else { dir.clone() };
             let group: Vec<&Analysed> = analysed.iter().filter(|a| a.log.start.pilot == is_pilot).collect();
             write_outputs(&d, &group, summary, alpha).with_context(|| format!("cannot write into {}", d.display()))?;
-            eprintln!("wrote {}", d.display());
+            errln!("wrote {}", d.display());
         }
     }
     match args.format {
@@ -304,17 +304,17 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
         }
     }
     for w in &warnings {
-        eprintln!("warning: {w}");
+        errln!("warning: {w}");
     }
     for s in &skipped {
-        eprintln!("{s}");
+        errln!("{s}");
     }
     if args.verify {
         if differences.is_empty() {
-            eprintln!("verify: every derived value matches its recomputation");
+            errln!("verify: every derived value matches its recomputation");
         }
         for d in &differences {
-            eprintln!("verify: {d}");
+            errln!("verify: {d}");
         }
     }
     if !differences.is_empty() {

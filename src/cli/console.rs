@@ -81,10 +81,10 @@ pub fn require_terminal() -> Result<()> {
 fn finish(result: Result<Outcome, String>) -> Result<()> {
     let outcome = result.map_err(|e| anyhow::anyhow!("console: {e}"))?;
     if let Some(msg) = outcome.message {
-        eprintln!("{msg}");
+        errln!("{msg}");
     }
     if let Some(sig) = outcome.signal {
-        eprintln!("handover: stopped by signal {sig}; the terminal is restored and the session can be resumed");
+        errln!("handover: stopped by signal {sig}; the terminal is restored and the session can be resumed");
         std::process::exit(128 + sig);
     }
     Ok(())

@@ -158,7 +158,7 @@ pub fn run(args: FeasibleArgs) -> Result<()> {
         for q in &queries {
             let path = dir.join(format!("{}.svg", q.query.id));
             plot_query(&study, q, &path).map_err(anyhow::Error::msg)?;
-            eprintln!("wrote {}", path.display());
+            errln!("wrote {}", path.display());
         }
     }
     Ok(())

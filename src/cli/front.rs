@@ -111,7 +111,7 @@ pub fn run(a: FrontArgs) -> Result<()> {
         let title =
             format!("Comfort–accuracy front: {} seeds × {} trials, mean over seeds", a.sweep.seeds, a.sweep.trials);
         front_plot(&dir.join("front.svg"), &title, &panels).map_err(anyhow::Error::msg)?;
-        eprintln!("wrote {}/front.csv and front.svg", dir.display());
+        errln!("wrote {}/front.csv and front.svg", dir.display());
     }
     Ok(())
 }

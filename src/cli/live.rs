@@ -22,7 +22,7 @@ impl LiveArgs {
     pub fn start(&self) -> Result<Option<LiveView>> {
         let Some(addr) = self.live else { return Ok(None) };
         let view = LiveView::start(addr).map_err(anyhow::Error::msg)?;
-        eprintln!("live view: {} (Foxglove: Open connection → Foxglove WebSocket)", view.url());
+        errln!("live view: {} (Foxglove: Open connection → Foxglove WebSocket)", view.url());
         Ok(Some(view))
     }
 }

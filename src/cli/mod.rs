@@ -4,11 +4,14 @@
 //! Exit codes: 0 success, 1 the work failed, 2 bad input or usage.
 
 /// `println!` that returns an error instead of panicking when standard output is closed
-/// (`handover … | head -1`); `main` then exits quietly.
+/// (`handover … | head -1`); `main` then exits quietly. On a terminal, control characters
+/// from file content are shown escaped ([`handover::text::printable_lines`]); piped or
+/// redirected, the output (a CSV, JSON) is exact.
 macro_rules! outln {
     ($($arg:tt)*) => {{
         use std::io::Write as _;
-        writeln!(std::io::stdout().lock(), $($arg)*)?
+        let text = format!($($arg)*);
+        writeln!(std::io::stdout().lock(), "{}", $crate::cli::for_stdout(&text))?
     }};
 }
 
@@ -16,8 +19,38 @@ macro_rules! outln {
 macro_rules! out {
     ($($arg:tt)*) => {{
         use std::io::Write as _;
-        write!(std::io::stdout().lock(), $($arg)*)?
+        let text = format!($($arg)*);
+        write!(std::io::stdout().lock(), "{}", $crate::cli::for_stdout(&text))?
     }};
+}
+
+/// `eprintln!` for messages, which are read on a terminal: control characters from file
+/// content (an escape sequence in a label, a note, a robot status) are shown escaped, never
+/// sent to the terminal.
+macro_rules! errln {
+    ($($arg:tt)*) => {{
+        let text = format!($($arg)*);
+        eprintln!("{}", handover::text::printable_lines(&text))
+    }};
+}
+
+/// `eprint!` likewise (a prompt).
+macro_rules! err {
+    ($($arg:tt)*) => {{
+        let text = format!($($arg)*);
+        eprint!("{}", handover::text::printable_lines(&text))
+    }};
+}
+
+/// Standard output's text as written: escaped on a terminal, exact otherwise.
+pub fn for_stdout(text: &str) -> std::borrow::Cow<'_, str> {
+    use std::io::IsTerminal;
+    static TERMINAL: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    if *TERMINAL.get_or_init(|| std::io::stdout().is_terminal()) {
+        handover::text::printable_lines(text)
+    } else {
+        std::borrow::Cow::Borrowed(text)
+    }
 }
 
 mod analyze;

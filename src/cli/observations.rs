@@ -129,7 +129,7 @@ pub fn run(a: ObservationsArgs) -> Result<()> {
             sw.seeds, sw.trials, a.learn
         );
         line_grid(&dir.join("observations.svg"), &title, &plots, algorithms.len()).map_err(anyhow::Error::msg)?;
-        eprintln!("wrote {}/observations.csv and observations.svg", dir.display());
+        errln!("wrote {}/observations.csv and observations.svg", dir.display());
     }
     Ok(())
 }

@@ -108,11 +108,11 @@ pub fn run(args: ParticipantArgs) -> Result<()> {
                 )));
             }
             for missing in dirs.missing() {
-                eprintln!("note: {} does not exist yet; it will be created", missing.display());
+                errln!("note: {} does not exist yet; it will be created", missing.display());
             }
             let counts = completed_per_slot(&dirs.logs, &dirs.participants, 2);
             for w in counts.warnings() {
-                eprintln!("warning: {w}");
+                errln!("warning: {w}");
             }
             let slot = counts.least_filled();
             let record = ParticipantRecord {
@@ -127,7 +127,7 @@ pub fn run(args: ParticipantArgs) -> Result<()> {
             let order: Vec<_> = condition_order(&study, slot).iter().map(|c| c.name()).collect();
             let labels = &study.protocol.session.program_labels;
             outln!("{}", record.id);
-            eprintln!(
+            errln!(
                 "created {} (slot {slot}: {} = {}, {} = {})",
                 path.display(),
                 labels[0],
@@ -146,7 +146,7 @@ pub fn run(args: ParticipantArgs) -> Result<()> {
                 Err(e) => match Tombstone::load(&dirs.participants, &id) {
                     Ok(t) => {
                         outln!("{}", serde_json::to_string_pretty(&t)?);
-                        eprintln!("{id} withdrew and their data was deleted: this is all that is kept");
+                        errln!("{id} withdrew and their data was deleted: this is all that is kept");
                     }
                     Err(_) => return Err(bad(e.to_string())),
                 },
@@ -163,9 +163,10 @@ fn withdraw(id: &str, delete_data: bool, yes: bool, f: &Folders) -> Result<()> {
     let record_path = ParticipantRecord::path(&dirs.participants, id).map_err(|e| bad(e.to_string()))?;
     if std::fs::symlink_metadata(&record_path).is_err() {
         if let Ok(t) = Tombstone::load(&dirs.participants, id) {
-            eprintln!(
+            errln!(
                 "{id} withdrew ({}) and their data was deleted ({}): nothing left to do",
-                t.withdrawn_at, t.data_deleted_at
+                t.withdrawn_at,
+                t.data_deleted_at
             );
             return Ok(());
         }
@@ -184,7 +185,7 @@ fn withdraw(id: &str, delete_data: bool, yes: bool, f: &Folders) -> Result<()> {
     let now = chrono::Utc::now().to_rfc3339_opts(chrono::SecondsFormat::Secs, true);
     let rec = ParticipantRecord::withdraw(&dirs.participants, id, &now).map_err(|e| bad(e.to_string()))?;
     let withdrawn_at = rec.withdrawn_at.clone().unwrap_or_default();
-    eprintln!("{id} withdrew ({withdrawn_at}): no new sessions; analyze leaves their sessions out");
+    errln!("{id} withdrew ({withdrawn_at}): no new sessions; analyze leaves their sessions out");
     if !delete_data {
         return Ok(());
     }
@@ -206,11 +207,11 @@ fn withdraw(id: &str, delete_data: bool, yes: bool, f: &Folders) -> Result<()> {
         if !std::io::stdin().is_terminal() {
             return Err(bad("--delete-data asks for confirmation on a terminal; pass --yes to delete without asking"));
         }
-        eprint!("Type the participant id ({id}) to delete them: ");
+        err!("Type the participant id ({id}) to delete them: ");
         let mut answer = String::new();
         std::io::stdin().lock().read_line(&mut answer)?;
         if answer.trim() != id {
-            eprintln!("not confirmed: nothing deleted (the participant stays withdrawn)");
+            errln!("not confirmed: nothing deleted (the participant stays withdrawn)");
             return Err(bad("deletion not confirmed"));
         }
     }
@@ -226,7 +227,7 @@ fn withdraw(id: &str, delete_data: bool, yes: bool, f: &Folders) -> Result<()> {
     }
     handover::private_files::sync_parent(&record_path);
     handover::private_files::sync_parent(&log_dir);
-    eprintln!("deleted {} file(s) of {id}; kept {} (the id and dates, no data)", files.len(), tomb_path.display());
+    errln!("deleted {} file(s) of {id}; kept {} (the id and dates, no data)", files.len(), tomb_path.display());
     Ok(())
 }
 

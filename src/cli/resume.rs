@@ -55,7 +55,7 @@ fn choose(given: LogContents, fork: bool) -> LogContents {
     let family = lineage(&given);
     match family.newest {
         Some(newest) if !fork => {
-            eprintln!(
+            errln!(
                 "{} was already continued; resuming its newest continuation, {}",
                 given.path.display(),
                 newest.path.display()
@@ -63,7 +63,7 @@ fn choose(given: LogContents, fork: bool) -> LogContents {
             newest
         }
         Some(newest) => {
-            eprintln!(
+            errln!(
                 "{} was already continued (newest: {}); --fork: branching from it as asked",
                 given.path.display(),
                 newest.path.display()
@@ -80,7 +80,7 @@ pub fn run(args: ResumeArgs) -> Result<()> {
     // The study the log belongs to decides withdrawal, whatever the current folder.
     let dirs = StudyDirs::for_log(args.study_dir.as_deref(), None, &old.path, &old.start.participant);
     if is_over(&old) {
-        eprintln!("{}: the session is over; opening it read-only (nothing is written)", old.path.display());
+        errln!("{}: the session is over; opening it read-only (nothing is written)", old.path.display());
         if args.dry_run {
             let study = study_of(&old).map_err(|e| bad(e.to_string()))?;
             let a = handover::analysis::analyse(&old)?;
@@ -114,7 +114,7 @@ pub fn run(args: ResumeArgs) -> Result<()> {
     if let Some(view) = args.live.start()? {
         rec.set_tap(Box::new(view));
     }
-    eprintln!("resumed {} ({} events) into {}", old.path.display(), old.events.len(), rec.path().display());
+    errln!("resumed {} ({} events) into {}", old.path.display(), old.events.len(), rec.path().display());
     let person = SimulatedPerson { truth, alpha: study.population().alpha };
     let participant = ScriptedParticipant { person };
     let driven = drive_session(&mut rec, &participant, robot.as_mut(), arm.as_ref(), Duration::from_millis(args.pace))?;

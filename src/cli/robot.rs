@@ -108,7 +108,7 @@ impl RobotArgs {
         if let Some(source) = &arm
             && !source.wait_until_heard(ARM_WAIT)
         {
-            eprintln!(
+            errln!(
                 "no joint state from {} within {} s: grasps learn from the region until one comes",
                 source.describe(),
                 ARM_WAIT.as_secs()

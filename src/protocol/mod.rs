@@ -396,8 +396,10 @@ impl Study {
                 }],
             ));
         }
+        let whole = |message: String| ProtocolError::new(name, vec![Problem { path: String::new(), message }]);
+        crate::input_file::check_no_bom(text).map_err(whole)?;
         let de = &mut serde_json::Deserializer::from_str(text);
-        let protocol: Protocol = serde_path_to_error::deserialize(de).map_err(|e| {
+        let protocol: Protocol = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
             let path = e.path().to_string();
             ProtocolError::new(
                 name,
@@ -407,6 +409,8 @@ impl Study {
                 }],
             )
         })?;
+        // One document: anything after it but white space is refused, not ignored.
+        de.end().map_err(|e| whole(format!("{e}: expected nothing after the protocol's one JSON document")))?;
         validate::study(protocol, name, sha256_hex(text.as_bytes()))
     }
 

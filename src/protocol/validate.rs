@@ -38,11 +38,13 @@ impl fmt::Display for ProtocolError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let n = self.problems.len();
         write!(f, "{}: invalid protocol ({n} problem{})", self.file, if n == 1 { "" } else { "s" })?;
+        // A message may quote the protocol's text: shown with control characters escaped.
         for p in &self.problems {
+            let message = crate::text::printable(&p.message);
             if p.path.is_empty() {
-                write!(f, "\n  - {}", p.message)?;
+                write!(f, "\n  - {message}")?;
             } else {
-                write!(f, "\n  - {}: {}", p.path, p.message)?;
+                write!(f, "\n  - {}: {message}", crate::text::printable(&p.path))?;
             }
         }
         Ok(())
@@ -55,10 +57,15 @@ impl fmt::Display for ProtocolError {
 pub mod limits {
     /// Bytes of protocol text.
     pub const PROTOCOL_BYTES: usize = 4 << 20;
-    /// Characters of a name, id or label.
-    pub const TEXT: usize = 200;
-    /// Characters of a description or statement.
-    pub const LONG_TEXT: usize = 4000;
+    /// Bytes of a name or label (UTF-8; no control characters). One rule with the log
+    /// reader's: `crate::text`.
+    pub const TEXT: usize = crate::text::NAME_BYTES;
+    /// Bytes of a description or statement (line breaks allowed, no other control characters).
+    pub const LONG_TEXT: usize = crate::text::LONG_BYTES;
+    /// Bytes of a program label (the blinded name of a condition).
+    pub const PROGRAM_LABEL: usize = crate::text::PROGRAM_LABEL_BYTES;
+    /// Characters of an id (A–Z, a–z, 0–9, '-', '_'): ids become file names and CSV keys.
+    pub const ID: usize = crate::text::ID_BYTES;
     /// |position| of a pose or TSR frame, m.
     pub const POSITION_M: f64 = 5.0;
     /// |angle| of any orientation, bound, limit or prior, degrees.
@@ -137,10 +144,24 @@ impl Problems {
         }
     }
 
+    /// A name or label: at most `max` bytes, no control character.
     fn text(&mut self, path: &str, v: &str, max: usize) {
-        let n = v.chars().count();
-        if n > max {
-            self.add(path, format!("has {n} characters, expected at most {max}"));
+        if let Err(e) = crate::text::check_label(v, max) {
+            self.add(path, e);
+        }
+    }
+
+    /// A long text: at most `max` bytes, no control character but a line break.
+    fn long(&mut self, path: &str, v: &str) {
+        if let Err(e) = crate::text::check_long(v, limits::LONG_TEXT) {
+            self.add(path, e);
+        }
+    }
+
+    /// An id that may become a file name (the id rule of `crate::text`).
+    fn id(&mut self, path: &str, v: &str) {
+        if let Err(e) = crate::text::check_id(v) {
+            self.add(path, e);
         }
     }
 }
@@ -206,7 +227,7 @@ fn objects(objects: &[Object], res: &crate::kinematics::Resolution, p: &mut Prob
             p.add(format!("{path}.regions"), "is empty, expected at least one grip region");
         }
         p.count(&format!("{path}.regions"), o.regions.len(), limits::REGIONS, "grip regions");
-        p.text(&format!("{path}.id"), &o.id, limits::TEXT);
+        p.id(&format!("{path}.id"), &o.id);
         p.text(&format!("{path}.label"), &o.label, limits::TEXT);
         let mut rids = HashSet::new();
         for (k, r) in o.regions.iter().enumerate() {
@@ -214,7 +235,7 @@ fn objects(objects: &[Object], res: &crate::kinematics::Resolution, p: &mut Prob
             if !rids.insert(r.id.as_str()) {
                 p.add(format!("{rpath}.id"), format!("duplicate id '{}', expected unique region ids", r.id));
             }
-            p.text(&format!("{rpath}.id"), &r.id, limits::TEXT);
+            p.id(&format!("{rpath}.id"), &r.id);
             p.text(&format!("{rpath}.label"), &r.label, limits::TEXT);
             let mut bounds_ok = true;
             for (row, [lo, hi]) in r.tsr.bw.iter().copied().enumerate() {
@@ -446,7 +467,7 @@ fn resolve(
             );
         }
         pose_fields(&format!("{path}.pose"), &q.pose, p);
-        p.text(&format!("{path}.id"), &q.id, limits::TEXT);
+        p.id(&format!("{path}.id"), &q.id);
         p.text(&format!("{path}.label"), &q.label, limits::TEXT);
         let Some(oi) = protocol.objects.iter().position(|o| o.id == q.object) else {
             let known: Vec<_> = protocol.objects.iter().map(|o| o.id.as_str()).collect();
@@ -572,7 +593,7 @@ fn session(s: &SessionSpec, q: &QuestionnaireSpec, p: &mut Problems) {
         if l.trim().is_empty() || !seen.insert(l.as_str()) {
             p.add(format!("session.program_labels[{i}]"), format!("'{l}' must be non-empty and unique"));
         }
-        p.text(&format!("session.program_labels[{i}]"), l, 100);
+        p.text(&format!("session.program_labels[{i}]"), l, limits::PROGRAM_LABEL);
     }
     if let Some(t) = &s.transitions {
         for (field, text, placeholders) in [
@@ -581,7 +602,7 @@ fn session(s: &SessionSpec, q: &QuestionnaireSpec, p: &mut Problems) {
             ("before_questionnaire", &t.before_questionnaire, &[][..]),
         ] {
             let path = format!("session.transitions.{field}");
-            p.text(&path, text, limits::LONG_TEXT);
+            p.long(&path, text);
             if text.trim().is_empty() {
                 p.add(path.clone(), "is empty, expected what the experimenter tells the participant");
             }
@@ -605,7 +626,7 @@ fn session(s: &SessionSpec, q: &QuestionnaireSpec, p: &mut Problems) {
     }
     p.count("questionnaire.scale", q.scale.len(), limits::SCALE_POINTS, "points");
     p.count("questionnaire.items", q.items.len(), limits::ITEMS, "statements");
-    p.text("questionnaire.forced_choice", &q.forced_choice, limits::LONG_TEXT);
+    p.long("questionnaire.forced_choice", &q.forced_choice);
     for (i, pt) in q.scale.iter().enumerate() {
         if pt.value.abs() > limits::SCALE_VALUE {
             p.add(
@@ -616,8 +637,8 @@ fn session(s: &SessionSpec, q: &QuestionnaireSpec, p: &mut Problems) {
         p.text(&format!("questionnaire.scale[{i}].label"), &pt.label, limits::TEXT);
     }
     for (i, it) in q.items.iter().enumerate() {
-        p.text(&format!("questionnaire.items[{i}].id"), &it.id, limits::TEXT);
-        p.text(&format!("questionnaire.items[{i}].statement"), &it.statement, limits::LONG_TEXT);
+        p.id(&format!("questionnaire.items[{i}].id"), &it.id);
+        p.long(&format!("questionnaire.items[{i}].statement"), &it.statement);
     }
     if q.scale.len() < 2 {
         p.add("questionnaire.scale", format!("has {} points, expected at least 2", q.scale.len()));
@@ -664,7 +685,7 @@ pub(super) fn study(protocol: Protocol, name: &str, sha256: String) -> Result<St
         p.add("pose_scaling.reference_body_height_m", e.to_string());
     }
     p.text("name", &protocol.name, limits::TEXT);
-    p.text("description", &protocol.description, limits::LONG_TEXT);
+    p.long("description", &protocol.description);
     let d = &protocol.discretisation;
     p.range("discretisation.resolution.translation_m", d.resolution.translation_m, limits::TRANSLATION_STEP_M, "m");
     p.range("discretisation.resolution.rotation_deg", d.resolution.rotation_deg, limits::ANGLE_STEP_DEG, "degrees");
@@ -735,6 +756,8 @@ mod tests {
         row("PROTOCOL_BYTES", limits::PROTOCOL_BYTES.to_string());
         row("TEXT", limits::TEXT.to_string());
         row("LONG_TEXT", limits::LONG_TEXT.to_string());
+        row("PROGRAM_LABEL", limits::PROGRAM_LABEL.to_string());
+        row("ID", limits::ID.to_string());
         row("POSITION_M", limits::POSITION_M.to_string());
         row("ANGLE_DEG", limits::ANGLE_DEG.to_string());
         row("TSR_TRANSLATION_M", limits::TSR_TRANSLATION_M.to_string());
