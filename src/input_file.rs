@@ -6,6 +6,9 @@ use std::fs::File;
 use std::io::Read;
 use std::path::Path;
 
+/// The most bytes read from a table a command merges (a shard's CSV).
+pub const MAX_TABLE_BYTES: u64 = 256 << 20;
+
 /// What kind of file a non-regular one is, for a message.
 fn kind(m: &std::fs::Metadata) -> &'static str {
     let t = m.file_type();
@@ -66,6 +69,69 @@ pub fn read_regular(path: &Path, max: u64) -> std::io::Result<Vec<u8>> {
     Ok(bytes)
 }
 
+/// A regular file read as a stream of at most `max` bytes: one byte more is an error (not a
+/// silent cut), so a CSV reader never takes more than the budget.
+pub fn open_bounded(path: &Path, max: u64) -> std::io::Result<Bounded> {
+    Ok(Bounded { file: open_regular(path)?, left: max, max })
+}
+
+/// See [`open_bounded`].
+pub struct Bounded {
+    file: File,
+    left: u64,
+    max: u64,
+}
+
+impl Read for Bounded {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        // One byte past the budget is read to tell "exactly the budget" from "over it".
+        let want = buf.len().min(usize::try_from(self.left + 1).unwrap_or(usize::MAX));
+        let n = self.file.read(&mut buf[..want])?;
+        if n as u64 > self.left {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::InvalidData,
+                format!("is over {} bytes, the most read from such a file", self.max),
+            ));
+        }
+        self.left -= n as u64;
+        Ok(n)
+    }
+}
+
+/// The largest magnitude a number in a merged table may have: far beyond any value a run
+/// computes, and small enough that sums and sums of squares over a whole run stay finite.
+pub const MAX_TABLE_NUMBER: f64 = 1e100;
+
+/// The rows of a CSV file this program wrote (a shard's table), read back untrusted: a
+/// regular file of at most [`MAX_TABLE_BYTES`], at most `max_rows` rows, every number finite
+/// and at most [`MAX_TABLE_NUMBER`] in magnitude (NaN, inf or 1e308 would pass into a merged
+/// summary silently). Errors name the file, the row and the column.
+pub fn read_csv_rows<T: serde::de::DeserializeOwned>(path: &Path, max_rows: usize) -> Result<Vec<T>, String> {
+    let name = path.display();
+    let file = open_bounded(path, MAX_TABLE_BYTES).map_err(|e| format!("{name}: {e}"))?;
+    let mut reader = csv::Reader::from_reader(file);
+    let header = reader.headers().map_err(|e| format!("{name}: header: {e}"))?.clone();
+    let mut out = Vec::new();
+    for (i, record) in reader.records().enumerate() {
+        let row = i + 2;
+        let record = record.map_err(|e| format!("{name}: row {row}: {e}"))?;
+        if out.len() == max_rows {
+            return Err(format!("{name}: more than the {max_rows} rows the run has"));
+        }
+        for (column, field) in header.iter().zip(record.iter()) {
+            if let Ok(v) = field.trim().parse::<f64>()
+                && !(v.is_finite() && v.abs() <= MAX_TABLE_NUMBER)
+            {
+                return Err(format!(
+                    "{name}: row {row}: {column} is {field}, expected a finite number of magnitude at most {MAX_TABLE_NUMBER:e}"
+                ));
+            }
+        }
+        out.push(record.deserialize(Some(&header)).map_err(|e| format!("{name}: row {row}: {e}"))?);
+    }
+    Ok(out)
+}
+
 /// Checks that JSON text does not start with a byte-order mark (named, since a parser would
 /// only say "expected value at line 1 column 1").
 pub fn check_no_bom(text: &str) -> Result<(), String> {
@@ -100,6 +166,20 @@ mod tests {
         assert!(!is_plain_file(&fifo));
         let e = read_regular(&dir, 10).unwrap_err();
         assert!(e.to_string().contains("directory"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_bounded_read_fails_past_its_budget() {
+        let dir = std::env::temp_dir().join(format!("handover-bounded-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("f.csv");
+        std::fs::write(&f, b"0123456789").unwrap();
+        let mut all = Vec::new();
+        open_bounded(&f, 10).unwrap().read_to_end(&mut all).unwrap();
+        assert_eq!(all.len(), 10);
+        let e = open_bounded(&f, 9).unwrap().read_to_end(&mut Vec::new()).unwrap_err();
+        assert!(e.to_string().contains("over 9 bytes"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

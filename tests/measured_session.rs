@@ -387,4 +387,76 @@ fn a_c3d_file_of_joint_angles_refits_as_the_same_samples_in_a_csv() {
     ]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("not a C3D file the reader can take"), "{err}");
+    hostile_c3d_files_are_refused(&dir, &logs, &c3d_path, &start_text, &names.join(","));
+}
+
+/// C3D files edited or cut: every one is read or refused by the library without a panic
+/// escaping or an allocation beyond the budget, and through the command line they exit 2
+/// naming the file, with no panic message on the terminal.
+fn hostile_c3d_files_are_refused(dir: &Path, logs: &Path, good: &Path, start: &str, joint_names: &str) {
+    use handover::analysis::MeasurementSeries;
+    let bytes = std::fs::read(good).unwrap();
+    let names: Vec<String> = joint_names.split(',').map(String::from).collect();
+    let analyze = |file: &Path| {
+        handover(&[
+            "analyze",
+            "--alpha-particles",
+            "50",
+            logs.to_str().unwrap(),
+            "--measurements",
+            file.to_str().unwrap(),
+            "--c3d-start",
+            start,
+            "--joint-names",
+            joint_names,
+        ])
+    };
+    // Cut anywhere from 10 % to 99 %: refused as cut short, never read as a shorter capture.
+    for percent in [10, 25, 50, 75, 90, 95, 99] {
+        let cut = dir.join(format!("cut-{percent}.c3d"));
+        std::fs::write(&cut, &bytes[..bytes.len() * percent / 100]).unwrap();
+        let (code, _, err) = analyze(&cut);
+        assert_eq!(code, 2, "cut at {percent} %: {err}");
+        assert!(err.contains(&format!("cut-{percent}.c3d")), "{err}");
+    }
+    // A header claiming 10,000 points × 65,535 frames in a small file: refused before any
+    // allocation (the reader would take 15 GB).
+    let mut huge = bytes.clone();
+    huge[2..4].copy_from_slice(&10_000u16.to_le_bytes());
+    huge[8..10].copy_from_slice(&65_535u16.to_le_bytes());
+    let huge_path = dir.join("huge.c3d");
+    std::fs::write(&huge_path, &huge).unwrap();
+    let (code, _, err) = analyze(&huge_path);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("over the budget"), "{err}");
+    // Every byte of the header and the parameter section set to 0x00, 0xFF and one more:
+    // read or refused, in the library; the refusals the parser itself raised (its panics)
+    // are tried through the command line, whose terminal must show no panic.
+    let (mut tried, mut refused, mut parser_refusals) = (0, 0, Vec::new());
+    for at in 0..bytes.len().min(1536) {
+        for value in [0x00, 0xff, bytes[at].wrapping_add(1)] {
+            if value == bytes[at] {
+                continue;
+            }
+            let mut b = bytes.clone();
+            b[at] = value;
+            let f = dir.join("edited.c3d");
+            std::fs::write(&f, &b).unwrap();
+            tried += 1;
+            if let Err(e) = MeasurementSeries::read_c3d(&f, &names, 0) {
+                refused += 1;
+                if e.to_string().contains("could not parse it") && parser_refusals.len() < 3 {
+                    parser_refusals.push(b);
+                }
+            }
+        }
+    }
+    eprintln!("C3D edits: {tried} tried, {refused} refused ({} by the parser), the rest read", parser_refusals.len());
+    for (i, b) in parser_refusals.iter().enumerate() {
+        let f = dir.join(format!("parser-{i}.c3d"));
+        std::fs::write(&f, b).unwrap();
+        let (code, _, err) = analyze(&f);
+        assert_eq!(code, 2, "{err}");
+        assert!(!err.contains("panicked"), "no panic message: {err}");
+    }
 }

@@ -219,6 +219,33 @@ fn shards_merged_are_byte_for_byte_the_whole_plan() {
     let (code, _, err) = run(&["--merge", &s("shard0"), "--out", &s("x")]);
     assert_eq!(code, 2);
     assert!(err.contains("shards 1 of 2 are missing"), "{err}");
+    // A shard whose numbers are not finite, or whose manifest would size a huge table.
+    for (name, file, from, to, says) in [
+        ("nan", "studies.csv", None, "NaN", "is NaN, expected a finite number"),
+        ("inf", "studies.csv", None, "-inf", "is -inf, expected a finite number"),
+        ("of", "shard.json", Some("\"of\": 2"), "\"of\": 1000000000000000000", "expected 1 to 100000 shards"),
+    ] {
+        let copy = dir.join(format!("hostile-{name}"));
+        std::fs::create_dir_all(&copy).unwrap();
+        for f in ["studies.csv", "study_objects.csv", "shard.json"] {
+            std::fs::copy(dir.join("shard0").join(f), copy.join(f)).unwrap();
+        }
+        let text = std::fs::read_to_string(copy.join(file)).unwrap();
+        let text = match from {
+            Some(from) => text.replace(from, to),
+            // The last cell of the first row: a number in every plan row.
+            None => {
+                let mut lines: Vec<String> = text.lines().map(String::from).collect();
+                let cut = lines[1].rfind(',').unwrap();
+                lines[1] = format!("{},{to}", &lines[1][..cut]);
+                lines.join("\n") + "\n"
+            }
+        };
+        std::fs::write(copy.join(file), text).unwrap();
+        let (code, _, err) = run(&["--merge", copy.to_str().unwrap(), &s("shard1"), "--out", &s("hostile-out")]);
+        assert_eq!(code, 2, "{name}: {err}");
+        assert!(err.contains(says) && err.contains(file), "{name}: {err}");
+    }
     let (code, _, err) = handover(&[
         "plan",
         "--protocol",

@@ -300,6 +300,43 @@ fn shards_merged_are_byte_for_byte_the_whole_run() {
         assert_eq!(code, 2, "{args:?}: {err}");
         assert!(err.contains(says), "{args:?}: {err}");
     }
+    // A hostile shard: a manifest that would size a huge table, numbers that are not finite
+    // or would overflow a sum. Each is refused naming the file and field, nothing allocated.
+    let hostile = |name: &str, file: &str, edit: &dyn Fn(String) -> String| {
+        let copy = dir.join(name);
+        let _ = std::fs::remove_dir_all(&copy);
+        std::fs::create_dir_all(&copy).unwrap();
+        for f in ["metrics.csv", "shard.json"] {
+            std::fs::copy(dir.join("shard0").join(f), copy.join(f)).unwrap();
+        }
+        let text = std::fs::read_to_string(copy.join(file)).unwrap();
+        std::fs::write(copy.join(file), edit(text)).unwrap();
+        s(name)
+    };
+    let of = |n: &'static str| move |t: String| t.replace("\"of\": 3", &format!("\"of\": {n}"));
+    let column = |v: &'static str| {
+        move |t: String| {
+            let mut lines: Vec<String> = t.lines().map(String::from).collect();
+            let mut cells: Vec<String> = lines[1].split(',').map(String::from).collect();
+            let at = lines[0].split(',').position(|h| h == "distance_to_truth").unwrap();
+            cells[at] = v.to_string();
+            lines[1] = cells.join(",");
+            lines.join("\n") + "\n"
+        }
+    };
+    let cases: Vec<(String, &str)> = vec![
+        (hostile("of-1e18", "shard.json", &of("1000000000000000000")), "\"of\" is 1000000000000000000"),
+        (hostile("of-1e9", "shard.json", &of("1000000000")), "expected 1 to 100000 shards"),
+        (hostile("nan", "metrics.csv", &column("NaN")), "distance_to_truth is NaN"),
+        (hostile("inf", "metrics.csv", &column("inf")), "distance_to_truth is inf"),
+        (hostile("huge", "metrics.csv", &column("1e308")), "distance_to_truth is 1e308"),
+    ];
+    for (shard, says) in &cases {
+        let (code, _, err) = run(&["--merge", shard, &s("shard1"), &s("shard2"), "--out", &s("hostile-out")]);
+        assert_eq!(code, 2, "{shard}: {err}");
+        assert!(err.contains(says) && !err.contains("panicked"), "{shard}: {err}");
+        assert!(!dir.join("hostile-out").join("summary.csv").exists(), "{shard}: nothing merged");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 

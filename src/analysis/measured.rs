@@ -21,6 +21,9 @@ use crate::session::{
 pub const MAX_MEASUREMENT_BYTES: u64 = 256 << 20;
 /// The most samples read from one file (≈ 11 h at 50 Hz).
 pub const MAX_MEASUREMENT_SAMPLES: usize = 2_000_000;
+/// The most points × frames of a C3D file (what its reader allocates for: 60 markers for
+/// 10 minutes at 200 Hz is 7.2 million).
+pub const MAX_C3D_POINT_FRAMES: usize = 8_000_000;
 
 /// Why a measurements file was refused.
 #[derive(Debug, thiserror::Error)]
@@ -53,11 +56,8 @@ impl MeasurementSeries {
     /// column `<name>_deg` or `<name>_rad`; other columns are ignored. Rows in increasing time.
     pub fn read_csv(path: &Path, joint_names: &[String]) -> Result<Self, MeasurementFileError> {
         let fail = |why: String| MeasurementFileError { path: path.to_path_buf(), why };
-        let len = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?.len();
-        if len > MAX_MEASUREMENT_BYTES {
-            return Err(fail(format!("is {len} bytes, expected at most {MAX_MEASUREMENT_BYTES} (the file budget)")));
-        }
-        let mut reader = csv::ReaderBuilder::new().from_path(path).map_err(|e| fail(e.to_string()))?;
+        let file = crate::input_file::open_bounded(path, MAX_MEASUREMENT_BYTES).map_err(|e| fail(e.to_string()))?;
+        let mut reader = csv::ReaderBuilder::new().from_reader(file);
         let header = reader.headers().map_err(|e| fail(format!("header: {e}")))?.clone();
         let column = |name: &str| header.iter().position(|h| h.trim() == name);
         let time = column("time").ok_or_else(|| fail("header: no 'time' column".into()))?;
@@ -119,15 +119,11 @@ impl MeasurementSeries {
     /// invalid (a negative residual) gives no sample.
     pub fn read_c3d(path: &Path, joint_names: &[String], start_ns: u64) -> Result<Self, MeasurementFileError> {
         let fail = |why: String| MeasurementFileError { path: path.to_path_buf(), why };
-        let len = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?.len();
-        if len > MAX_MEASUREMENT_BYTES {
-            return Err(fail(format!("is {len} bytes, expected at most {MAX_MEASUREMENT_BYTES} (the file budget)")));
-        }
-        let bytes = std::fs::read(path).map_err(|e| fail(e.to_string()))?;
+        let bytes = crate::input_file::read_regular(path, MAX_MEASUREMENT_BYTES).map_err(|e| fail(e.to_string()))?;
         check_c3d_header(&bytes).map_err(|why| fail(format!("not a C3D file the reader can take: {why}")))?;
         // The reader is not hardened against every malformed file: a panic is a refusal.
-        let c3d = std::panic::catch_unwind(|| c3dio::C3d::from_bytes(&bytes).map_err(|e| format!("{e:?}")))
-            .map_err(|_| fail("the C3D reader could not parse it".into()))?
+        let c3d = quietly(|| c3dio::C3d::from_bytes(&bytes).map_err(|e| format!("{e:?}")))
+            .ok_or_else(|| fail("the C3D reader could not parse it".into()))?
             .map_err(|e| fail(format!("not a C3D file: {e}")))?;
         let points = &c3d.points;
         let rate = f64::from(points.frame_rate);
@@ -204,26 +200,66 @@ fn check_c3d_header(bytes: &[u8]) -> Result<(), String> {
         ));
     }
     let processor = bytes[512 * (block - 1) + 3];
-    let big_endian = match processor {
-        84 | 85 => false,
-        86 => true,
+    // 84 Intel, 85 DEC, 86 MIPS: the byte order, and where the scale factor's sign bit is
+    // (a negative scale factor says the data are floats).
+    let (big_endian, sign_byte) = match processor {
+        84 => (false, 15),
+        85 => (false, 13),
+        86 => (true, 12),
         other => return Err(format!("processor type {other}, expected 84, 85 or 86")),
     };
     let word = |i: usize| {
         let b = [bytes[i], bytes[i + 1]];
         usize::from(if big_endian { u16::from_be_bytes(b) } else { u16::from_le_bytes(b) })
     };
-    let (points, first, last) = (word(2), word(6), word(8));
+    let (points, analog, first, last, data_block) = (word(2), word(4), word(6), word(8), word(16));
     if first == 0 || last < first {
         return Err(format!("frames {first} to {last}, expected 1 ≤ first ≤ last"));
     }
-    if points > MAX_C3D_POINTS || (last - first + 1) > MAX_MEASUREMENT_SAMPLES {
+    let frames = last - first + 1;
+    if points > MAX_C3D_POINTS || frames > MAX_MEASUREMENT_SAMPLES || points * frames > MAX_C3D_POINT_FRAMES {
         return Err(format!(
-            "{points} points × {} frames, over the budget of {MAX_C3D_POINTS} points and {MAX_MEASUREMENT_SAMPLES} frames",
-            last - first + 1
+            "{points} points × {frames} frames, over the budget of {MAX_C3D_POINTS} points, \
+             {MAX_MEASUREMENT_SAMPLES} frames and {MAX_C3D_POINT_FRAMES} points × frames"
+        ));
+    }
+    if data_block <= block {
+        return Err(format!(
+            "the data are said to start at block {data_block}, expected after the parameters (block {block})"
+        ));
+    }
+    // Every frame holds x, y, z and a residual word per point and the analog samples, as
+    // 2-byte integers or 4-byte floats: the file must be as long as its header says.
+    let value_bytes = if bytes[sign_byte] & 0x80 != 0 { 4 } else { 2 };
+    let needed = 512 * (data_block - 1) + frames * (4 * points + analog) * value_bytes;
+    if bytes.len() < needed {
+        return Err(format!(
+            "{} bytes, but its header implies at least {needed} ({points} points and {analog} analog values × {frames} frames \
+             from block {data_block}): the file is cut short",
+            bytes.len()
         ));
     }
     Ok(())
+}
+
+/// Runs `f`, turning a panic into `None` without printing the panic message (a third-party
+/// parser's panic on a malformed file is a refusal, reported as such, not a crash report).
+fn quietly<T>(f: impl FnOnce() -> T) -> Option<T> {
+    use std::cell::Cell;
+    thread_local!(static QUIET: Cell<bool> = const { Cell::new(false) });
+    static HOOK: std::sync::Once = std::sync::Once::new();
+    HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !QUIET.with(Cell::get) {
+                previous(info);
+            }
+        }));
+    });
+    QUIET.with(|q| q.set(true));
+    let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).ok();
+    QUIET.with(|q| q.set(false));
+    out
 }
 
 /// One program's belief after its last update, by the logged model and by the measured one.

@@ -24,7 +24,7 @@ pub fn read_text(path: &Path) -> anyhow::Result<String> {
     let read = if path == Path::new("-") {
         std::io::stdin().lock().take(MAX_INPUT_BYTES + 1).read_to_end(&mut bytes)
     } else {
-        std::fs::File::open(path).and_then(|f| f.take(MAX_INPUT_BYTES + 1).read_to_end(&mut bytes))
+        handover::input_file::open_regular(path).and_then(|f| f.take(MAX_INPUT_BYTES + 1).read_to_end(&mut bytes))
     };
     read.map_err(|e| bad(format!("{name}: cannot read: {e}")))?;
     if bytes.len() as u64 > MAX_INPUT_BYTES {

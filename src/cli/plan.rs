@@ -145,7 +145,7 @@ pub fn run(args: PlanArgs) -> Result<()> {
         write_csv(&dir.join("studies.csv"), &rows)?;
         write_csv(&dir.join("study_objects.csv"), &objects)?;
         super::shards::write_manifest(dir, &ShardManifest { run: fingerprint, shard: k, of: n, rows: rows.len() })?;
-        eprintln!(
+        errln!(
             "shard {k}/{n}: {} rows in {:.1} s; wrote {}/studies.csv, study_objects.csv and shard.json",
             rows.len(),
             started.elapsed().as_secs_f64(),
@@ -169,7 +169,7 @@ pub fn run(args: PlanArgs) -> Result<()> {
         write_csv(&dir.join("power.csv"), &powers)?;
         write_csv(&dir.join("objects.csv"), &shares)?;
         plot(&dir.join("power.svg"), &study, &args, &powers)?;
-        eprintln!("wrote {}/{{studies,study_objects,power,objects}}.csv and power.svg", dir.display());
+        errln!("wrote {}/{{studies,study_objects,power,objects}}.csv and power.svg", dir.display());
     }
     Ok(())
 }
@@ -253,15 +253,7 @@ fn merge_shards(args: &PlanArgs, fingerprint: &str, study: &Study) -> Result<(Ve
 
 /// A shard's CSV, at most `max` rows (the plan's own size is the budget).
 fn read_rows<T: serde::de::DeserializeOwned>(path: &Path, max: usize) -> Result<Vec<T>> {
-    let mut reader = csv::Reader::from_path(path).map_err(|e| bad(format!("{}: {e}", path.display())))?;
-    let mut out = Vec::new();
-    for (i, record) in reader.deserialize::<T>().enumerate() {
-        if out.len() == max {
-            return Err(bad(format!("{}: more than the plan's {max} rows", path.display())));
-        }
-        out.push(record.map_err(|e| bad(format!("{}: row {}: {e}", path.display(), i + 2)))?);
-    }
-    Ok(out)
+    handover::input_file::read_csv_rows(path, max).map_err(bad)
 }
 
 /// The first study's sessions written as pilot logs: the same events, stamped the same, as
@@ -280,7 +272,7 @@ fn keep_logs(text: &str, study: &Study, seed: u64, participants: usize, logs: &P
         }
         rec.finish()?;
     }
-    eprintln!("wrote the first study's {participants} sessions as pilot logs under {}", logs.display());
+    errln!("wrote the first study's {participants} sessions as pilot logs under {}", logs.display());
     Ok(())
 }
 

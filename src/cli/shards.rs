@@ -8,11 +8,14 @@ use handover::experiment::{SHARD_MANIFEST, ShardManifest};
 
 use super::input::bad;
 
-/// `K/N` with N from 1 to 100000 shards and K below N.
+/// The most shards a run is split into.
+const MAX_SHARDS: usize = 100_000;
+
+/// `K/N` with N from 1 to [`MAX_SHARDS`] shards and K below N.
 pub fn parse_shard(text: &str) -> Result<(usize, usize)> {
     let parsed = text.split_once('/').and_then(|(k, n)| Some((k.trim().parse().ok()?, n.trim().parse().ok()?)));
     match parsed {
-        Some((k, n)) if (1..=100_000).contains(&n) && k < n => Ok((k, n)),
+        Some((k, n)) if (1..=MAX_SHARDS).contains(&n) && k < n => Ok((k, n)),
         _ => Err(bad(format!("--shard is '{text}', expected K/N with 1 ≤ N ≤ 100000 and 0 ≤ K < N"))),
     }
 }
@@ -44,6 +47,10 @@ pub fn checked_shards<'a>(dirs: &'a [PathBuf], fingerprint: &str) -> Result<Vec<
         let m: ShardManifest = super::input::parse_json(&text, &path.display().to_string())?;
         if m.run != fingerprint {
             return Err(bad(format!("{}: a shard of another run (other options than this command's)", dir.display())));
+        }
+        // The number of shards is what `--shard` accepts, checked before it sizes anything.
+        if !(1..=MAX_SHARDS).contains(&m.of) {
+            return Err(bad(format!("{}: \"of\" is {}, expected 1 to {MAX_SHARDS} shards", path.display(), m.of)));
         }
         if seen.is_empty() {
             seen = vec![None; m.of];

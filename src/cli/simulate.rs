@@ -243,7 +243,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         write_csv(&dir.join("metrics.csv"), &rows)?;
         let manifest = experiment::ShardManifest { run: fingerprint, shard: k, of: n, rows: rows.len() };
         super::shards::write_manifest(dir, &manifest)?;
-        eprintln!(
+        errln!(
             "shard {k}/{n}: {} of {} trials × seeds, {} rows in {:.1} s; wrote {}/metrics.csv and {}",
             units.len(),
             settings.trials as u64 * args.seeds,
@@ -308,7 +308,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
                 LinePlot { title: &title, x_label: "iteration (queries answered)", y_label: label, band, series };
             mean_se_plot(&dir.join(format!("{measure}.svg")), &plot).map_err(anyhow::Error::msg)?;
         }
-        eprintln!("wrote {}/{{metrics,summary,tests}}.csv and one SVG per measure", dir.display());
+        errln!("wrote {}/{{metrics,summary,tests}}.csv and one SVG per measure", dir.display());
     }
     Ok(())
 }

@@ -60,13 +60,9 @@ struct MetricRecord {
 
 /// Reads a shard's metrics.csv (at most `max_rows` rows: the run's own size is the budget).
 pub fn read_metrics(path: &Path, max_rows: usize) -> Result<Vec<MetricRow>, String> {
-    let mut reader = csv::Reader::from_path(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let mut rows = Vec::new();
-    for (i, record) in reader.deserialize::<MetricRecord>().enumerate() {
-        let r = record.map_err(|e| format!("{}: row {}: {e}", path.display(), i + 2))?;
-        if rows.len() == max_rows {
-            return Err(format!("{}: more than the run's {max_rows} rows", path.display()));
-        }
+    let records: Vec<MetricRecord> = crate::input_file::read_csv_rows(path, max_rows)?;
+    let mut rows = Vec::with_capacity(records.len());
+    for (i, r) in records.into_iter().enumerate() {
         let algorithm = SelectorKind::ALL.iter().map(|k| k.name()).find(|n| *n == r.algorithm).ok_or_else(|| {
             format!("{}: row {}: algorithm '{}' is not a selector", path.display(), i + 2, r.algorithm)
         })?;

@@ -68,21 +68,30 @@ pub fn is_log_file_name(name: &str) -> bool {
         && name.bytes().all(|b| b.is_ascii_alphanumeric() || matches!(b, b'-' | b'_' | b'.'))
 }
 
-/// Every `.mcap` file under `root` (recursively), sorted; a file is itself.
+/// Every `.mcap` file under `root` (recursively), sorted; `root` itself if it is there but
+/// not a folder (named on the command line, so read, and refused there if it is not a log);
+/// nothing if there is no `root`. Below
+/// `root` nothing is followed or opened on the way: a link (to a folder or a file), a FIFO or
+/// a device is skipped, so a link loop or a named pipe cannot hang or multiply the walk.
 pub fn mcap_files(root: &Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
-    if root.is_file() {
-        out.push(root.to_path_buf());
-        return out;
+    match std::fs::metadata(root) {
+        Err(_) => return out,
+        Ok(m) if !m.is_dir() => {
+            out.push(root.to_path_buf());
+            return out;
+        }
+        Ok(_) => {}
     }
     let mut stack = vec![root.to_path_buf()];
     while let Some(dir) = stack.pop() {
         let Ok(entries) = std::fs::read_dir(&dir) else { continue };
         for e in entries.flatten() {
+            let Ok(kind) = e.file_type() else { continue };
             let p = e.path();
-            if p.is_dir() {
+            if kind.is_dir() {
                 stack.push(p);
-            } else if p.extension().is_some_and(|x| x == "mcap") {
+            } else if kind.is_file() && p.extension().is_some_and(|x| x == "mcap") {
                 out.push(p);
             }
         }

@@ -2,7 +2,6 @@
 //! truncated tail.
 
 use std::collections::HashMap;
-use std::fs::File;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
@@ -61,20 +60,17 @@ pub fn validate_start(start: &SessionStart) -> Result<(), String> {
             start.session_id.escape_debug()
         ));
     }
-    let printable = |field: &str, v: &str, max: usize| {
-        if v.len() > max || v.chars().any(char::is_control) {
-            Err(format!("{field} is not a printable text of at most {max} bytes"))
-        } else {
-            Ok(())
-        }
-    };
-    printable("protocol_name", &start.protocol_name, 200)?;
+    // The protocol validator's rule (`crate::text`), so every protocol it accepts logs a
+    // start this reader accepts.
+    let printable =
+        |field: &str, v: &str, max: usize| crate::text::check_label(v, max).map_err(|e| format!("{field} {e}"));
+    printable("protocol_name", &start.protocol_name, crate::text::NAME_BYTES)?;
     printable("software_version", &start.software_version, 64)?;
     if start.protocol_sha256.len() != 64 || !start.protocol_sha256.bytes().all(|b| b.is_ascii_hexdigit()) {
         return Err("protocol_sha256 is not 64 hexadecimal digits".into());
     }
     for (i, l) in start.program_labels.iter().enumerate() {
-        printable(&format!("program_labels[{i}]"), l, 100)?;
+        printable(&format!("program_labels[{i}]"), l, crate::text::PROGRAM_LABEL_BYTES)?;
     }
     if start.slot >= 2 {
         return Err(format!("slot is {}, expected 0 or 1 (the orders AB and BA)", start.slot));
@@ -132,12 +128,14 @@ fn validate_event(event: &Event) -> Result<(), String> {
 /// bounded, the start record is validated and every event is checked before use.
 pub fn read_log(path: &Path) -> Result<LogContents, RecordError> {
     let not_log = |why: &str| RecordError::NotALog { path: path.to_path_buf(), why: why.to_string() };
-    let len = std::fs::metadata(path).map_err(io(path))?.len();
+    // Only a regular file, opened without blocking: a FIFO named like a log is refused.
+    let file = crate::input_file::open_regular(path).map_err(io(path))?;
+    let len = file.metadata().map_err(io(path))?.len();
     if len > MAX_LOG_BYTES {
         return Err(not_log(&format!("it has {len} bytes, over the budget of {MAX_LOG_BYTES} bytes for a log")));
     }
     let mut bytes = Vec::new();
-    File::open(path).and_then(|f| f.take(MAX_LOG_BYTES + 1).read_to_end(&mut bytes)).map_err(io(path))?;
+    file.take(MAX_LOG_BYTES + 1).read_to_end(&mut bytes).map_err(io(path))?;
     if bytes.len() as u64 > MAX_LOG_BYTES {
         return Err(not_log(&format!("it is over the budget of {MAX_LOG_BYTES} bytes for a log")));
     }
