@@ -248,7 +248,9 @@ fn signals_restore_the_terminal_and_leave_the_session_resumable() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let proto = small_protocol(&dir);
-    for (k, (signal, number)) in [("TERM", 15), ("HUP", 1), ("INT", 2)].into_iter().enumerate() {
+    for (k, (signal, number)) in
+        [("TERM", 15), ("HUP", 1), ("INT", 2), ("QUIT", 3), ("USR1", 10), ("ALRM", 14)].into_iter().enumerate()
+    {
         let status = dir.join(format!("status-{signal}"));
         let name = format!("handover-sig-{}-{k}", std::process::id());
         tmux(&[
@@ -303,7 +305,7 @@ fn signals_restore_the_terminal_and_leave_the_session_resumable() {
     }
     // Every interrupted session is whole on disk and resumable: one grasp each.
     let logs = mcap_files(&dir.join("logs"));
-    assert_eq!(logs.len(), 3, "{logs:?}");
+    assert_eq!(logs.len(), 6, "{logs:?}");
     for l in &logs {
         let log = read_log(l).unwrap();
         assert!(log.finished && !log.cut_tail, "{}", l.display());

@@ -24,9 +24,19 @@ pub use app::{App, AppConfig};
 pub use screens::render;
 
 /// The signals that end the console as a quit does (the terminal restored, the session
-/// left resumable), with exit status 128 + the signal's number.
-pub const TERMINATING_SIGNALS: [i32; 3] =
-    [signal_hook::consts::SIGTERM, signal_hook::consts::SIGHUP, signal_hook::consts::SIGINT];
+/// left resumable), with exit status 128 + the signal's number: every signal whose default
+/// action ends the process and that a program may catch, so none of them leaves the terminal
+/// on the alternate screen without echo. (SIGKILL cannot be caught: after `kill -9`, type
+/// `reset`.)
+pub const TERMINATING_SIGNALS: [i32; 7] = [
+    signal_hook::consts::SIGTERM,
+    signal_hook::consts::SIGHUP,
+    signal_hook::consts::SIGINT,
+    signal_hook::consts::SIGQUIT,
+    signal_hook::consts::SIGUSR1,
+    signal_hook::consts::SIGUSR2,
+    signal_hook::consts::SIGALRM,
+];
 
 /// How the console ended.
 #[derive(Debug, Default)]
@@ -98,7 +108,7 @@ fn watchdog(stop: impl Fn() -> Option<i32> + Send + 'static) {
 }
 
 /// Runs the console on the real terminal; the terminal is restored on every exit path: a
-/// quit, an error, a panic (ratatui's hook), SIGTERM, SIGHUP or SIGINT, and a terminal that
+/// quit, an error, a panic (ratatui's hook), any of [`TERMINATING_SIGNALS`], and a terminal that
 /// goes away without a signal (treated as SIGHUP); each ends the session as a quit does,
 /// resumable.
 pub fn run_terminal(mut app: App) -> Result<Outcome, String> {
