@@ -192,6 +192,34 @@ fn a_program_that_hangs_is_killed_at_the_timeout_with_what_it_started() {
 }
 
 #[test]
+fn a_program_that_exits_leaves_nothing_running() {
+    let dir = tmpdir("orphans");
+    let pids = dir.join("pids");
+    // Exits 0 at once, with two children still running (one detached from its output).
+    let ok = script(
+        &dir,
+        "ok.sh",
+        &format!(
+            "cat > /dev/null\nsleep 600 &\necho $! >> '{0}'\nsleep 600 > /dev/null 2>&1 &\necho $! >> '{0}'\nexit 0",
+            pids.display()
+        ),
+    );
+    let (code, err) = dry_run(&dir, "logs", &["--robot-command", ok.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let started: Vec<String> = std::fs::read_to_string(&pids).unwrap().lines().map(String::from).collect();
+    let commands =
+        the_log(&dir.join("logs")).events.iter().filter(|e| matches!(e.event, Event::RobotCommanded { .. })).count();
+    assert_eq!(started.len(), 2 * commands, "two children per command");
+    std::thread::sleep(Duration::from_millis(300));
+    let alive: Vec<&String> = started
+        .iter()
+        .filter(|pid| std::fs::read_to_string(format!("/proc/{pid}/cmdline")).is_ok_and(|c| c.starts_with("sleep")))
+        .collect();
+    assert!(alive.is_empty(), "{} of {} children still run: {alive:?}", alive.len(), started.len());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn a_bad_robot_option_is_bad_input() {
     let dir = tmpdir("bad");
     let settings = dir.join("lab.json");

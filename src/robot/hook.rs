@@ -1,7 +1,9 @@
 //! Any other robot: a program run for each command (`--robot-command PROGRAM`). It gets the
 //! command as one line of JSON on standard input ([`super::RobotCommand`]); exit status 0
 //! means the robot holds the object at the pose, any other status that it failed (its error
-//! output is the detail). A program still running at the timeout is killed.
+//! output is the detail). A program still running at the timeout is killed. Each program
+//! runs in a process group of its own, and anything it started that is still running when
+//! it exits is ended with it: a command leaves no processes behind.
 
 use std::io::{Read, Write};
 use std::os::unix::process::CommandExt;
@@ -118,19 +120,41 @@ impl Drop for CommandHook {
     }
 }
 
-/// Waits for the program; kills it (and returns None) once the command is abandoned.
+/// Waits for the program; kills it (and returns None) once the command is abandoned. When
+/// it ends by itself, whatever it started and left running is ended with it: its process
+/// group is killed while the program is still an unreaped zombie, so the group's id cannot
+/// have been reused by then.
 fn wait(child: &mut Child, abandon: &AtomicBool) -> Option<std::process::ExitStatus> {
+    let pid = i32::try_from(child.id()).ok()?;
     loop {
         if abandon.load(Ordering::SeqCst) {
+            kill_group(pid);
             let _ = child.kill();
             let _ = child.wait();
             return None;
         }
-        match child.try_wait() {
-            Ok(Some(status)) => return Some(status),
-            Ok(None) => std::thread::sleep(Duration::from_millis(10)),
+        match has_exited(pid) {
+            Ok(true) => {
+                kill_group(pid);
+                return child.wait().ok();
+            }
+            Ok(false) => std::thread::sleep(Duration::from_millis(10)),
             Err(_) => return None,
         }
+    }
+}
+
+/// Whether the child `pid` has exited, without reaping it (`waitid` with `WNOWAIT`).
+fn has_exited(pid: i32) -> std::io::Result<bool> {
+    // SAFETY: a zeroed siginfo_t is a valid value for waitid(2) to fill; with WNOHANG its
+    // si_pid stays 0 when the child has not changed state.
+    unsafe {
+        let mut info: libc::siginfo_t = std::mem::zeroed();
+        let r = libc::waitid(libc::P_PID, pid as libc::id_t, &mut info, libc::WEXITED | libc::WNOHANG | libc::WNOWAIT);
+        if r != 0 {
+            return Err(std::io::Error::last_os_error());
+        }
+        Ok(info.si_pid() != 0)
     }
 }
 
