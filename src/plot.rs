@@ -44,10 +44,17 @@ fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     (lo - pad)..(hi + pad)
 }
 
+/// An SVG drawing written to `path`, owner-only whatever the umask (the file is made 0600
+/// before the backend truncates and fills it, which keeps its mode).
+fn svg(path: &Path, size: (u32, u32)) -> Result<SVGBackend<'_>, String> {
+    crate::private_files::create_output(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(SVGBackend::new(path, size))
+}
+
 /// A figure of scatter panels side by side in a grid of `cols` columns.
 pub fn scatter_grid(path: &Path, title: &str, panels: &[ScatterPanel], cols: usize) -> Result<(), String> {
     let rows = panels.len().div_ceil(cols);
-    let root = SVGBackend::new(path, (420 * cols as u32, 380 * rows as u32 + 40)).into_drawing_area();
+    let root = svg(path, (420 * cols as u32, 380 * rows as u32 + 40))?.into_drawing_area();
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let root = root.titled(title, ("sans-serif", 22)).map_err(|e| err(&e))?;
@@ -140,7 +147,7 @@ fn legend_headroom(entries: usize) -> f64 {
 /// and 10): ticks at the integers, the legend above the data, the band named in it.
 pub fn mean_se_plot(path: &Path, plot: &LinePlot) -> Result<(), String> {
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let root = SVGBackend::new(path, (760, 500)).into_drawing_area();
+    let root = svg(path, (760, 500))?.into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     draw_lines(&root, plot, 17).map_err(|e| err(&e))?;
     root.present().map_err(|e| err(&e))?;
@@ -152,7 +159,7 @@ pub fn mean_se_plot(path: &Path, plot: &LinePlot) -> Result<(), String> {
 pub fn line_grid(path: &Path, title: &str, plots: &[LinePlot], cols: usize) -> Result<(), String> {
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     let rows = plots.len().div_ceil(cols);
-    let root = SVGBackend::new(path, (560 * cols as u32, 400 * rows as u32 + 40)).into_drawing_area();
+    let root = svg(path, (560 * cols as u32, 400 * rows as u32 + 40))?.into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let root = root.titled(title, ("sans-serif", 22)).map_err(|e| err(&e))?;
     for (plot, area) in plots.iter().zip(root.split_evenly((rows, cols))) {
@@ -272,7 +279,7 @@ pub struct PowerSeries<'a> {
 /// significance level dashed; ticks at the sizes planned.
 pub fn power_plot(path: &Path, title: &str, band: &str, series: &[PowerSeries]) -> Result<(), String> {
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let root = SVGBackend::new(path, (760, 500)).into_drawing_area();
+    let root = svg(path, (760, 500))?.into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     // The sizes planned, equally spaced (they usually double), labelled with their values.
     let mut sizes: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).collect();
@@ -343,7 +350,7 @@ pub fn bar_chart(
     groups: &[(String, Vec<f64>)],
 ) -> Result<(), String> {
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let root = SVGBackend::new(path, (720, 480)).into_drawing_area();
+    let root = svg(path, (720, 480))?.into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let max = groups.iter().flat_map(|g| g.1.iter().copied()).fold(1.0f64, f64::max);
     let n = categories.len().max(1);
@@ -405,7 +412,7 @@ pub fn alpha_plot(
     drop: f64,
 ) -> Result<(), String> {
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let root = SVGBackend::new(path, (720, 480)).into_drawing_area();
+    let root = svg(path, (720, 480))?.into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let xs: Vec<f64> =
         sessions.iter().flatten().chain(pooled.iter().flat_map(|p| &p.curve)).map(|p| p.0.log2()).collect();
@@ -501,7 +508,7 @@ pub struct FrontPanel {
 pub fn front_plot(path: &Path, title: &str, panels: &[FrontPanel]) -> Result<(), String> {
     let cols = panels.len().clamp(1, 2);
     let rows = panels.len().div_ceil(cols).max(1);
-    let root = SVGBackend::new(path, (520 * cols as u32, 420 * rows as u32 + 40)).into_drawing_area();
+    let root = svg(path, (520 * cols as u32, 420 * rows as u32 + 40))?.into_drawing_area();
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let root = root.titled(title, ("sans-serif", 20)).map_err(|e| err(&e))?;

@@ -17,6 +17,28 @@ pub fn create_file(path: &Path) -> std::io::Result<File> {
     o.open(path)
 }
 
+/// Creates or truncates an output file (a table, a figure, a report) with mode 0600, also
+/// when it existed with a wider mode: what a command writes is owner-only whatever the umask.
+pub fn create_output(path: &Path) -> std::io::Result<File> {
+    let mut o = std::fs::OpenOptions::new();
+    o.write(true).create(true).truncate(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::{OpenOptionsExt, PermissionsExt};
+        o.mode(0o600);
+        let f = o.open(path)?;
+        f.set_permissions(std::fs::Permissions::from_mode(0o600))?;
+        Ok(f)
+    }
+    #[cfg(not(unix))]
+    o.open(path)
+}
+
+/// Writes a whole output file with [`create_output`].
+pub fn write_output(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    create_output(path)?.write_all(bytes)
+}
+
 /// Creates `dir` and every missing parent with mode 0700, and gives `dir` itself mode 0700
 /// (an existing parent is left as it is).
 pub fn create_dir(dir: &Path) -> std::io::Result<()> {

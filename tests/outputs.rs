@@ -13,10 +13,23 @@ use handover::protocol::Study;
 use handover::record::{RecordedSession, new_log_path};
 use handover::session::{Event, Session, Stamped, VoidReason};
 
+/// The binary under umask 000, so that every file and folder it writes must set its own
+/// owner-only mode.
 fn handover(args: &[&str]) -> std::process::Output {
-    let out = Command::new(env!("CARGO_BIN_EXE_handover")).args(args).output().unwrap();
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg("umask 000; exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_handover"))
+        .args(args)
+        .output()
+        .unwrap();
     assert!(out.status.success(), "handover {args:?}: {}", String::from_utf8_lossy(&out.stderr));
     out
+}
+
+fn mode(p: &Path) -> u32 {
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::metadata(p).unwrap().permissions().mode() & 0o777
 }
 
 /// (file name → [(column, type)]) from the dictionary's tables.
@@ -163,6 +176,24 @@ fn every_csv_matches_the_data_dictionary() {
         .concat(),
     );
     handover(&["plan", "--participants", "2,3", "--studies", "2", "--out", &s(&dir.join("plan"))]);
+    handover(&["feasible", "--query", "lock-low-upright", "--plot", &s(&dir.join("feasible"))]);
+    // Under umask 000, every file written is still 0600 and every folder 0700.
+    let mut modes = 0;
+    for folder in ["analyze", "sim", "two", "front", "observations", "plan", "feasible"] {
+        let mut stack = vec![dir.join(folder)];
+        while let Some(d) = stack.pop() {
+            assert_eq!(mode(&d), 0o700, "{}", d.display());
+            for e in std::fs::read_dir(&d).unwrap().flatten() {
+                if e.file_type().unwrap().is_dir() {
+                    stack.push(e.path());
+                } else {
+                    assert_eq!(mode(&e.path()), 0o600, "{}", e.path().display());
+                    modes += 1;
+                }
+            }
+        }
+    }
+    assert!(modes >= 30, "{modes} files");
     let feasible = handover(&["feasible", "--format", "csv", "--query", "lock-low-upright"]);
     std::fs::write(dir.join("feasible.csv"), feasible.stdout).unwrap();
 

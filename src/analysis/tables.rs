@@ -20,7 +20,7 @@ fn finite(x: f64) -> Option<f64> {
 /// Writes the rows, and the header even when there are none (serde's CSV writer writes it
 /// with the first row: the header of an empty table is taken from a default row).
 fn write_rows<T: Serialize + Default>(path: &Path, rows: impl IntoIterator<Item = T>) -> Result<(), csv::Error> {
-    let mut w = csv::Writer::from_path(path)?;
+    let mut w = csv::Writer::from_writer(crate::private_files::create_output(path)?);
     let mut any = false;
     for r in rows {
         w.serialize(r)?;
@@ -233,7 +233,7 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
         }),
     )?;
     // trials.csv: its rows carry their own columns (the joints' names among them).
-    let mut w = csv::Writer::from_path(dir.join("trials.csv"))?;
+    let mut w = csv::Writer::from_writer(crate::private_files::create_output(&dir.join("trials.csv"))?);
     let mut head = vec!["session_id".to_string(), "participant".to_string()];
     head.extend(trial_columns());
     w.write_record(&head)?;

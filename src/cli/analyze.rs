@@ -363,7 +363,7 @@ fn json_session(a: &Analysed) -> JsonSession<'_> {
 
 /// "4.7 [3.2, 6.9]", with open ends as "≤ 0.25" / "≥ 256".
 fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &AlphaSummary) -> Result<()> {
-    std::fs::create_dir_all(dir)?;
+    handover::private_files::create_dir(dir)?;
     write_tables(dir, group, s, alpha)?;
     let conditions: Vec<String> = s.distinct_q_star.keys().cloned().collect();
     for (file, predictive) in [("fig10.svg", false), ("fig10_predictive.svg", true)] {
@@ -417,7 +417,10 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &Alph
     let title = format!("Objects offered in training, by condition — {} {kind} sessions", s.sessions);
     bar_chart(&dir.join("objects.svg"), &title, "times offered (training trials)", &objects, &groups)
         .map_err(anyhow::Error::msg)?;
-    std::fs::write(dir.join("table1.md"), format!("# Table I — {} sessions\n\n{}", s.sessions, table1_markdown(s)))?;
+    handover::private_files::write_output(
+        &dir.join("table1.md"),
+        format!("# Table I — {} sessions\n\n{}", s.sessions, table1_markdown(s)).as_bytes(),
+    )?;
     write_alpha_plot(dir, alpha, kind)
 }
 

@@ -285,9 +285,12 @@ pub fn write_csv(dir: &Path, reports: &[RefitReport]) -> Result<()> {
             continue;
         }
         let d = if pilot { dir.join("pilot") } else { dir.to_path_buf() };
-        std::fs::create_dir_all(&d).with_context(|| format!("cannot create {}", d.display()))?;
+        handover::private_files::create_dir(&d).with_context(|| format!("cannot create {}", d.display()))?;
         let path = d.join("measured_fit.csv");
-        let mut w = csv::Writer::from_path(&path).with_context(|| format!("cannot write {}", path.display()))?;
+        let mut w = csv::Writer::from_writer(
+            handover::private_files::create_output(&path)
+                .with_context(|| format!("cannot write {}", path.display()))?,
+        );
         for row in group.iter().flat_map(|r| &r.rows) {
             w.serialize(row)?;
         }

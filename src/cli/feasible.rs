@@ -154,7 +154,7 @@ pub fn run(args: FeasibleArgs) -> Result<()> {
         }
     }
     if let Some(dir) = &args.plot {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        handover::private_files::create_dir(dir).with_context(|| format!("cannot create {}", dir.display()))?;
         for q in &queries {
             let path = dir.join(format!("{}.svg", q.query.id));
             plot_query(&study, q, &path).map_err(anyhow::Error::msg)?;

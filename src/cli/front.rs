@@ -54,7 +54,7 @@ pub fn run(a: FrontArgs) -> Result<()> {
     }
     let (pool, threads) = a.sweep.pool()?;
     if let Some(dir) = &a.out {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        handover::private_files::create_dir(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
     let settings = front_settings(&a.betas, &a.epsilons);
     let cases: Vec<(Box<dyn Scenario>, LearnMask)> =
@@ -73,7 +73,10 @@ pub fn run(a: FrontArgs) -> Result<()> {
     print_table(&points, &panels_meta, &a, started.elapsed().as_secs_f64(), threads)?;
     if let Some(dir) = &a.out {
         let path = dir.join("front.csv");
-        let mut w = csv::Writer::from_path(&path).with_context(|| format!("cannot write {}", path.display()))?;
+        let mut w = csv::Writer::from_writer(
+            handover::private_files::create_output(&path)
+                .with_context(|| format!("cannot write {}", path.display()))?,
+        );
         for p in &points {
             w.serialize(p)?;
         }

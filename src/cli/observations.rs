@@ -56,7 +56,7 @@ pub fn run(a: ObservationsArgs) -> Result<()> {
     algorithms.dedup();
     let (pool, threads) = a.sweep.pool()?;
     if let Some(dir) = &a.out {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        handover::private_files::create_dir(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
     let observations = observation_settings(&a.sigmas_deg);
     let scenarios: Vec<Box<dyn Scenario>> = a.scenarios.iter().map(|s| s.build()).collect();
@@ -76,7 +76,10 @@ pub fn run(a: ObservationsArgs) -> Result<()> {
     print_table(&rows, &meta, &a, started.elapsed().as_secs_f64(), threads)?;
     if let Some(dir) = &a.out {
         let path = dir.join("observations.csv");
-        let mut w = csv::Writer::from_path(&path).with_context(|| format!("cannot write {}", path.display()))?;
+        let mut w = csv::Writer::from_writer(
+            handover::private_files::create_output(&path)
+                .with_context(|| format!("cannot write {}", path.display()))?,
+        );
         for r in &rows {
             w.serialize(r)?;
         }

@@ -125,7 +125,7 @@ pub fn run(args: PlanArgs) -> Result<()> {
         study.sha256, args.participants, args.studies, args.seed
     );
     for dir in args.out.iter() {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        handover::private_files::create_dir(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
     let started = Instant::now();
     let shard = args.shard.as_deref().map(super::shards::parse_shard).transpose()?;

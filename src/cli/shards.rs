@@ -24,7 +24,7 @@ pub fn parse_shard(text: &str) -> Result<(usize, usize)> {
 pub fn write_manifest(dir: &Path, manifest: &ShardManifest) -> Result<()> {
     use anyhow::Context as _;
     let path = dir.join(SHARD_MANIFEST);
-    std::fs::write(&path, serde_json::to_string_pretty(manifest)? + "\n")
+    handover::private_files::write_output(&path, (serde_json::to_string_pretty(manifest)? + "\n").as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))
 }
 

@@ -217,7 +217,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     }
     let Checked { scenario, settings } = check(&args)?;
     if let Some(dir) = &args.out {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        handover::private_files::create_dir(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
     let bar = ProgressBar::new(settings.trials as u64 * args.seeds);
     bar.set_style(
@@ -332,7 +332,9 @@ fn merge_shards(dirs: &[PathBuf], fingerprint: &str, s: &Settings, seeds: u64) -
 }
 
 pub(super) fn write_csv<T: serde::Serialize>(path: &Path, rows: &[T]) -> Result<()> {
-    let mut w = csv::Writer::from_path(path).with_context(|| format!("cannot write {}", path.display()))?;
+    let mut w = csv::Writer::from_writer(
+        handover::private_files::create_output(path).with_context(|| format!("cannot write {}", path.display()))?,
+    );
     for r in rows {
         w.serialize(r)?;
     }
@@ -499,8 +501,8 @@ fn run_two_sets(args: &SimulateArgs) -> Result<()> {
         );
     }
     if let Some(dir) = &args.out {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        let mut w = csv::Writer::from_path(dir.join("two_sets.csv"))?;
+        handover::private_files::create_dir(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        let mut w = csv::Writer::from_writer(handover::private_files::create_output(&dir.join("two_sets.csv"))?);
         w.write_record([
             "iteration",
             "information_gain_a",
