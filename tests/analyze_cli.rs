@@ -358,3 +358,72 @@ fn trials_csv_keeps_undone_and_voided_trials_and_notes_csv_the_notes() {
     assert_eq!(&notes[0][4], "participant, asked, said \"fine\"");
     assert_eq!(&notes[0][2], "7");
 }
+
+#[test]
+fn a_quit_session_is_stopped_and_resumable_not_aborted() {
+    use handover::session::{Event, Stamped};
+    let dir = std::env::temp_dir().join(format!("handover-analyze-{}-quit", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let text = small_protocol_text();
+    let study = Arc::new(Study::from_json(&text, "small").unwrap());
+    // Three sessions: quit part-way (the file finished, no end event), aborted, completed.
+    for (i, how) in ["quit", "abort", "complete"].into_iter().enumerate() {
+        let mut p = plan_from(&study, &study.prior_population(), 8, i, None, "2026-11-22T00:00:00Z".into());
+        p.start.participant = format!("p-{how}0001");
+        let session = Session::new(Arc::clone(&study), p.start.clone()).unwrap();
+        let path = new_log_path(&dir, &p.start.participant, chrono::Utc::now());
+        let mut rec = RecordedSession::create(&path, &text, session, 1_000_000_000).unwrap();
+        let mut t = 1_000_000_000u64;
+        for _ in 0..4 {
+            t += 1_000_000_000;
+            let event = p.participant.respond(rec.session()).unwrap();
+            rec.submit(Stamped { time_ns: t, event }).unwrap();
+        }
+        match how {
+            "abort" => {
+                rec.submit(Stamped { time_ns: t + 1, event: Event::Aborted { reason: "fire alarm".into() } }).unwrap();
+            }
+            "complete" => drive(&mut rec, &p.participant, Duration::ZERO).unwrap(),
+            _ => {}
+        }
+        rec.finish().unwrap();
+    }
+    let (code, out, err) = handover(&["analyze", "--alpha-particles", "300", dir.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let status = |who: &str| -> String {
+        let line = out.lines().find(|l| l.trim_start().starts_with(who)).unwrap_or_else(|| panic!("{who}: {out}"));
+        line.split_whitespace().nth(1).unwrap().to_string()
+    };
+    assert_eq!(status("p-quit0001"), "stopped", "{out}");
+    assert_eq!(status("p-abort0001"), "aborted", "{out}");
+    assert_eq!(status("p-complete0001"), "completed", "{out}");
+    assert!(out.contains("stopped: quit or a signal, resumable"), "{out}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn outputs_are_owner_only_under_any_umask() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = logs("umask", 1);
+    let out = dir.join("out").join("deeper");
+    let status = Command::new("sh")
+        .arg("-c")
+        .arg("umask 000; exec \"$0\" analyze --alpha-particles 300 \"$1\" --out \"$2\"")
+        .arg(env!("CARGO_BIN_EXE_handover"))
+        .arg(&dir)
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+    let mut written = 0;
+    for d in [dir.join("out"), out.clone(), out.join("pilot")] {
+        assert_eq!(mode(&d), 0o700, "{}", d.display());
+        for f in std::fs::read_dir(&d).unwrap().flatten().filter(|e| e.file_type().unwrap().is_file()) {
+            assert_eq!(mode(&f.path()), 0o600, "{}", f.path().display());
+            written += 1;
+        }
+    }
+    assert!(written >= 10, "{written} files");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -28,9 +28,10 @@ struct Run {
 }
 
 /// The binary under `ulimit -v` (an allocation over the budget fails and aborts, which
-/// the exit-status check below would catch), in `cwd`.
+/// the exit-status check below would catch) and killed after the time budget (a hang shows
+/// as exit 137, not a test that never ends), in `cwd`.
 fn run_in(cwd: &Path, args: &[&str]) -> Run {
-    let mut script = format!("ulimit -v {MEMORY_KIB}; exec \"$0\"");
+    let mut script = format!("ulimit -v {MEMORY_KIB}; exec timeout -s KILL {SECONDS} \"$0\"");
     for i in 1..=args.len() {
         script.push_str(&format!(" \"${i}\""));
     }
@@ -624,4 +625,50 @@ fn protocol_texts_follow_one_rule_from_check_to_log() {
     }
     assert!(ok > 3 && ok < tried, "both outcomes were tried: {ok} of {tried} accepted");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Makes a FIFO (named pipe) at `path`.
+fn mkfifo(path: &Path) {
+    let st = Command::new("mkfifo").arg(path).status().unwrap();
+    assert!(st.success(), "mkfifo {}", path.display());
+}
+
+#[test]
+fn fifos_and_link_loops_are_refused_without_waiting() {
+    let dir = tmpdir("fifos");
+    let log_dir = dir.join("logs").join("p-abc");
+    std::fs::create_dir_all(&log_dir).unwrap();
+    mkfifo(&log_dir.join("session.mcap"));
+    std::fs::create_dir_all(dir.join("participants")).unwrap();
+    mkfifo(&dir.join("participants").join("p-abc.json"));
+    mkfifo(&dir.join("protocol.json"));
+    // Each names the FIFO at once (no writer ever opens these pipes) and exits 2; `analyze`
+    // skips it as it skips any file that is not a log, and exits 1.
+    let cases: &[(&[&str], &str, i32)] = &[
+        (&["analyze", "logs/p-abc/session.mcap"], "session.mcap", 1),
+        (&["resume", "--dry-run", "logs/p-abc/session.mcap"], "session.mcap", 2),
+        (&["follow", "logs/p-abc/session.mcap"], "session.mcap", 2),
+        (&["protocol", "check", "protocol.json"], "protocol.json", 2),
+        (&["dry-run", "--protocol", "protocol.json"], "protocol.json", 2),
+        (&["participant", "show", "p-abc"], "p-abc.json", 2),
+        (&["participant", "withdraw", "p-abc"], "p-abc.json", 2),
+    ];
+    for (args, name, code) in cases {
+        let t0 = Instant::now();
+        let r = run_in(&dir, args);
+        assert_eq!(r.code, *code, "{args:?}: {}", r.stderr);
+        assert!(r.stderr.contains(name) && r.stderr.contains("FIFO"), "{args:?}: {}", r.stderr);
+        assert!(t0.elapsed() < Duration::from_secs(10), "{args:?} waited {:?}", t0.elapsed());
+    }
+    // A folder walk passes a FIFO by, and does not follow a link that loops back: one
+    // real log beside them is found once, with no warning per level of the loop.
+    let real = base_log(&dir);
+    std::os::unix::fs::symlink("..", log_dir.join("loop")).unwrap();
+    std::os::unix::fs::symlink(dir.join("logs"), dir.join("logs").join("again")).unwrap();
+    let r = run_in(&dir, &["analyze", "--alpha-particles", "300", "logs"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stderr.lines().count() < 5, "a warnings flood:\n{}", r.stderr);
+    let sessions = r.stdout.lines().filter(|l| l.contains(real.file_stem().unwrap().to_str().unwrap())).count();
+    assert!(sessions <= 1, "the log was found through a link:\n{}", r.stdout);
+    std::fs::remove_dir_all(&dir).unwrap();
 }

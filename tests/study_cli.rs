@@ -224,6 +224,16 @@ fn a_killed_dry_run_resumes_to_the_same_events() {
         let before = std::fs::read(&crashed[0]).unwrap();
         let partial = read_log(&crashed[0]).unwrap();
         assert!(!partial.finished, "killed after {delay_ms} events, before the end");
+        if k == 0 {
+            // A resource that is not there (the live view's port is taken) is found before
+            // the continuation's file is made.
+            let busy = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+            let addr = busy.local_addr().unwrap().to_string();
+            let (code, _, err) = handover(&["resume", crashed[0].to_str().unwrap(), "--dry-run", "--live", &addr]);
+            assert_ne!(code, 0, "a busy port: {err}");
+            assert!(err.contains(&addr), "names the port: {err}");
+            assert_eq!(logs_in(&logs).len(), 1, "no continuation file is left: {err}");
+        }
         let (code, _, err) = handover(&["resume", crashed[0].to_str().unwrap(), "--dry-run"]);
         assert_eq!(code, 0, "{err}");
         let all = logs_in(&logs);

@@ -99,8 +99,10 @@ pub(super) fn table(label: &str, group: &[&Analysed], s: &StudySummary, alpha: &
             x.start.participant,
             if x.completed {
                 "completed"
-            } else if a.log.finished {
+            } else if handover::record::is_over(&a.log) {
                 "aborted"
+            } else if a.log.finished {
+                "stopped"
             } else {
                 "partial"
             },
@@ -110,7 +112,7 @@ pub(super) fn table(label: &str, group: &[&Analysed], s: &StudySummary, alpha: &
     }
     let legend: Vec<String> = letters.iter().map(|(_, c, l)| format!("{c} {l}")).collect();
     o += &format!(
-        "  (objects: {}; LL: test log-likelihood of the posterior mean after the last iteration)\n",
+        "  (objects: {}; LL: test log-likelihood of the posterior mean after the last iteration;\n   aborted: ended for good; stopped: quit or a signal, resumable; partial: cut short by a crash, resumable)\n",
         legend.join(", ")
     );
     o += "\nFig. 10 — test-set log-likelihood of the posterior-mean estimate (mean ± s.e.) by iteration, and the paired difference per participant (mean [95 % CI], two-sided Wilcoxon):\n";

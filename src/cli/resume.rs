@@ -106,12 +106,14 @@ pub fn run(args: ResumeArgs) -> Result<()> {
     };
     let study = study_of(&old).map_err(|e| bad(e.to_string()))?;
     let _lock = ParticipantLock::acquire(&log_folder(&old.path), &old.start.participant, "resume --dry-run")?;
-    // The robot first: a bad robot option is refused before the continuation's file exists.
+    // Every resource first (the robot, the live view's port): a bad robot option or a busy
+    // port is refused before the continuation's file exists.
     let mut robot = args.robot.connect()?;
     let arm = args.robot.connect_arm_heard(&study)?;
+    let view = args.live.start()?;
     let path = continuation_path(&old, chrono::Utc::now());
     let mut rec = RecordedSession::resume(&old, &path, now_ns())?;
-    if let Some(view) = args.live.start()? {
+    if let Some(view) = view {
         rec.set_tap(Box::new(view));
     }
     errln!("resumed {} ({} events) into {}", old.path.display(), old.events.len(), rec.path().display());
