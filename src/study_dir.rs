@@ -121,6 +121,22 @@ impl ParticipantLock {
     }
 }
 
+/// Whether the process named in the lock file of the participant whose logs live in `dir`
+/// is still running: `Some(false)` once it has ended without a word (a crash or `kill -9`
+/// leaves the file naming a process that is gone), `None` when there is no lock file to ask.
+/// Only reads: a follower uses it to tell a quiet console from a lost one.
+pub fn holder_running(dir: &Path) -> Option<bool> {
+    let bytes = crate::input_file::read_regular(&dir.join(LOCK_FILE), 512).ok()?;
+    let text = String::from_utf8_lossy(&bytes);
+    let pid: i32 = text.split("by process ").nth(1)?.split_whitespace().next()?.parse().ok()?;
+    if pid <= 0 {
+        return None;
+    }
+    // SAFETY: kill(2) with signal 0 sends nothing; it only says whether the process exists.
+    let r = unsafe { libc::kill(pid, 0) };
+    Some(r == 0 || std::io::Error::last_os_error().raw_os_error() == Some(libc::EPERM))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -132,6 +148,7 @@ mod tests {
         let e = ParticipantLock::acquire(&dir, "p-1", "console").unwrap_err();
         let msg = e.to_string();
         assert!(msg.contains("already has a live session") && msg.contains(&std::process::id().to_string()), "{msg}");
+        assert_eq!(holder_running(&dir), Some(true), "this process holds it");
         drop(first);
         ParticipantLock::acquire(&dir, "p-1", "console").expect("released when dropped");
         std::fs::remove_dir_all(&dir).unwrap();

@@ -366,3 +366,55 @@ fn follow_in_a_second_terminal_tracks_the_console() {
     wait_for(&console, "handover resume");
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// The robot operator never sees a stale pose: when the console is killed (`kill -9`, no
+/// word in the log), `handover follow` says the console is lost and shows no pose; when
+/// the session is resumed it follows the continuation and shows the resumed console's trial.
+#[test]
+fn follow_says_when_the_console_is_lost_and_follows_its_resumption() {
+    if !has_tmux() {
+        assert!(std::env::var_os("CI").is_none(), "CI must install tmux (.ci/run does)");
+        eprintln!("tmux is not installed: skipping");
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("handover-follow-lost-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let proto = small_protocol(&dir);
+    let console = format!("handover-lost-console-{}", std::process::id());
+    let bin = env!("CARGO_BIN_EXE_handover");
+    let cmd = format!("{bin} run --protocol {} --study-dir {} --seed 5; sleep 30", proto.display(), dir.display());
+    tmux(&["new-session", "-d", "-s", &console, "-x", "80", "-y", "24", &cmd]);
+    let _g1 = Session(console.clone());
+    wait_for(&console, "Press Enter to start the session.");
+    send(&console, &["Enter"]);
+    wait_for(&console, "trial 1/5");
+    send(&console, &["Enter", "1"]);
+    wait_for(&console, "trial 2/5");
+    let log = mcap_files(&dir.join("logs")).pop().expect("the console's log");
+    let follower = format!("handover-lost-reader-{}", std::process::id());
+    let fcmd = format!("{bin} follow {}; sleep 30", log.display());
+    tmux(&["new-session", "-d", "-s", &follower, "-x", "80", "-y", "24", &fcmd]);
+    let _g2 = Session(follower.clone());
+    wait_for(&follower, "trial 2/5");
+    let pid = console_pid(&console);
+    Command::new("kill").args(["-9", &pid]).status().unwrap();
+    let screen = wait_for(&follower, "THE CONSOLE HAS STOPPED");
+    assert!(screen.contains("Console lost") && !screen.contains("(query "), "no pose once lost:\n{screen}");
+    // The session is resumed in another terminal: the follower moves to the continuation.
+    let resumer = format!("handover-lost-resume-{}", std::process::id());
+    let rcmd = format!("{bin} resume {}; sleep 30", log.display());
+    tmux(&["new-session", "-d", "-s", &resumer, "-x", "80", "-y", "24", &rcmd]);
+    let _g3 = Session(resumer.clone());
+    wait_for(&resumer, "trial 2/5");
+    let continuation = mcap_files(&dir.join("logs")).into_iter().find(|p| *p != log).expect("a continuation");
+    let name = continuation.file_name().unwrap().to_string_lossy().into_owned();
+    let screen = wait_for(&follower, &name);
+    assert!(screen.contains("trial 2/5") && !screen.contains("Console lost"), "{screen}");
+    send(&resumer, &["Enter", "2"]);
+    wait_for(&resumer, "trial 3/5");
+    wait_for(&follower, "trial 3/5");
+    send(&resumer, &["q", "y"]);
+    wait_for(&resumer, "handover resume");
+    let _ = std::fs::remove_dir_all(dir);
+}

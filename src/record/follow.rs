@@ -14,6 +14,9 @@ pub struct Follower {
     session: Session,
     /// The file's length when last read.
     len: u64,
+    /// The other logs beside it (name and length) when last looked at: a continuation is
+    /// looked for when they change (one listing of a participant's folder per poll).
+    beside: Vec<(PathBuf, u64)>,
 }
 
 impl Follower {
@@ -23,12 +26,13 @@ impl Follower {
         let study = Arc::new(study_of(&log)?);
         let session = replay_with(study, &log, |_, _| {})?;
         let len = file_len(path);
-        Ok(Self { log, session, len })
+        Ok(Self { log, session, len, beside: Vec::new() })
     }
 
     /// Brings the session up to date: the events appended since the last read are folded
-    /// in; a log left unfinished and continued elsewhere is followed into its newest
-    /// continuation. Whether anything changed.
+    /// in; a log continued elsewhere is followed into its newest continuation, whether it was
+    /// closed by a quit or left open by a crash or `kill -9` (the continuation is looked for
+    /// whenever a log appears or grows beside it). Whether anything changed.
     pub fn poll(&mut self) -> Result<bool, RecordError> {
         let len = file_len(&self.log.path);
         if len != self.len {
@@ -44,10 +48,15 @@ impl Follower {
             self.log = log;
             return Ok(true);
         }
-        if self.log.finished
-            && !is_over(&self.log)
-            && let Some(newest) = lineage(&self.log).newest
-        {
+        if is_over(&self.log) {
+            return Ok(false);
+        }
+        let beside = logs_beside(&self.log.path);
+        if beside == self.beside {
+            return Ok(false);
+        }
+        self.beside = beside;
+        if let Some(newest) = lineage(&self.log).newest {
             *self = Self::open(&newest.path)?;
             return Ok(true);
         }
@@ -78,6 +87,25 @@ impl Follower {
     pub fn closed(&self) -> bool {
         self.log.finished
     }
+}
+
+/// The other `.mcap` files in the folder of `path`, with their lengths, in name order.
+fn logs_beside(path: &Path) -> Vec<(PathBuf, u64)> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let mut out: Vec<(PathBuf, u64)> = std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
+        .map(|e| e.path())
+        .filter(|p| p != path && p.extension().is_some_and(|x| x == "mcap"))
+        .map(|p| {
+            let len = file_len(&p);
+            (p, len)
+        })
+        .collect();
+    out.sort();
+    out
 }
 
 fn file_len(path: &Path) -> u64 {

@@ -24,11 +24,14 @@ pub struct FollowView {
     /// Why the last look failed (the screen keeps the last good state).
     pub error: Option<String>,
     pub now_ns: u64,
+    /// Whether the console that holds the participant's session still runs (from the
+    /// session lock's holder); `None` when there is nothing to ask.
+    pub console: Option<bool>,
 }
 
 impl FollowView {
     pub fn new(follower: Follower) -> Self {
-        Self { follower, error: None, now_ns: 0 }
+        Self { follower, error: None, now_ns: 0, console: None }
     }
 
     /// Looks at the log again.
@@ -38,6 +41,15 @@ impl FollowView {
             Ok(_) => self.error = None,
             Err(e) => self.error = Some(e.to_string()),
         }
+        self.console = self.follower.path().parent().and_then(crate::study_dir::holder_running);
+    }
+
+    /// The console ended without closing its log (a crash, `kill -9`, a power cut): what
+    /// the screen shows is no longer what the console has reached.
+    pub fn console_lost(&self) -> bool {
+        self.console == Some(false)
+            && !self.follower.closed()
+            && !matches!(self.follower.session().prompt(), Prompt::Done { .. })
     }
 }
 
@@ -86,6 +98,22 @@ pub fn render(view: &FollowView, frame: &mut Frame) {
 
 /// The panel's title and lines for what the session waits for now.
 fn now(view: &FollowView, session: &Session) -> (String, Vec<Line<'static>>) {
+    if view.console_lost() {
+        // No pose: the last one shown may already be past, and no one confirms the next.
+        let log = view.follower.path().display().to_string();
+        return (
+            " Console lost ".into(),
+            vec![
+                Line::from(Span::styled("THE CONSOLE HAS STOPPED — do not move the robot.", theme::warning())),
+                Line::from(Span::raw("Its last instruction is no longer current.")),
+                Line::from(Span::raw(format!(
+                    "The experimenter resumes the session: handover resume {}",
+                    crate::text::printable(&log)
+                ))),
+                Line::from(Span::raw("This screen follows the continuation as soon as it starts.")),
+            ],
+        );
+    }
     let robot = view.follower.last_robot_command_ns().map(|t| {
         let since = session.robot().map(|_| Duration::from_nanos(view.now_ns.saturating_sub(t)));
         robot_status(session, since, "not sent yet")
