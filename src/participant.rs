@@ -309,9 +309,13 @@ impl ScriptedParticipant {
         use rand::SeedableRng;
         let mut rng = SeededRng::seed_from_u64(crate::derive_seed(
             session.start().seed,
-            session.events_without_robot() as u64,
+            session.participant_events() as u64,
             RESPOND,
         ));
+        // In a dry run the simulated experimenter tells the participant what comes next.
+        if let Some(transition) = session.transition() {
+            return Some(Event::TransitionConfirmed { transition });
+        }
         Some(match session.prompt() {
             Prompt::Present(view) => Event::QueryPresented { query: session.query(view.query).query.id.clone() },
             Prompt::Grasp(view) => {

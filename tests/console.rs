@@ -736,7 +736,7 @@ fn transitions_wait_for_the_experimenter_with_the_protocol_s_text() {
     press(&mut a, KeyCode::Enter);
     assert_eq!(a.transition(), None, "the first program starts at once");
     trials(&mut a, 5, '1');
-    assert_eq!(a.transition(), Some(handover::tui::app::Stage::Program(1)));
+    assert_eq!(a.transition(), Some(handover::session::Transition::Program(1)));
     let s = screen(&mut a, 80, 24);
     assert!(s.contains("Say: Program A has finished and Program B starts.") && s.contains("Program B is next"), "{s}");
     keys(&mut a, "1");
@@ -747,10 +747,10 @@ fn transitions_wait_for_the_experimenter_with_the_protocol_s_text() {
     assert_eq!(a.session().unwrap().trials().len(), before, "confirming records nothing");
     assert!(a.status.starts_with("Program B begins"), "{}", a.status);
     trials(&mut a, 5, '2');
-    assert_eq!(a.transition(), Some(handover::tui::app::Stage::Test));
+    assert_eq!(a.transition(), Some(handover::session::Transition::Test));
     assert!(screen(&mut a, 80, 24).contains("Say: now the test."));
     trials(&mut a, 16, '1');
-    assert_eq!(a.transition(), Some(handover::tui::app::Stage::Questionnaire));
+    assert_eq!(a.transition(), Some(handover::session::Transition::Questionnaire));
     assert!(screen(&mut a, 80, 24).contains("Say: now the statements."));
     press(&mut a, KeyCode::Enter);
     assert_eq!(a.mode(), handover::tui::keys::Mode::Questionnaire);
@@ -759,6 +759,63 @@ fn transitions_wait_for_the_experimenter_with_the_protocol_s_text() {
     v["session"]["transitions"]["before_test"] = "now {program}".into();
     let err = Study::from_json(&v.to_string(), "bad.json").unwrap_err().to_string();
     assert!(err.contains("session.transitions.before_test") && err.contains("no placeholder"), "{err}");
+}
+
+/// A transition's confirmation is an event in the log: the robot operator's screen shows
+/// no pose until it is given, a resumed console does not ask again once it was, `u` on the
+/// transition screen takes back the phase's last grasp and says which, and an undo across a
+/// confirmed transition says the participant must be told again (the transition returns).
+#[test]
+fn a_transition_is_logged_and_the_follower_waits_for_it() {
+    use handover::record::Follower;
+    use handover::session::Transition;
+    use handover::tui::follow::{FollowView, render as render_follow};
+    let dir = tmpdir("transition-log");
+    let mut a = app(&dir);
+    press(&mut a, KeyCode::Enter);
+    let path = a.log_path().unwrap();
+    let mut view = FollowView::new(Follower::open(&path).unwrap());
+    let draw = |view: &FollowView| {
+        let mut t = Terminal::new(TestBackend::new(80, 24)).unwrap();
+        t.draw(|f| render_follow(view, f)).unwrap();
+        t.backend().to_string()
+    };
+    trials(&mut a, 5, '1');
+    assert_eq!(a.transition(), Some(Transition::Program(1)));
+    view.tick(T0 + 1);
+    let s = draw(&view);
+    assert!(s.contains("Between phases") && s.contains("do not move the robot yet") && !s.contains("(query "), "{s}");
+    // u on the transition screen: the screen says what it undoes, the status that it did.
+    assert!(screen(&mut a, 80, 24).contains("u undoes the grasp of Program A, trial 5"));
+    keys(&mut a, "u");
+    assert!(a.status.starts_with("Undone: the grasp of Program A, trial 5"), "{}", a.status);
+    assert_eq!(a.transition(), None);
+    keys(&mut a, "2");
+    assert_eq!(a.transition(), Some(Transition::Program(1)));
+    press(&mut a, KeyCode::Enter);
+    assert_eq!(a.transition(), None);
+    view.tick(T0 + 2);
+    assert!(draw(&view).contains("(query "), "the pose once confirmed:\n{}", draw(&view));
+    let log = read_log(&path).unwrap();
+    let confirmations: Vec<_> = log.messages.iter().filter(|m| m.topic == "/session/transition").collect();
+    assert_eq!(confirmations.len(), 1);
+    assert_eq!(confirmations[0].value["transition"], "program");
+    assert_eq!(confirmations[0].value["program"], "B");
+    // Back across the confirmed transition: said, and the transition is asked again.
+    keys(&mut a, "u");
+    assert!(a.status.contains("back to Program A: tell the participant"), "{}", a.status);
+    keys(&mut a, "1");
+    assert_eq!(a.transition(), Some(Transition::Program(1)));
+    press(&mut a, KeyCode::Enter);
+    // Resumed after the confirmation: the console goes on without asking again.
+    keys(&mut a, "qy");
+    drop(a);
+    let log = read_log(&path).unwrap();
+    let mut r = App::resume(config(&dir, false), &log).unwrap();
+    r.wait_idle();
+    assert_eq!(r.transition(), None);
+    assert_eq!(r.mode(), handover::tui::keys::Mode::Present);
+    keys(&mut r, "qy");
 }
 
 /// The questionnaire handed to the participant: one statement, nothing that un-blinds, only

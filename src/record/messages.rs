@@ -7,12 +7,14 @@ use super::foxglove::{self, PoseInFrame, Time};
 use super::scene;
 use super::types::{
     BeliefMessage, EndStatus, ForcedChoice, Interval, JointAngles, LearnedFrom, LikertAnswer, MeasuredResponse,
-    QueryScore, RobotCommand, RobotPose, RobotStatus, SessionEnd, SessionMark, SessionStartMessage, TestLogLikelihood,
-    TrialFields, TrialQuery, TrialResponse, TrialUndo, TrialVoid, program_index,
+    QueryScore, RobotCommand, RobotPose, RobotStatus, SessionEnd, SessionMark, SessionStartMessage, SessionTransition,
+    TestLogLikelihood, TransitionName, TrialFields, TrialQuery, TrialResponse, TrialUndo, TrialVoid, program_index,
 };
 use crate::kinematics::ArmConfig;
 use crate::protocol::ObservationModel;
-use crate::session::{Applied, ArmMeasurement, BeliefSummary, Event, Session, Stamped, TrialView, program_letter};
+use crate::session::{
+    Applied, ArmMeasurement, BeliefSummary, Event, Session, Stamped, Transition, TrialView, program_letter,
+};
 
 /// The topic an event is logged on.
 pub fn topic_of(e: &Event) -> Topic {
@@ -24,6 +26,7 @@ pub fn topic_of(e: &Event) -> Topic {
         Event::Note { .. } => Topic::Notes,
         Event::Paused => Topic::SessionPause,
         Event::Resumed => Topic::SessionResume,
+        Event::TransitionConfirmed { .. } => Topic::SessionTransition,
         Event::LikertAnswered { .. } => Topic::QuestionnaireLikert,
         Event::ForcedChoice { .. } => Topic::QuestionnaireChoice,
         Event::Ended | Event::Aborted { .. } => Topic::SessionEnd,
@@ -207,6 +210,15 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
         }
         (Event::Paused, _) => out.push((Topic::SessionPause, value(&SessionMark { event_index: index as u32 }))),
         (Event::Resumed, _) => out.push((Topic::SessionResume, value(&SessionMark { event_index: index as u32 }))),
+        (Event::TransitionConfirmed { transition }, _) => {
+            let (name, program) = match *transition {
+                Transition::Program(k) => (TransitionName::Program, Some(program_letter(k))),
+                Transition::Test => (TransitionName::Test, None),
+                Transition::Questionnaire => (TransitionName::Questionnaire, None),
+            };
+            let m = SessionTransition { event_index: index as u32, transition: name, program };
+            out.push((Topic::SessionTransition, value(&m)));
+        }
         (Event::LikertAnswered { program, item, value: answer }, _) => {
             let qn = &study.protocol.questionnaire;
             let label = &session.start().program_labels[*program];
@@ -328,6 +340,16 @@ pub fn event_from_message(topic: Topic, v: &Value) -> Option<Event> {
         Topic::SessionResume => {
             typed::<SessionMark>(v)?;
             Event::Resumed
+        }
+        Topic::SessionTransition => {
+            let m = typed::<SessionTransition>(v)?;
+            let transition = match (m.transition, m.program) {
+                (TransitionName::Program, Some(p)) => Transition::Program(program_index(&p)?),
+                (TransitionName::Test, None) => Transition::Test,
+                (TransitionName::Questionnaire, None) => Transition::Questionnaire,
+                _ => return None,
+            };
+            Event::TransitionConfirmed { transition }
         }
         Topic::QuestionnaireLikert => {
             let m = typed::<LikertAnswer>(v)?;

@@ -10,7 +10,7 @@ use super::Topic;
 use super::foxglove::{self, OfficialSchema};
 use super::types::{
     BeliefMessage, ForcedChoice, JointAngles, LikertAnswer, RobotCommand, RobotStatus, SessionEnd, SessionMark,
-    SessionStartMessage, TestLogLikelihood, TrialQuery, TrialResponse, TrialUndo, TrialVoid,
+    SessionStartMessage, SessionTransition, TestLogLikelihood, TrialQuery, TrialResponse, TrialUndo, TrialVoid,
 };
 
 fn derived<T: JsonSchema>(name: &'static str) -> (&'static str, String) {
@@ -145,6 +145,7 @@ pub fn schema(topic: Topic) -> (&'static str, String) {
         Topic::QuestionnaireLikert => derived::<LikertAnswer>("handover.LikertAnswer"),
         Topic::QuestionnaireChoice => derived::<ForcedChoice>("handover.ForcedChoice"),
         Topic::SessionPause | Topic::SessionResume => derived::<SessionMark>("handover.SessionMark"),
+        Topic::SessionTransition => derived::<SessionTransition>("handover.SessionTransition"),
         Topic::SessionEnd => derived::<SessionEnd>("handover.SessionEnd"),
         Topic::HumanJoints => derived::<JointAngles>("handover.JointAngles"),
         Topic::TestLogLikelihood(_) => derived::<TestLogLikelihood>("handover.TestLogLikelihood"),

@@ -178,6 +178,7 @@ fn read_back(topic: Topic, v: &Value) -> Result<Value, serde_json::Error> {
         Topic::QuestionnaireLikert => again::<t::LikertAnswer>(v),
         Topic::QuestionnaireChoice => again::<t::ForcedChoice>(v),
         Topic::SessionPause | Topic::SessionResume => again::<t::SessionMark>(v),
+        Topic::SessionTransition => again::<t::SessionTransition>(v),
         Topic::SessionEnd => again::<t::SessionEnd>(v),
         Topic::HumanJoints => again::<t::JointAngles>(v),
         Topic::TestLogLikelihood(_) => again::<t::TestLogLikelihood>(v),

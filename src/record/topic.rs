@@ -16,6 +16,8 @@ pub enum Topic {
     QuestionnaireChoice,
     SessionPause,
     SessionResume,
+    /// The experimenter's confirmation of a transition between phases.
+    SessionTransition,
     SessionEnd,
     RobotHandoverPose,
     HumanArm,
@@ -33,7 +35,7 @@ pub enum Topic {
 
 impl Topic {
     /// Every topic, in a fixed order (channels are registered in it).
-    pub const ALL: [Topic; 30] = [
+    pub const ALL: [Topic; 31] = [
         Topic::SessionStart,
         Topic::TrialQuery,
         Topic::TrialResponse,
@@ -49,6 +51,7 @@ impl Topic {
         Topic::QuestionnaireChoice,
         Topic::SessionPause,
         Topic::SessionResume,
+        Topic::SessionTransition,
         Topic::SessionEnd,
         Topic::RobotHandoverPose,
         Topic::HumanArm,
@@ -86,6 +89,7 @@ impl Topic {
             Topic::QuestionnaireChoice => "/questionnaire/choice",
             Topic::SessionPause => "/session/pause",
             Topic::SessionResume => "/session/resume",
+            Topic::SessionTransition => "/session/transition",
             Topic::SessionEnd => "/session/end",
             Topic::RobotHandoverPose => "/robot/handover_pose",
             Topic::HumanArm => "/human/arm",
@@ -123,6 +127,7 @@ impl Topic {
                 | Topic::QuestionnaireChoice
                 | Topic::SessionPause
                 | Topic::SessionResume
+                | Topic::SessionTransition
                 | Topic::SessionEnd
                 | Topic::Notes
                 | Topic::RobotCommand
@@ -173,6 +178,6 @@ mod tests {
             assert!(Topic::ALL.contains(&Topic::Belief(k)), "{k:?} has a belief topic");
             assert!(Topic::ALL.contains(&Topic::TestLogLikelihood(k)), "{k:?} has a test topic");
         }
-        assert_eq!(Topic::ALL.iter().filter(|t| t.is_event()).count(), 12);
+        assert_eq!(Topic::ALL.iter().filter(|t| t.is_event()).count(), 13);
     }
 }

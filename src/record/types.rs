@@ -289,6 +289,29 @@ pub struct SessionMark {
     pub event_index: u32,
 }
 
+/// Which transition between phases was confirmed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum TransitionName {
+    Program,
+    Test,
+    Questionnaire,
+}
+
+/// `/session/transition`: the experimenter told the participant what comes next and went
+/// on; the next phase's first query is presented only after it. Event.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "handover.SessionTransition")]
+pub struct SessionTransition {
+    pub event_index: u32,
+    /// `program` (a training program after another), `test` or `questionnaire`.
+    pub transition: TransitionName,
+    /// The program letter that begins (only for `program`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(regex(pattern = r"^[A-Z]$"))]
+    pub program: Option<String>,
+}
+
 /// How a session ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "kebab-case")]

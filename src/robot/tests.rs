@@ -186,7 +186,7 @@ fn the_session_takes_robot_events_only_where_they_fit() {
     assert!(s.apply(&c.event(RobotLinkKind::Ros2)).is_err());
     s.apply(&Event::Resumed).unwrap();
     assert_eq!(s.event_count(), 8);
-    assert_eq!(s.events_without_robot(), 3, "the void, the pause and the resume");
+    assert_eq!(s.participant_events(), 3, "the void, the pause and the resume");
 }
 
 #[test]

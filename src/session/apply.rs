@@ -3,7 +3,7 @@
 
 use super::{
     Applied, ArmMeasurement, BeliefSummary, Event, MeasuredGrasp, Prompt, QueryRef, RobotTrack, Session, SessionError,
-    Stage, TrialCursor, TrialRecord, TrialSlot, UndoPoint, VoidReason, VoidRecord,
+    Stage, Transition, TrialCursor, TrialRecord, TrialSlot, UndoPoint, VoidReason, VoidRecord,
 };
 use crate::ergo::{FeasibleSet, Observation, most_likely_in_region};
 
@@ -24,6 +24,7 @@ impl Event {
             Event::Aborted { .. } => "abort",
             Event::RobotCommanded { .. } => "robot command",
             Event::RobotReported { .. } => "robot report",
+            Event::TransitionConfirmed { .. } => "transition confirmed",
         }
     }
 }
@@ -64,6 +65,7 @@ impl Session {
                 self.paused = false;
                 Applied::Other
             }
+            Event::TransitionConfirmed { transition } => self.confirm(name, *transition)?,
             Event::LikertAnswered { program, item, value } => self.answer(name, *program, item, *value)?,
             Event::ForcedChoice { program } => self.choose(name, *program)?,
             Event::Ended => {
@@ -91,8 +93,11 @@ impl Session {
             }
         };
         self.events += 1;
-        if matches!(event, Event::RobotCommanded { .. } | Event::RobotReported { .. }) {
-            self.robot_events += 1;
+        if matches!(
+            event,
+            Event::RobotCommanded { .. } | Event::RobotReported { .. } | Event::TransitionConfirmed { .. }
+        ) {
+            self.side_events += 1;
         }
         Ok(applied)
     }
@@ -199,7 +204,7 @@ impl Session {
             config,
             measured,
         };
-        let mut undo = UndoPoint { cursor, learner: None };
+        let mut undo = UndoPoint { cursor, learner: None, confirmed: self.confirmed.len() };
         let belief = match cursor.slot {
             TrialSlot::Training { run, .. } => {
                 let obs = self.ctx.observation_of(set, &record);
@@ -286,8 +291,17 @@ impl Session {
 
     /// Takes back the last grasp: its record, its learning step, and the trial again awaits
     /// its grasp.
+    fn confirm(&mut self, name: &'static str, transition: Transition) -> Result<Applied, SessionError> {
+        if self.transition() != Some(transition) {
+            return Err(not_now(name, format!("{transition:?} is not the transition waiting to be confirmed")));
+        }
+        self.confirmed.push(transition);
+        Ok(Applied::Other)
+    }
+
     fn restore(&mut self, undo: UndoPoint) -> (TrialCursor, Option<BeliefSummary>) {
         self.trials.pop();
+        self.confirmed.truncate(undo.confirmed);
         let cursor = TrialCursor { presented: true, ..undo.cursor };
         self.stage = Stage::Trial(cursor);
         let belief = undo.learner.map(|(run, l)| {

@@ -244,6 +244,10 @@ pub enum Event {
         state: RobotState,
         detail: String,
     },
+    /// The experimenter told the participant what comes next and goes on.
+    TransitionConfirmed {
+        transition: super::Transition,
+    },
 }
 
 /// An event with the time it happened (ns since the Unix epoch), stamped by the shell.

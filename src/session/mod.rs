@@ -126,6 +126,21 @@ pub enum Prompt {
     Done { completed: bool },
 }
 
+/// A point between phases where the experimenter tells the participant what comes next
+/// (the protocol's `session.transitions`) and confirms it before the next phase's first
+/// query is presented; the confirmation is an event, so that a resumed console and the
+/// robot operator's screen know whether it was given.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(tag = "stage", content = "program", rename_all = "kebab-case")]
+pub enum Transition {
+    /// The start of training program k (k ≥ 1: after another program).
+    Program(usize),
+    /// The start of the test phase.
+    Test,
+    /// The start of the questionnaire.
+    Questionnaire,
+}
+
 /// One recorded trial.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TrialRecord {
@@ -243,6 +258,9 @@ pub struct RobotTrack {
 struct UndoPoint {
     cursor: TrialCursor,
     learner: Option<(usize, Learner)>,
+    /// How many transitions were confirmed before the grasp: one confirmed after it is
+    /// undone with it (the participant is told again).
+    confirmed: usize,
 }
 
 /// A session: the fold of the protocol, the start record and the events.
@@ -263,11 +281,13 @@ pub struct Session {
     choice: Option<usize>,
     notes: Vec<String>,
     voids: Vec<VoidRecord>,
+    /// The transitions confirmed, in order.
+    confirmed: Vec<Transition>,
     /// The robot's commands for the trial under way (none without a robot).
     robot: Option<RobotTrack>,
     events: usize,
-    /// How many of `events` were the robot's.
-    robot_events: usize,
+    /// How many of `events` were the robot's or confirmed a transition.
+    side_events: usize,
 }
 
 mod purpose {
@@ -337,9 +357,10 @@ impl Session {
             choice: None,
             notes: Vec::new(),
             voids: Vec::new(),
+            confirmed: Vec::new(),
             robot: None,
             events: 0,
-            robot_events: 0,
+            side_events: 0,
         })
     }
 
@@ -394,10 +415,11 @@ impl Session {
         self.events
     }
 
-    /// Events applied other than the robot's commands and reports: what a simulated
-    /// participant's draws are keyed on, so that a robot in the loop changes no answer.
-    pub fn events_without_robot(&self) -> usize {
-        self.events - self.robot_events
+    /// Events applied other than the robot's commands and reports and the experimenter's
+    /// confirmations of transitions: what a simulated participant's draws are keyed on, so
+    /// that a robot in the loop, or a console that confirms transitions, changes no answer.
+    pub fn participant_events(&self) -> usize {
+        self.events - self.side_events
     }
 
     /// Whether `GraspUndone` is possible now.
@@ -474,6 +496,29 @@ impl Session {
     pub fn likert_order(&self) -> Vec<(usize, usize)> {
         let items = self.study.protocol.questionnaire.items.len();
         (0..self.learners.len()).flat_map(|p| (0..items).map(move |i| (p, i))).collect()
+    }
+
+    /// The transition to confirm before the session goes on: the first trial of a training
+    /// program after another, of the test phase, or the first statement of the
+    /// questionnaire, before anything of it is recorded and unless it was confirmed. (Logs
+    /// of format 1 carry no confirmations: for them it ends when the next phase begins.)
+    pub fn transition(&self) -> Option<Transition> {
+        let t = match self.prompt() {
+            Prompt::Present(v) if v.trial == 1 => {
+                let begun = self.voids.iter().any(|x| x.phase == v.phase && x.run == v.program);
+                match (v.phase, v.program) {
+                    _ if begun => return None,
+                    (Phase::Training, Some(k)) if k > 0 => Transition::Program(k),
+                    (Phase::Test, _) => Transition::Test,
+                    _ => return None,
+                }
+            }
+            Prompt::Likert { index: 0, .. } if self.likert.is_empty() && self.choice.is_none() => {
+                Transition::Questionnaire
+            }
+            _ => return None,
+        };
+        (!self.confirmed.contains(&t)).then_some(t)
     }
 
     /// What the operator must do next.

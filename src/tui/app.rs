@@ -21,7 +21,7 @@ use crate::protocol::Study;
 use crate::record::{LogContents, RecordError, RecordedSession, SharedTap, continuation_path, log_folder};
 use crate::robot::joint_states::JointStateSource;
 use crate::robot::{PresentOn, Report, Robot, RobotCommand, command_for};
-use crate::session::{ArmMeasurement, Event, Prompt, RobotState, Session, Stamped};
+use crate::session::{ArmMeasurement, Event, Prompt, RobotState, Session, Stamped, Transition};
 use crate::setup::{Plan, SetupConfig, SetupError, lock_for, plan_session, start_session};
 use crate::study_dir::{ParticipantLock, StudyDirs};
 
@@ -80,18 +80,6 @@ pub enum Overlay {
     },
 }
 
-/// A point between phases where the experimenter tells the participant what comes next
-/// (the protocol's `session.transitions`) and confirms before the console goes on.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Stage {
-    /// The start of training program k (k ≥ 1: after another program).
-    Program(usize),
-    /// The start of the test phase.
-    Test,
-    /// The start of the questionnaire.
-    Questionnaire,
-}
-
 /// Why the console could not open a session.
 #[derive(Debug, thiserror::Error)]
 pub enum ConsoleError {
@@ -131,8 +119,6 @@ pub struct App {
     /// The questionnaire position whose skip Enter has asked to confirm (a second Enter
     /// there skips it).
     pub skip_asked: Option<usize>,
-    /// The transitions the experimenter has confirmed in this console.
-    acknowledged: Vec<Stage>,
     /// The questionnaire is in the participant's hands.
     pub participant_mode: bool,
     /// How far the help overlay is scrolled (lines).
@@ -239,7 +225,6 @@ impl App {
             joint_pair: 0,
             cursor: 0,
             skip_asked: None,
-            acknowledged: Vec::new(),
             participant_mode: false,
             help_scroll: 0,
             say_after: None,
@@ -357,62 +342,59 @@ impl App {
         }
     }
 
-    /// The transition waiting for the experimenter's confirmation: the first trial of a
-    /// training program after another, of the test phase, or the first statement of the
-    /// questionnaire, before anything of it is recorded (a resumed session shows it again).
-    pub fn transition(&self) -> Option<Stage> {
-        let s = self.session()?;
-        let stage = match s.prompt() {
-            Prompt::Present(v) if v.trial == 1 => {
-                let begun = s.voids().iter().any(|x| x.phase == v.phase && x.run == v.program);
-                match (v.phase, v.program) {
-                    _ if begun => return None,
-                    (crate::session::Phase::Training, Some(k)) if k > 0 => Stage::Program(k),
-                    (crate::session::Phase::Test, _) => Stage::Test,
-                    _ => return None,
-                }
-            }
-            Prompt::Likert { index: 0, .. }
-                if self.cursor == 0 && s.likert_answers().is_empty() && s.forced_choice().is_none() =>
-            {
-                Stage::Questionnaire
-            }
-            _ => return None,
-        };
-        (!self.acknowledged.contains(&stage)).then_some(stage)
+    /// The transition waiting for the experimenter's confirmation (`Session::transition`);
+    /// the questionnaire's only while its cursor is still on the first statement.
+    pub fn transition(&self) -> Option<Transition> {
+        match self.session()?.transition()? {
+            Transition::Questionnaire if self.cursor != 0 => None,
+            t => Some(t),
+        }
     }
 
     /// What the experimenter tells the participant at a transition: the protocol's text
     /// with the programs' labels.
-    pub fn transition_text(&self, stage: Stage) -> String {
+    pub fn transition_text(&self, stage: Transition) -> String {
         let Some(s) = self.session() else { return String::new() };
         let t = s.study().protocol.session.transitions();
         let labels = &s.start().program_labels;
         match stage {
-            Stage::Program(k) => t
+            Transition::Program(k) => t
                 .between_programs
                 .replace("{done}", &labels[k.saturating_sub(1)])
                 .replace("{next}", &labels[k.min(labels.len() - 1)]),
-            Stage::Test => t.before_test,
-            Stage::Questionnaire => t.before_questionnaire,
+            Transition::Test => t.before_test,
+            Transition::Questionnaire => t.before_questionnaire,
         }
     }
 
-    /// The experimenter confirms the transition shown.
+    /// What `u` would undo now, as the operator names it ("the grasp of Program A, trial
+    /// 5"); `None` when there is nothing to undo.
+    pub fn undoable(&self) -> Option<String> {
+        let s = self.session().filter(|s| s.can_undo())?;
+        Some(match s.trials().last() {
+            Some(t) => match t.run {
+                Some(run) => format!("the grasp of {}, trial {}", s.start().program_labels[run], t.trial),
+                None => format!("the grasp of test trial {}", t.trial),
+            },
+            None => "the last grasp".into(),
+        })
+    }
+
+    /// The experimenter confirms the transition shown: logged, so that the robot operator's
+    /// screen shows the next pose only now, and a resumed console does not ask again.
     pub(super) fn acknowledge(&mut self) {
-        if let Some(stage) = self.transition() {
-            self.acknowledged.push(stage);
-            self.status = match stage {
-                Stage::Program(k) => format!(
-                    "{} begins: present its first query",
-                    self.session().map_or(String::new(), |s| s.start().program_labels[k].clone())
-                ),
-                Stage::Test => "The test phase begins: present its first query".into(),
-                Stage::Questionnaire => {
-                    "The questionnaire begins: h hands it to the participant, or read the statements out".into()
-                }
-            };
-        }
+        let Some(transition) = self.transition() else { return };
+        let message = match transition {
+            Transition::Program(k) => format!(
+                "{} begins: present its first query",
+                self.session().map_or(String::new(), |s| s.start().program_labels[k].clone())
+            ),
+            Transition::Test => "The test phase begins: present its first query".into(),
+            Transition::Questionnaire => {
+                "The questionnaire begins: h hands it to the participant, or read the statements out".into()
+            }
+        };
+        self.submit_saying(Event::TransitionConfirmed { transition }, message);
     }
 
     /// How many grip regions are offered now, scale points and void reasons there are: the
@@ -471,11 +453,10 @@ impl App {
             return;
         }
         // A rehearsal goes on by itself; the transition's text is left on the status line.
-        if let Some(stage) = self.transition() {
+        if let Some(transition) = self.transition() {
             self.last_simulated_ns = now_ns;
-            let text = self.transition_text(stage);
-            self.acknowledged.push(stage);
-            self.status = text;
+            let text = self.transition_text(transition);
+            self.submit_saying(Event::TransitionConfirmed { transition }, text);
             return;
         }
         if let Some(event) = self.session().and_then(|s| sim.respond(s)) {

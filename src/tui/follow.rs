@@ -119,6 +119,16 @@ fn now(view: &FollowView, session: &Session) -> (String, Vec<Line<'static>>) {
         robot_status(session, since, "not sent yet")
     });
     let (title, mut lines) = match session.prompt() {
+        // Until the experimenter has told the participant what comes next, the next pose is
+        // not shown: the robot stays where it is.
+        Prompt::Present(_) if session.transition().is_some() => (
+            " Between phases ".into(),
+            vec![
+                Line::from(Span::styled("WAIT — do not move the robot yet.", theme::warning())),
+                Line::from(Span::raw("The experimenter is telling the participant what comes next;")),
+                Line::from(Span::raw("the next pose appears here once they go on.")),
+            ],
+        ),
         Prompt::Present(v) => {
             let mut lines = instruction_lines(session, &v, false, robot);
             // The experimenter confirms it, on the console.

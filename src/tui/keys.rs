@@ -244,7 +244,7 @@ pub const BINDINGS: &[Binding] = &[
     ),
     bind(
         Keys::Char('u'),
-        &[M::Present],
+        &[M::Present, M::Transition],
         Does::Is(Action::Undo),
         "undo",
         "undo the last recorded grasp (until the next query)",

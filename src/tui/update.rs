@@ -108,9 +108,27 @@ impl App {
                     self.void(reason, String::new());
                 }
             },
-            (Mode::Present, Action::Undo) => {
-                if self.session().is_some_and(|s| s.can_undo()) {
-                    self.submit(Event::GraspUndone);
+            (Mode::Present | Mode::Transition, Action::Undo) => {
+                if let Some(what) = self.undoable() {
+                    // Back across a transition the participant was already told about.
+                    let back = self.session().and_then(|s| match (s.prompt(), s.trials().last()) {
+                        (Prompt::Present(v), Some(t))
+                            if mode == Mode::Present && (v.phase, v.program) != (t.phase, t.run) =>
+                        {
+                            Some(match t.run {
+                                Some(run) => s.start().program_labels[run].clone(),
+                                None => "the test phase".into(),
+                            })
+                        }
+                        _ => None,
+                    });
+                    let undone = match back {
+                        Some(phase) => {
+                            format!("Undone: {what}; back to {phase}: tell the participant, then record it again")
+                        }
+                        None => format!("Undone: {what}; record it again"),
+                    };
+                    self.submit_saying(Event::GraspUndone, undone);
                 } else {
                     self.status = super::keys::NOTHING_TO_UNDO.into();
                 }

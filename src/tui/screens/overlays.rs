@@ -5,8 +5,9 @@ use ratatui::layout::{Constraint, Flex, Layout, Rect};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Clear, Paragraph, Wrap};
 
+use crate::session::Transition;
 use crate::session::VoidReason;
-use crate::tui::app::{App, Stage};
+use crate::tui::app::App;
 use crate::tui::keys::Mode;
 use crate::tui::theme;
 
@@ -62,19 +63,22 @@ pub fn help(app: &App, frame: &mut Frame, area: Rect) {
 pub fn transition(app: &App, frame: &mut Frame, area: Rect) {
     let Some(stage) = app.transition() else { return };
     let heading = match stage {
-        Stage::Program(k) => {
+        Transition::Program(k) => {
             app.session().map_or(String::new(), |s| format!("{} is next", s.start().program_labels[k]))
         }
-        Stage::Test => "The test phase is next".into(),
-        Stage::Questionnaire => "The questionnaire is next".into(),
+        Transition::Test => "The test phase is next".into(),
+        Transition::Questionnaire => "The questionnaire is next".into(),
     };
-    let lines = vec![
+    let mut lines = vec![
         Line::from(Span::styled(heading, theme::title())),
         Line::from(""),
         Line::from(Span::styled(app.transition_text(stage), theme::instruction())),
         Line::from(""),
         Line::from("Press Enter once the participant has been told."),
     ];
+    if let Some(what) = app.undoable() {
+        lines.push(Line::from(format!("u undoes {what} if it was recorded wrong (before telling them).")));
+    }
     frame.render_widget(
         Paragraph::new(lines).wrap(Wrap { trim: false }).block(Block::bordered().title(" Between phases ")),
         area,
