@@ -107,12 +107,26 @@ pub fn plan_session(c: &SetupConfig) -> Plan {
                 );
                 (r.id, r.slot, None, Some(why))
             }
-            Ok(r) => match for_body(c.protocol_text, &study.source_name, r.body()) {
-                Ok((text, fitted)) => {
-                    (study, protocol_text) = (Arc::new(fitted), text);
-                    (r.id, r.slot, None, None)
+            Ok(r) => match crate::record::open_sessions(&c.dirs.logs.join(&r.id)).first() {
+                // One session per participant at a time: the unfinished one is continued (one
+                // that a console runs now is refused by the participant's lock, which says so).
+                Some(open) if crate::study_dir::holder_running(&c.dirs.logs.join(&r.id)) != Some(true) => {
+                    let why = format!(
+                        "participant {} has an unfinished session ({}, {} events recorded): continue it with: {}",
+                        r.id,
+                        open.path.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned()),
+                        open.events.len(),
+                        c.dirs.resume_command(&r.id)
+                    );
+                    (r.id, r.slot, None, Some(why))
                 }
-                Err(e) => (r.id, r.slot, None, Some(e.to_string())),
+                _ => match for_body(c.protocol_text, &study.source_name, r.body()) {
+                    Ok((text, fitted)) => {
+                        (study, protocol_text) = (Arc::new(fitted), text);
+                        (r.id, r.slot, None, None)
+                    }
+                    Err(e) => (r.id, r.slot, None, Some(e.to_string())),
+                },
             },
             Err(e) => {
                 let why = match crate::participant::Tombstone::load(&c.dirs.participants, c.participant) {

@@ -47,6 +47,28 @@ impl StudyDirs {
         Self::of_log(log, participant).unwrap_or_else(|| Self::resolve(None, None, None))
     }
 
+    /// The flags that name these folders to another command (` --study-dir D`, and
+    /// `--logs`/`--participants-dir` where they are not the study's own), empty for the
+    /// current folder's study: what a printed command must carry to find the same study.
+    pub fn flags(&self) -> String {
+        let mut s = String::new();
+        if self.root != Path::new(".") {
+            s.push_str(&format!(" --study-dir {}", shell_word(&self.root.display().to_string())));
+        }
+        if self.logs != self.root.join("logs") {
+            s.push_str(&format!(" --logs {}", shell_word(&self.logs.display().to_string())));
+        }
+        if self.participants != self.root.join("participants") {
+            s.push_str(&format!(" --participants-dir {}", shell_word(&self.participants.display().to_string())));
+        }
+        s
+    }
+
+    /// The whole command that continues `participant`'s unfinished session in this study.
+    pub fn resume_command(&self, participant: &str) -> String {
+        format!("handover resume --participant {participant}{}", self.flags())
+    }
+
     /// The folders that do not exist yet (a new study, or a typo in the path).
     pub fn missing(&self) -> Vec<&Path> {
         [self.participants.as_path(), self.logs.as_path()].into_iter().filter(|p| !p.is_dir()).collect()
@@ -63,6 +85,19 @@ impl StudyDirs {
         s
     }
 }
+
+/// A path as one word of a shell command: as it is when it has nothing a shell would read,
+/// else in single quotes.
+pub fn shell_word(s: &str) -> String {
+    if !s.is_empty() && s.bytes().all(|b| b.is_ascii_alphanumeric() || b"/._-+,:=@%".contains(&b)) {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
+}
+
+/// How many times (10 ms apart) taking a held lock is tried again before it is refused.
+const PROBE_RETRIES: u32 = 5;
 
 /// Name of the lock file in a participant's log folder.
 pub const LOCK_FILE: &str = ".session.lock";
@@ -100,7 +135,18 @@ impl ParticipantLock {
             o.mode(0o600);
         }
         let mut file = o.open(&path).map_err(err)?;
-        match file.try_lock() {
+        // A follower's probe (`holder_running`) holds a shared lock for microseconds: wait it out.
+        let mut attempt = 0;
+        let taken = loop {
+            match file.try_lock() {
+                Err(std::fs::TryLockError::WouldBlock) if attempt < PROBE_RETRIES => {
+                    attempt += 1;
+                    std::thread::sleep(std::time::Duration::from_millis(10));
+                }
+                other => break other,
+            }
+        };
+        match taken {
             Ok(()) => {}
             Err(std::fs::TryLockError::WouldBlock) => {
                 let mut holder = String::new();
@@ -121,20 +167,21 @@ impl ParticipantLock {
     }
 }
 
-/// Whether the process named in the lock file of the participant whose logs live in `dir`
-/// is still running: `Some(false)` once it has ended without a word (a crash or `kill -9`
-/// leaves the file naming a process that is gone), `None` when there is no lock file to ask.
-/// Only reads: a follower uses it to tell a quiet console from a lost one.
+/// Whether a console (or a dry run) holds the session lock of the participant whose logs
+/// live in `dir`: `Some(false)` once its holder has ended without a word (a crash, `kill -9`,
+/// a power cut: the operating system dropped the lock), `None` when there is no lock file.
+/// It asks the lock itself, with a shared lock taken and dropped at once (`acquire` waits out
+/// such a probe), so it holds whichever process asks.
 pub fn holder_running(dir: &Path) -> Option<bool> {
-    let bytes = crate::input_file::read_regular(&dir.join(LOCK_FILE), 512).ok()?;
-    let text = String::from_utf8_lossy(&bytes);
-    let pid: i32 = text.split("by process ").nth(1)?.split_whitespace().next()?.parse().ok()?;
-    if pid <= 0 {
-        return None;
+    let file = crate::input_file::open_regular(&dir.join(LOCK_FILE)).ok()?;
+    match file.try_lock_shared() {
+        Ok(()) => {
+            let _ = file.unlock();
+            Some(false)
+        }
+        Err(std::fs::TryLockError::WouldBlock) => Some(true),
+        Err(std::fs::TryLockError::Error(_)) => None,
     }
-    // SAFETY: kill(2) with signal 0 sends nothing; it only says whether the process exists.
-    let r = unsafe { libc::kill(pid, 0) };
-    Some(r == 0 || std::io::Error::last_os_error().raw_os_error() == Some(libc::EPERM))
 }
 
 #[cfg(test)]
@@ -150,6 +197,7 @@ mod tests {
         assert!(msg.contains("already has a live session") && msg.contains(&std::process::id().to_string()), "{msg}");
         assert_eq!(holder_running(&dir), Some(true), "this process holds it");
         drop(first);
+        assert_eq!(holder_running(&dir), Some(false), "released");
         ParticipantLock::acquire(&dir, "p-1", "console").expect("released when dropped");
         std::fs::remove_dir_all(&dir).unwrap();
     }

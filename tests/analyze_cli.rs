@@ -427,3 +427,20 @@ fn outputs_are_owner_only_under_any_umask() {
     assert!(written >= 10, "{written} files");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `analyze --study-dir DIR` alone analyses the study's logs/; with neither a path nor a
+/// study folder it is a usage error (exit 2).
+#[test]
+fn the_study_dir_alone_names_the_logs() {
+    let logs = logs("study-dir", 0);
+    let study = logs.parent().unwrap().join(format!("handover-analyze-{}-study", std::process::id()));
+    let _ = std::fs::remove_dir_all(&study);
+    std::fs::create_dir_all(&study).unwrap();
+    std::fs::rename(&logs, study.join("logs")).unwrap();
+    let (code, out, err) = handover(&["analyze", "--study-dir", study.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("p-real0001"), "{out}");
+    let (code, _, err) = handover(&["analyze"]);
+    assert_eq!(code, 2, "{err}");
+    std::fs::remove_dir_all(&study).unwrap();
+}

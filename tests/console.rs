@@ -818,6 +818,32 @@ fn a_transition_is_logged_and_the_follower_waits_for_it() {
     keys(&mut r, "qy");
 }
 
+/// One session per participant at a time: a participant with an unfinished session gets no
+/// second one (the setup says so, with the whole command that continues it), and the quit
+/// message prints that command too, with the study's folder.
+#[test]
+fn an_unfinished_session_is_continued_not_doubled() {
+    let dir = tmpdir("unfinished");
+    let mut a = app(&dir);
+    press(&mut a, KeyCode::Enter);
+    trials(&mut a, 2, '1');
+    let id = a.session().unwrap().start().participant.clone();
+    keys(&mut a, "qy");
+    let command = format!("handover resume --participant {id} --study-dir {}", dir.display());
+    let message = a.exit_message.clone().unwrap_or_default();
+    assert!(message.contains(&command), "{message}");
+    drop(a);
+    let mut cfg = config(&dir, false);
+    cfg.participant = id.clone();
+    let mut b = App::new(cfg);
+    b.tick(T0);
+    let error = b.plan.as_ref().and_then(|p| p.error.clone()).unwrap_or_default();
+    assert!(error.contains("has an unfinished session") && error.contains(&command), "{error}");
+    press(&mut b, KeyCode::Enter);
+    assert!(b.session().is_none(), "no second session");
+    assert_eq!(handover::record::mcap_files(&dir.join("logs")).len(), 1);
+}
+
 /// The questionnaire handed to the participant: one statement, nothing that un-blinds, only
 /// the answering keys act (no quit, note, pause or help; Ctrl+C included), Enter at the end
 /// asks for the keyboard back instead of finishing, and Ctrl+E gives it back.

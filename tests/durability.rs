@@ -263,3 +263,37 @@ fn the_console_blocks_on_a_failed_write_until_it_is_retried() {
     drop(_unmount);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `resume --participant ID` finds the participant's unfinished session in the study's
+/// logs and continues it; with none left it says so and how to start one (exit 2).
+#[test]
+fn resume_by_participant_finds_the_unfinished_session() {
+    let dir = tmpdir("by-participant");
+    small_protocol(&dir);
+    assert_eq!(handover(&dir, &["dry-run", "--protocol", "small.json", "--seed", "4", "--logs", "logs"]).0, 0);
+    let complete = mcap_files(&dir.join("logs")).pop().unwrap();
+    let folder = complete.parent().unwrap().to_path_buf();
+    let id = folder.file_name().unwrap().to_string_lossy().into_owned();
+    // Only a finished session: nothing to continue.
+    let (code, _, err) = handover(&dir, &["resume", "--dry-run", "--participant", &id, "--study-dir", "."]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains(&format!("participant {id} has no unfinished session")), "{err}");
+    // It crashed half-way instead: found and continued.
+    let bytes = cut(&complete, 0.5);
+    std::fs::remove_file(&complete).unwrap();
+    std::fs::write(&complete, bytes).unwrap();
+    let name = complete.file_name().unwrap().to_string_lossy().into_owned();
+    let (code, _, err) = handover(&dir, &["resume", "--dry-run", "--participant", &id]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("resumed") && err.contains(&name), "{err}");
+    assert_eq!(mcap_files(&folder).len(), 2);
+    let (code, _, err) = handover(&dir, &["resume", "--dry-run", "--participant", &id]);
+    assert_eq!(code, 2, "everything is finished again: {err}");
+    // A log and --participant together, or an id that is not one, are refused.
+    let (code, _, _) = handover(&dir, &["resume", "--participant", &id, complete.to_str().unwrap()]);
+    assert_eq!(code, 2);
+    let (code, _, err) = handover(&dir, &["resume", "--participant", "../x"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("--participant"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -31,8 +31,9 @@ use super::input::bad;
 /// session counts once. Exit status 1 if a file was skipped or --verify found a difference.
 #[derive(Debug, Args)]
 pub struct AnalyzeArgs {
-    /// Session logs (.mcap) or directories searched recursively.
-    #[arg(required = true, value_name = "LOG|DIR")]
+    /// Session logs (.mcap) or directories searched recursively (default with --study-dir:
+    /// the study's logs/).
+    #[arg(required_unless_present = "study_dir", value_name = "LOG|DIR")]
     paths: Vec<PathBuf>,
     /// Write sessions.csv, trials.csv (every presentation: taken, undone or voided),
     /// notes.csv, robot.csv (sessions with a robot: every command and its timing),
@@ -132,7 +133,12 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
     }
     args.measured.check()?;
     let mut files = Vec::new();
-    for p in &args.paths {
+    let paths = if args.paths.is_empty() {
+        vec![StudyDirs::resolve(args.study_dir.as_deref(), args.participants.as_deref(), None).logs]
+    } else {
+        args.paths.clone()
+    };
+    for p in &paths {
         if !p.exists() {
             return Err(bad(format!("{}: no such file or directory", p.display())));
         }

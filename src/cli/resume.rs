@@ -26,7 +26,12 @@ use super::robot::RobotArgs;
 #[derive(Debug, Args)]
 pub struct ResumeArgs {
     /// The session log (.mcap) to continue.
-    log: PathBuf,
+    #[arg(required_unless_present = "participant", conflicts_with = "participant")]
+    log: Option<PathBuf>,
+    /// Continue this participant's unfinished session, found in the study's logs (instead of
+    /// naming its log).
+    #[arg(long, value_name = "ID")]
+    participant: Option<String>,
     /// Continue a dry run with its simulated participant, without the console.
     #[arg(long)]
     dry_run: bool,
@@ -37,9 +42,16 @@ pub struct ResumeArgs {
     /// branch of the session; analysis keeps one log per session).
     #[arg(long)]
     fork: bool,
-    /// The study directory whose participants/ holds the participant's record.
+    /// The study directory: participant records in DIR/participants, logs in DIR/logs
+    /// (default: the log's own study, else the current directory).
     #[arg(long, value_name = "DIR")]
     study_dir: Option<PathBuf>,
+    /// Where session logs are (default: STUDY_DIR/logs); with --participant.
+    #[arg(long, value_name = "DIR", requires = "participant")]
+    logs: Option<PathBuf>,
+    /// Where participant records live (default: STUDY_DIR/participants).
+    #[arg(long = "participants-dir", value_name = "DIR")]
+    participants: Option<PathBuf>,
     /// Milliseconds to wait between simulated actions.
     #[arg(long, value_name = "MS", default_value_t = 0)]
     pace: u64,
@@ -74,11 +86,45 @@ fn choose(given: LogContents, fork: bool) -> LogContents {
     }
 }
 
+/// The log of a participant's unfinished session in the study's logs: refused, saying what
+/// there is, when there is none or more than one.
+fn unfinished_of(participant: &str, dirs: &StudyDirs) -> Result<PathBuf> {
+    handover::participant::validate_id(participant)
+        .map_err(|e| bad(format!("--participant '{}': {e}", handover::text::printable(participant))))?;
+    let folder = dirs.logs.join(participant);
+    let open = handover::record::open_sessions(&folder);
+    match open.as_slice() {
+        [one] => Ok(one.path.clone()),
+        [] => Err(bad(format!(
+            "participant {participant} has no unfinished session in {} (start a new one with: handover run --participant {participant}{})",
+            folder.display(),
+            dirs.flags()
+        ))),
+        many => {
+            let names: Vec<String> = many.iter().map(|l| format!("  {}", l.path.display())).collect();
+            Err(bad(format!(
+                "participant {participant} has {} unfinished sessions; name the one to continue (handover resume LOG):\n{}",
+                many.len(),
+                names.join("\n")
+            )))
+        }
+    }
+}
+
 pub fn run(args: ResumeArgs) -> Result<()> {
-    let given = read_log(&args.log).map_err(|e| bad(e.to_string()))?;
+    let log = match (&args.log, &args.participant) {
+        (Some(log), _) => log.clone(),
+        (None, Some(p)) => unfinished_of(
+            p,
+            &StudyDirs::resolve(args.study_dir.as_deref(), args.participants.as_deref(), args.logs.as_deref()),
+        )?,
+        (None, None) => unreachable!("clap requires a log or --participant"),
+    };
+    let given = read_log(&log).map_err(|e| bad(e.to_string()))?;
     let old = choose(given, args.fork);
     // The study the log belongs to decides withdrawal, whatever the current folder.
-    let dirs = StudyDirs::for_log(args.study_dir.as_deref(), None, &old.path, &old.start.participant);
+    let dirs =
+        StudyDirs::for_log(args.study_dir.as_deref(), args.participants.as_deref(), &old.path, &old.start.participant);
     if is_over(&old) {
         errln!("{}: the session is over; opening it read-only (nothing is written)", old.path.display());
         if args.dry_run {

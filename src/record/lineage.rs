@@ -58,6 +58,36 @@ pub fn lineage(log: &LogContents) -> Lineage {
     Lineage { newest: newest.cloned(), direct_continuations: direct }
 }
 
+/// The sessions in a participant's log folder that are not over, one log each: the newest
+/// log of the session that no other continues (the one `resume` continues), oldest session
+/// first. Links and anything but regular files are passed over.
+pub fn open_sessions(dir: &Path) -> Vec<LogContents> {
+    let Ok(entries) = std::fs::read_dir(dir) else { return Vec::new() };
+    let mut names: Vec<PathBuf> = entries
+        .flatten()
+        .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
+        .collect();
+    names.sort();
+    let logs: Vec<LogContents> = names.iter().filter_map(|p| read_log(p).ok()).collect();
+    let file_name = |p: &Path| p.file_name().map(|n| n.to_string_lossy().into_owned());
+    let continued = |l: &LogContents| {
+        logs.iter().any(|o| o.start.session_id == l.start.session_id && o.start.resumed_from == file_name(&l.path))
+    };
+    let mut open: Vec<LogContents> = Vec::new();
+    for l in logs.iter().filter(|l| !continued(l)) {
+        match open.iter_mut().find(|o| o.start.session_id == l.start.session_id) {
+            // A fork's branches: the one created last.
+            Some(o) if created_key(&l.path) > created_key(&o.path) => *o = l.clone(),
+            Some(_) => {}
+            None => open.push(l.clone()),
+        }
+    }
+    open.retain(|l| !is_over(l));
+    open
+}
+
 /// Whether a log's session is over (ended or aborted): such a log is only read, never
 /// continued.
 pub fn is_over(log: &LogContents) -> bool {

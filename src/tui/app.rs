@@ -6,7 +6,7 @@
 //! submit, quit); intents are in `update.rs`, the worker in `worker.rs`.
 
 use std::collections::VecDeque;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -695,6 +695,15 @@ impl App {
         start_session(plan, &self.config.dirs)
     }
 
+    /// The whole command that continues this session: by participant in a study (the one
+    /// unfinished session `run` lets them have), by log for a rehearsal.
+    pub fn resume_command(&self, log: &Path) -> String {
+        match self.session().map(|s| s.start()) {
+            Some(start) if !start.pilot => self.config.dirs.resume_command(&start.participant),
+            _ => format!("handover resume {}", crate::study_dir::shell_word(&log.display().to_string())),
+        }
+    }
+
     pub(super) fn quit_now(&mut self) {
         // Whatever is under way is written first; then the log is finished.
         self.wait_worker();
@@ -707,17 +716,15 @@ impl App {
             });
             match self.closed.take() {
                 Some((path, None)) if !done => {
-                    self.exit_message = Some(format!(
-                        "Session left unfinished; continue it with: handover resume {}{lost}",
-                        path.display()
-                    ))
+                    self.exit_message =
+                        Some(format!("Session left unfinished; continue it with: {}{lost}", self.resume_command(&path)))
                 }
                 // The events on disk are whole: the log replays without its summary.
                 Some((path, Some(e))) => {
                     self.exit_message = Some(format!(
                         "could not finish the log ({e}); everything acknowledged is in it: continue it with: \
-                         handover resume {}{lost}",
-                        path.display()
+                         {}{lost}",
+                        self.resume_command(&path)
                     ))
                 }
                 _ => {}

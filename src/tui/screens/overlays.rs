@@ -90,7 +90,8 @@ pub fn confirm_quit(app: &App, frame: &mut Frame, area: Rect) {
     let mut lines = vec![Line::from(Span::styled("Quit the console?", theme::instruction()))];
     if resumable {
         lines.push(Line::from("Everything recorded is on disk; the session can be resumed with"));
-        lines.push(Line::from("`handover resume <log>`."));
+        let command = app.log_path().map_or_else(|| "handover resume <log>".into(), |p| app.resume_command(&p));
+        lines.push(Line::from(crate::text::printable(&command).into_owned()));
     }
     lines.push(Line::from(if resumable {
         "y: quit   n: stay   a: abort the session for good"
