@@ -1,25 +1,41 @@
 //! Counterbalancing: which slot (condition order) the next participant gets, from the
-//! completed sessions already logged.
+//! completed sessions already logged and the participants registered but not yet run.
 
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
+use crate::participant::ParticipantRecord;
 use crate::record::{mcap_files, read_log};
 use crate::session::Event;
 
-/// The completed real sessions per slot, and the files that could not be counted.
+/// The completed real sessions per slot, the participants registered who wait for theirs,
+/// and the files that could not be counted.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SlotCounts {
     pub completed: Vec<usize>,
+    /// Registered participants (not withdrawn) with no completed session and none that was
+    /// aborted: each holds their slot, so that a day's participants registered in the
+    /// morning are balanced too.
+    pub waiting: Vec<usize>,
     /// (file, why): logs that could not be read, so were not counted.
     pub skipped: Vec<(PathBuf, String)>,
 }
 
 impl SlotCounts {
-    /// The slot with the fewest completed real sessions (the first on ties): dropouts,
-    /// pilots and withdrawn participants do not use up a slot.
+    /// The slot with the fewest participants completed or waiting (the first on ties):
+    /// dropouts (an aborted session and none completed), pilots and withdrawn participants do
+    /// not use up a slot.
     pub fn least_filled(&self) -> usize {
-        (0..self.completed.len()).min_by_key(|&i| (self.completed[i], i)).unwrap_or(0)
+        (0..self.completed.len()).min_by_key(|&i| (self.completed[i] + self.waiting[i], i)).unwrap_or(0)
+    }
+
+    /// The running balance in one short line: per slot, sessions completed and participants
+    /// waiting.
+    pub fn describe(&self) -> String {
+        let parts: Vec<String> = (0..self.completed.len())
+            .map(|i| format!("slot {i}: {} done, {} waiting", self.completed[i], self.waiting[i]))
+            .collect();
+        parts.join(" · ")
     }
 
     /// One line per file not counted, for the operator.
@@ -32,12 +48,15 @@ impl SlotCounts {
 }
 
 /// Completed real (not pilot) sessions per counterbalancing slot in the logs under `root`,
-/// each session counted once however often it was resumed; sessions of participants whose
-/// record in `participants` says they withdrew do not count.
+/// each session counted once however often it was resumed, and the participants registered
+/// in `participants` who wait for a session (see [`SlotCounts::waiting`]); participants whose
+/// record says they withdrew do not count.
 pub fn completed_per_slot(root: &Path, participants: &Path, slots: usize) -> SlotCounts {
     let mut completed = vec![0; slots];
     let mut skipped = Vec::new();
     let mut seen = HashSet::new();
+    // Participants with a completed or an aborted real session: they wait for nothing.
+    let mut settled: HashSet<String> = HashSet::new();
     for path in mcap_files(root) {
         let log = match read_log(&path) {
             Ok(log) => log,
@@ -47,6 +66,10 @@ pub fn completed_per_slot(root: &Path, participants: &Path, slots: usize) -> Slo
             }
         };
         let ended = log.events.iter().any(|e| e.event == Event::Ended);
+        let aborted = log.events.iter().any(|e| matches!(e.event, Event::Aborted { .. }));
+        if (ended || aborted) && !log.start.pilot {
+            settled.insert(log.start.participant.clone());
+        }
         if ended
             && !log.start.pilot
             && log.start.slot < slots
@@ -56,7 +79,27 @@ pub fn completed_per_slot(root: &Path, participants: &Path, slots: usize) -> Slo
             completed[log.start.slot] += 1;
         }
     }
-    SlotCounts { completed, skipped }
+    let mut waiting = vec![0; slots];
+    for record in registered(participants) {
+        if !record.is_withdrawn() && record.slot < slots && !settled.contains(&record.id) {
+            waiting[record.slot] += 1;
+        }
+    }
+    SlotCounts { completed, waiting, skipped }
+}
+
+/// The participant records in a folder (`<id>.json`, regular files; unreadable ones are
+/// passed over: they hold no slot).
+fn registered(participants: &Path) -> Vec<ParticipantRecord> {
+    let Ok(entries) = std::fs::read_dir(participants) else { return Vec::new() };
+    let mut ids: Vec<String> = entries
+        .flatten()
+        .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
+        .filter_map(|e| e.file_name().to_str()?.strip_suffix(".json").map(str::to_string))
+        .filter(|id| crate::participant::validate_id(id).is_ok())
+        .collect();
+    ids.sort();
+    ids.iter().filter_map(|id| ParticipantRecord::load(participants, id).ok()).collect()
 }
 
 #[cfg(test)]
@@ -71,6 +114,7 @@ mod tests {
         std::fs::write(logs.join("p-1_20261202T000000Z.mcap"), b"not a log").unwrap();
         let counts = completed_per_slot(&dir.join("logs"), &dir.join("participants"), 2);
         assert_eq!(counts.completed, vec![0, 0]);
+        assert_eq!(counts.waiting, vec![0, 0]);
         assert_eq!(counts.skipped.len(), 1);
         assert_eq!(counts.least_filled(), 0);
         let w = counts.warnings();

@@ -43,6 +43,8 @@ pub struct Plan {
     /// The study's folders, and which of them are new (read once, when planned).
     pub folders: String,
     pub new_folders: bool,
+    /// The counterbalancing so far, one line (none for a rehearsal).
+    pub balance: Option<String>,
 }
 
 /// Why a planned session could not start (nothing of it is left behind but what is said).
@@ -81,12 +83,14 @@ pub fn plan_session(c: &SetupConfig) -> Plan {
             protocol_text: c.protocol_text.to_string(),
             folders: c.dirs.describe(),
             new_folders: !c.dirs.missing().is_empty(),
+            balance: None,
         };
     }
     let (mut study, mut protocol_text) = (Arc::clone(study), c.protocol_text.to_string());
+    let counts = crate::counterbalance::completed_per_slot(&c.dirs.logs, &c.dirs.participants, 2);
+    let balance = counts.describe();
     let (id, slot, new_record, error) = if c.participant == "new" {
         let id = new_id(&mut rand::rng());
-        let counts = crate::counterbalance::completed_per_slot(&c.dirs.logs, &c.dirs.participants, 2);
         let slot = counts.least_filled();
         let rec = ParticipantRecord {
             id: id.clone(),
@@ -166,6 +170,7 @@ pub fn plan_session(c: &SetupConfig) -> Plan {
         protocol_text,
         folders: c.dirs.describe(),
         new_folders: !c.dirs.missing().is_empty(),
+        balance: Some(balance),
     }
 }
 

@@ -107,7 +107,26 @@ fn participant_new_creates_a_pseudonymous_record_in_the_least_filled_slot() {
     ]);
     let v2: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(parts.join(format!("{}.json", out2.trim()))).unwrap()).unwrap();
-    assert_eq!(v2["slot"], 0);
+    assert_eq!(v2["slot"], 1, "the first participant, registered and waiting, holds slot 0");
+    // A day's participants registered in a row are balanced, and the balance is said.
+    let mut slots = vec![0, 1];
+    for _ in 0..4 {
+        let (code, out, err) = handover(&[
+            "participant",
+            "new",
+            "--participants-dir",
+            parts.to_str().unwrap(),
+            "--logs",
+            logs.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        assert!(err.contains("counterbalancing so far: slot 0: ") && err.contains("waiting"), "{err}");
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(parts.join(format!("{}.json", out.trim()))).unwrap())
+                .unwrap();
+        slots.push(v["slot"].as_u64().unwrap());
+    }
+    assert_eq!(slots, vec![0, 1, 0, 1, 0, 1]);
     let (code, show, _) = handover(&["participant", "show", id, "--participants-dir", parts.to_str().unwrap()]);
     assert_eq!(code, 0);
     assert!(show.contains(id));

@@ -115,6 +115,7 @@ pub fn run(args: ParticipantArgs) -> Result<()> {
                 errln!("warning: {w}");
             }
             let slot = counts.least_filled();
+            errln!("counterbalancing so far: {}", counts.describe());
             let record = ParticipantRecord {
                 id: new_id(&mut rand::rng()),
                 slot,

@@ -180,6 +180,7 @@ impl App {
                 protocol_text: app.config.protocol_text.clone(),
                 folders: app.config.dirs.describe(),
                 new_folders: false,
+                balance: None,
             });
         }
         app.shown = Some(rec.session().clone());

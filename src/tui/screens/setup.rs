@@ -73,6 +73,12 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
                 Span::styled("Study folders: ", theme::title()),
                 Span::styled(plan.folders.clone(), if plan.new_folders { theme::warning() } else { theme::dim() }),
             ]));
+            if let Some(balance) = &plan.balance {
+                lines.push(Line::from(vec![
+                    Span::styled("Counterbalancing: ", theme::title()),
+                    Span::raw(balance.clone()),
+                ]));
+            }
             if plan.new_folders {
                 lines.push(Line::from(Span::styled(
                     "  New study folders: counterbalancing starts afresh. Is this the study directory you meant?",
