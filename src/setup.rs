@@ -24,6 +24,8 @@ pub struct SetupConfig<'a> {
     pub participant: &'a str,
     /// A simulated participant answers (a rehearsal; the log is flagged pilot).
     pub simulate: bool,
+    /// A pilot with a real person: a `pilot-` id, no record, the log flagged pilot.
+    pub pilot: bool,
     /// The session seed (random when absent).
     pub seed: Option<u64>,
 }
@@ -89,7 +91,11 @@ pub fn plan_session(c: &SetupConfig) -> Plan {
     let (mut study, mut protocol_text) = (Arc::clone(study), c.protocol_text.to_string());
     let counts = crate::counterbalance::completed_per_slot(&c.dirs.logs, &c.dirs.participants, 2);
     let balance = counts.describe();
-    let (id, slot, new_record, error) = if c.participant == "new" {
+    let (id, slot, new_record, error) = if c.pilot {
+        // Kept apart as dry runs are: no record, no slot of the study's taken.
+        let id = format!("pilot-{}", new_id(&mut rand::rng()).trim_start_matches("p-"));
+        (id, counts.least_filled(), None, None)
+    } else if c.participant == "new" {
         let id = new_id(&mut rand::rng());
         let slot = counts.least_filled();
         let rec = ParticipantRecord {
@@ -153,7 +159,7 @@ pub fn plan_session(c: &SetupConfig) -> Plan {
         condition_order: condition_order(&study, slot),
         program_labels: study.protocol.session.program_labels.clone(),
         software_version: env!("CARGO_PKG_VERSION").to_string(),
-        pilot: false,
+        pilot: c.pilot,
         slot,
         started_at,
         simulated_truth: None,

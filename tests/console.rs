@@ -39,6 +39,7 @@ fn config(dir: &Path, simulate: bool) -> AppConfig {
         dirs: StudyDirs::resolve(Some(dir), None, None),
         participant: "new".into(),
         simulate,
+        pilot: false,
         pace: Duration::ZERO,
         seed: Some(1),
         tap: None,
@@ -842,6 +843,32 @@ fn an_unfinished_session_is_continued_not_doubled() {
     press(&mut b, KeyCode::Enter);
     assert!(b.session().is_none(), "no second session");
     assert_eq!(handover::record::mcap_files(&dir.join("logs")).len(), 1);
+}
+
+/// `run --pilot`: a real person in a pilot gets a `pilot-` id and no participant record; the
+/// log is flagged pilot (the header says so), so analysis reports it apart and the
+/// counterbalancing never counts it; it is resumed by its log.
+#[test]
+fn a_pilot_with_a_real_person_is_kept_apart() {
+    let dir = tmpdir("pilot");
+    let mut a = App::new(AppConfig { pilot: true, ..config(&dir, false) });
+    a.tick(T0);
+    press(&mut a, KeyCode::Enter);
+    let start = a.session().unwrap().start().clone();
+    assert!(start.pilot && start.participant.starts_with("pilot-"), "{start:?}");
+    assert!(screen(&mut a, 80, 24).contains("[PILOT]"));
+    trials(&mut a, 26, '1');
+    past_transition(&mut a);
+    assert!(!dir.join("participants").exists() || std::fs::read_dir(dir.join("participants")).unwrap().count() == 0);
+    keys(&mut a, "qy");
+    let message = a.exit_message.clone().unwrap_or_default();
+    assert!(message.contains("handover resume ") && message.contains(".mcap"), "by its log: {message}");
+    let counts = handover::counterbalance::completed_per_slot(&dir.join("logs"), &dir.join("participants"), 2);
+    assert_eq!((counts.completed, counts.waiting), (vec![0, 0], vec![0, 0]));
+    for args in [&["run", "--pilot", "--simulate"][..], &["run", "--pilot", "--participant", "p-abcdefgh"]] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_handover")).args(args).output().unwrap();
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+    }
 }
 
 /// The questionnaire handed to the participant: one statement, nothing that un-blinds, only

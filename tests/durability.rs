@@ -211,6 +211,7 @@ fn the_console_blocks_on_a_failed_write_until_it_is_retried() {
         dirs: StudyDirs::resolve(Some(&disk), None, None),
         participant: "new".into(),
         simulate: false,
+        pilot: false,
         pace: std::time::Duration::ZERO,
         seed: Some(3),
         tap: None,

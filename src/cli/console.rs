@@ -39,6 +39,11 @@ pub struct RunArgs {
     /// Let a simulated participant answer (a rehearsal; the log is flagged pilot).
     #[arg(long)]
     simulate: bool,
+    /// A pilot with a real person (a colleague, a dress rehearsal): its own `pilot-` id and no
+    /// participant record; the log is flagged pilot, so analyze reports it apart and
+    /// counterbalancing never counts it.
+    #[arg(long, conflicts_with_all = ["simulate", "participant"])]
+    pilot: bool,
     /// Milliseconds between the simulated participant's actions.
     #[arg(long, value_name = "MS", default_value_t = 800)]
     pace: u64,
@@ -62,6 +67,7 @@ impl RunArgs {
             logs: None,
             participants: None,
             simulate: false,
+            pilot: false,
             pace: 800,
             seed: None,
             robot: RobotArgs::default(),
@@ -91,7 +97,8 @@ fn finish(result: Result<Outcome, String>) -> Result<()> {
 }
 
 pub fn run(args: RunArgs) -> Result<()> {
-    let RunArgs { protocol, participant, study_dir, logs, participants, simulate, pace, seed, robot, live } = args;
+    let RunArgs { protocol, participant, study_dir, logs, participants, simulate, pilot, pace, seed, robot, live } =
+        args;
     if participant != "new" {
         validate_id(&participant).map_err(|e| bad(format!("--participant: {e}")))?;
     }
@@ -103,6 +110,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         dirs: StudyDirs::resolve(study_dir.as_deref(), participants.as_deref(), logs.as_deref()),
         participant,
         simulate,
+        pilot,
         pace: Duration::from_millis(pace),
         seed,
         tap: None,
@@ -131,6 +139,7 @@ fn config_of(old: &LogContents, dirs: StudyDirs, simulate: bool, pace: u64) -> R
         dirs,
         participant: old.start.participant.clone(),
         simulate,
+        pilot: old.start.pilot && old.start.simulated_truth.is_none(),
         pace: Duration::from_millis(pace),
         seed: Some(old.start.seed),
         tap: None,

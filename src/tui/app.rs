@@ -36,6 +36,9 @@ pub struct AppConfig {
     pub participant: String,
     /// A simulated participant answers (a rehearsal; the log is flagged pilot).
     pub simulate: bool,
+    /// A pilot with a real person (a colleague, a dress rehearsal): its own `pilot-` id, no
+    /// participant record, the log flagged pilot (reported apart, never counterbalanced).
+    pub pilot: bool,
     /// Wait between simulated actions.
     pub pace: Duration,
     /// The session seed (random when absent).
@@ -282,6 +285,7 @@ impl App {
             dirs: &c.dirs,
             participant: &c.participant,
             simulate: c.simulate,
+            pilot: c.pilot,
             seed: c.seed,
         })
     }
