@@ -4,7 +4,6 @@
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
-use crate::participant::ParticipantRecord;
 use crate::record::{mcap_files, read_log};
 use crate::session::Event;
 
@@ -80,26 +79,12 @@ pub fn completed_per_slot(root: &Path, participants: &Path, slots: usize) -> Slo
         }
     }
     let mut waiting = vec![0; slots];
-    for record in registered(participants) {
+    for record in crate::participant::registered(participants) {
         if !record.is_withdrawn() && record.slot < slots && !settled.contains(&record.id) {
             waiting[record.slot] += 1;
         }
     }
     SlotCounts { completed, waiting, skipped }
-}
-
-/// The participant records in a folder (`<id>.json`, regular files; unreadable ones are
-/// passed over: they hold no slot).
-fn registered(participants: &Path) -> Vec<ParticipantRecord> {
-    let Ok(entries) = std::fs::read_dir(participants) else { return Vec::new() };
-    let mut ids: Vec<String> = entries
-        .flatten()
-        .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
-        .filter_map(|e| e.file_name().to_str()?.strip_suffix(".json").map(str::to_string))
-        .filter(|id| crate::participant::validate_id(id).is_ok())
-        .collect();
-    ids.sort();
-    ids.iter().filter_map(|id| ParticipantRecord::load(participants, id).ok()).collect()
 }
 
 #[cfg(test)]

@@ -25,6 +25,7 @@ pub mod session;
 pub mod setup;
 pub mod stats;
 pub mod study_dir;
+pub mod study_status;
 pub mod text;
 pub mod tui;
 

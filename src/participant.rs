@@ -253,6 +253,36 @@ impl Tombstone {
     }
 }
 
+/// The ids of the regular files `<id><suffix>` in a folder, in id order.
+fn ids_with_suffix(dir: &std::path::Path, suffix: &str) -> Vec<String> {
+    let Ok(entries) = std::fs::read_dir(dir) else { return Vec::new() };
+    let mut ids: Vec<String> = entries
+        .flatten()
+        .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
+        .filter_map(|e| e.file_name().to_str()?.strip_suffix(suffix).map(str::to_string))
+        .filter(|id| validate_id(id).is_ok())
+        .collect();
+    ids.sort();
+    ids
+}
+
+/// The participant records in a folder (`<id>.json`, in id order; unreadable ones are
+/// passed over).
+pub fn registered(participants: &std::path::Path) -> Vec<ParticipantRecord> {
+    ids_with_suffix(participants, ".json")
+        .iter()
+        .filter_map(|id| ParticipantRecord::load(participants, id).ok())
+        .collect()
+}
+
+/// The ids whose data was deleted on withdrawal (`<id>.deleted.json`), in id order.
+pub fn deleted(participants: &std::path::Path) -> Vec<String> {
+    ids_with_suffix(participants, ".deleted.json")
+        .into_iter()
+        .filter(|id| Tombstone::load(participants, id).is_ok())
+        .collect()
+}
+
 /// Whether the participant withdrew: `participants/<id>.json` says so, or their data was
 /// deleted and `participants/<id>.deleted.json` is all that is left (a missing or unreadable
 /// record says nothing).

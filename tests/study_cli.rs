@@ -523,3 +523,78 @@ fn every_help_says_what_the_command_writes() {
         assert!(text.contains("Writes:"), "handover {} --help says what it writes:\n{text}", c.join(" "));
     }
 }
+
+/// `handover status`: participants by state, pilots, the slots and the next one, the sessions
+/// not over with the whole command that continues each, and unreadable logs (exit 1), as a
+/// table and as JSON.
+#[test]
+fn status_shows_where_the_study_stands() {
+    use std::sync::Arc;
+    let dir = tmpdir("status");
+    let (parts, logs) = (dir.join("participants"), dir.join("logs"));
+    let d = dir.to_str().unwrap();
+    let mut ids = Vec::new();
+    for _ in 0..4 {
+        let (code, out, err) = handover(&["participant", "new", "--study-dir", d]);
+        assert_eq!(code, 0, "{err}");
+        ids.push(out.trim().to_string());
+    }
+    let text = std::fs::read_to_string(small_protocol(&dir)).unwrap();
+    let study = Arc::new(handover::protocol::Study::from_json(&text, "small").unwrap());
+    // ids[0] completes a session, ids[1] stops half-way, ids[3] withdraws; ids[2] waits.
+    for (k, finish) in [(0usize, true), (1, false)] {
+        let rec_slot = handover::participant::ParticipantRecord::load(&parts, &ids[k]).unwrap().slot;
+        let mut p = handover::dryrun::plan(&study, 3, k, None, "2026-11-22T00:00:00Z".into());
+        p.start.pilot = false;
+        p.start.simulated_truth = None;
+        p.start.participant = ids[k].clone();
+        p.start.slot = rec_slot;
+        p.start.condition_order = handover::session::condition_order(&study, rec_slot);
+        let session = handover::session::Session::new(Arc::clone(&study), p.start.clone()).unwrap();
+        let path = handover::record::new_log_path(&logs, &ids[k], chrono::Utc::now());
+        let mut rec = handover::record::RecordedSession::create(&path, &text, session, 1).unwrap();
+        if finish {
+            handover::dryrun::drive(&mut rec, &p.participant, Duration::ZERO).unwrap();
+        } else {
+            for _ in 0..4 {
+                let e = p.participant.respond(rec.session()).unwrap();
+                rec.submit(handover::session::Stamped { time_ns: 2, event: e }).unwrap();
+            }
+        }
+        rec.finish().unwrap();
+    }
+    assert_eq!(handover(&["participant", "withdraw", &ids[3], "--study-dir", d]).0, 0);
+    assert_eq!(
+        handover(&[
+            "dry-run",
+            "--protocol",
+            dir.join("small.json").to_str().unwrap(),
+            "--logs",
+            logs.to_str().unwrap()
+        ])
+        .0,
+        0
+    );
+    let (code, out, err) = handover(&["status", "--study-dir", d]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("4 registered: 1 completed, 1 in progress, 1 waiting, 0 dropped out, 1 withdrawn"), "{out}");
+    assert!(out.contains(&format!("waiting: {}", ids[2])), "{out}");
+    assert!(out.contains("Pilot sessions (dry runs, rehearsals, pilots): 1 completed"), "{out}");
+    assert!(out.contains(&format!("continue: handover resume --participant {} --study-dir {d}", ids[1])), "{out}");
+    assert!(out.contains("2 trials"), "{out}");
+    assert!(out.contains("← the next new participant"), "{out}");
+    let (code, json, _) = handover(&["status", "--study-dir", d, "--format", "json"]);
+    assert_eq!(code, 0);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["participants"].as_array().unwrap().len(), 4);
+    assert_eq!(v["open_sessions"].as_array().unwrap().len(), 1);
+    assert_eq!(v["open_sessions"][0]["participant"], ids[1].as_str());
+    let waiting: u64 = v["slots"].as_array().unwrap().iter().map(|s| s["waiting"].as_u64().unwrap()).sum();
+    let completed: u64 = v["slots"].as_array().unwrap().iter().map(|s| s["completed"].as_u64().unwrap()).sum();
+    assert_eq!((completed, waiting), (1, 2), "the withdrawn participant holds no slot");
+    // A log that cannot be read is named, and the exit status says so.
+    std::fs::write(logs.join("broken.mcap"), b"not a log").unwrap();
+    let (code, out, _) = handover(&["status", "--study-dir", d]);
+    assert_eq!(code, 1);
+    assert!(out.contains("broken.mcap") && out.contains("MCAP magic"), "{out}");
+}

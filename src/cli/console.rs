@@ -11,7 +11,7 @@ use handover::record::{LogContents, SharedTap, study_of};
 use handover::study_dir::StudyDirs;
 use handover::tui::{App, AppConfig, Outcome, run_terminal};
 
-use super::input::{bad, load_protocol};
+use super::input::{StudyFolders, bad, load_protocol};
 use super::live::LiveArgs;
 use super::robot::RobotArgs;
 
@@ -26,16 +26,9 @@ pub struct RunArgs {
     /// An existing participant's id, or `new` for a new pseudonymous one.
     #[arg(long, value_name = "ID|new", default_value = "new")]
     participant: String,
-    /// The study directory: participant records in DIR/participants, logs in DIR/logs
-    /// (counterbalancing counts the sessions found there).
-    #[arg(long, value_name = "DIR")]
-    study_dir: Option<PathBuf>,
-    /// Where session logs are written (default: STUDY_DIR/logs).
-    #[arg(long, value_name = "DIR")]
-    logs: Option<PathBuf>,
-    /// Where participant records live (default: STUDY_DIR/participants).
-    #[arg(long = "participants-dir", value_name = "DIR")]
-    participants: Option<PathBuf>,
+    /// The study's folders (counterbalancing counts the sessions and participants there).
+    #[command(flatten)]
+    folders: StudyFolders,
     /// Let a simulated participant answer (a rehearsal; the log is flagged pilot).
     #[arg(long)]
     simulate: bool,
@@ -63,9 +56,7 @@ impl RunArgs {
         Self {
             protocol: None,
             participant: "new".into(),
-            study_dir: None,
-            logs: None,
-            participants: None,
+            folders: StudyFolders::default(),
             simulate: false,
             pilot: false,
             pace: 800,
@@ -97,8 +88,7 @@ fn finish(result: Result<Outcome, String>) -> Result<()> {
 }
 
 pub fn run(args: RunArgs) -> Result<()> {
-    let RunArgs { protocol, participant, study_dir, logs, participants, simulate, pilot, pace, seed, robot, live } =
-        args;
+    let RunArgs { protocol, participant, folders, simulate, pilot, pace, seed, robot, live } = args;
     if participant != "new" {
         validate_id(&participant).map_err(|e| bad(format!("--participant: {e}")))?;
     }
@@ -107,7 +97,7 @@ pub fn run(args: RunArgs) -> Result<()> {
     let config = AppConfig {
         study,
         protocol_text,
-        dirs: StudyDirs::resolve(study_dir.as_deref(), participants.as_deref(), logs.as_deref()),
+        dirs: folders.resolve(),
         participant,
         simulate,
         pilot,

@@ -76,3 +76,28 @@ pub fn body_height(flag: &str, h: f64) -> anyhow::Result<f64> {
     let (lo, hi) = handover::participant::BODY_HEIGHT_M;
     if (lo..=hi).contains(&h) { Ok(h) } else { Err(bad(format!("{flag} is {h}, expected metres from {lo} to {hi}"))) }
 }
+
+/// The study's folders, as every command that reads or writes them takes them.
+#[derive(Debug, Default, clap::Args)]
+pub struct StudyFolders {
+    /// The study directory: participant records in DIR/participants, logs in DIR/logs
+    /// (default: the current directory).
+    #[arg(long, value_name = "DIR")]
+    pub study_dir: Option<std::path::PathBuf>,
+    /// Where participant records live (default: STUDY_DIR/participants).
+    #[arg(long = "participants-dir", value_name = "DIR")]
+    pub participants: Option<std::path::PathBuf>,
+    /// Where session logs live (default: STUDY_DIR/logs).
+    #[arg(long, value_name = "DIR")]
+    pub logs: Option<std::path::PathBuf>,
+}
+
+impl StudyFolders {
+    pub fn resolve(&self) -> handover::study_dir::StudyDirs {
+        handover::study_dir::StudyDirs::resolve(
+            self.study_dir.as_deref(),
+            self.participants.as_deref(),
+            self.logs.as_deref(),
+        )
+    }
+}

@@ -73,6 +73,7 @@ mod robot;
 mod score;
 mod shards;
 mod simulate;
+mod status;
 mod sweep;
 
 use clap::{Parser, Subcommand};
@@ -165,6 +166,11 @@ enum Command {
     ///
     /// Writes: nothing (reads the log as the console writes it).
     Follow(follow::FollowArgs),
+    /// Where the study stands: participants by state, pilots, counterbalancing, sessions to
+    /// resume and unreadable logs.
+    ///
+    /// Writes: a table (or JSON) on stdout; no file.
+    Status(status::StatusArgs),
     /// Analyse session logs (Fig. 10, Table I), optionally verifying every derived value.
     ///
     /// Writes: a table (or JSON) on stdout; with --out DIR, the tidy CSVs of docs/outputs.md,
@@ -204,6 +210,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Plan(args) => plan::run(args),
         Command::Resume(args) => resume::run(args),
         Command::Follow(args) => follow::run(args),
+        Command::Status(args) => status::run(args),
         Command::Analyze(args) => analyze::run(args),
         Command::Completions { shell } => {
             use clap::CommandFactory;

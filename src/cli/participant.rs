@@ -8,9 +8,9 @@ use handover::counterbalance::completed_per_slot;
 use handover::participant::{ParticipantRecord, Tombstone, new_id, validate_id};
 use handover::record::is_log_file_name;
 use handover::session::condition_order;
-use handover::study_dir::{LOCK_FILE, ParticipantLock, StudyDirs};
+use handover::study_dir::{LOCK_FILE, ParticipantLock};
 
-use super::input::{HandArg, bad, body_height as checked_height, load_protocol};
+use super::input::{HandArg, StudyFolders, bad, body_height as checked_height, load_protocol};
 use handover::protocol::{Body, for_body};
 
 /// Manage pseudonymous participants (no names are ever stored).
@@ -31,7 +31,7 @@ enum ParticipantCommand {
         #[arg(long, value_name = "FILE")]
         protocol: Option<PathBuf>,
         #[command(flatten)]
-        folders: Folders,
+        folders: StudyFolders,
         /// Body height in metres (for the arm model).
         #[arg(long, value_name = "M")]
         body_height: Option<f64>,
@@ -60,7 +60,7 @@ enum ParticipantCommand {
         #[arg(long, requires = "delete_data")]
         yes: bool,
         #[command(flatten)]
-        folders: Folders,
+        folders: StudyFolders,
     },
     /// Print a participant's record.
     ///
@@ -69,28 +69,8 @@ enum ParticipantCommand {
         /// The participant's id.
         id: String,
         #[command(flatten)]
-        folders: Folders,
+        folders: StudyFolders,
     },
-}
-
-/// The study folders of a participant subcommand.
-#[derive(Debug, Args)]
-struct Folders {
-    /// The study directory (records in DIR/participants, logs in DIR/logs).
-    #[arg(long, value_name = "DIR")]
-    study_dir: Option<PathBuf>,
-    /// Where participant records live (default: STUDY_DIR/participants).
-    #[arg(long = "participants-dir", value_name = "DIR")]
-    participants: Option<PathBuf>,
-    /// Where session logs live (default: STUDY_DIR/logs).
-    #[arg(long, value_name = "DIR")]
-    logs: Option<PathBuf>,
-}
-
-impl Folders {
-    fn resolve(&self) -> StudyDirs {
-        StudyDirs::resolve(self.study_dir.as_deref(), self.participants.as_deref(), self.logs.as_deref())
-    }
 }
 
 pub fn run(args: ParticipantArgs) -> Result<()> {
@@ -158,7 +138,7 @@ pub fn run(args: ParticipantArgs) -> Result<()> {
 }
 
 /// `participant withdraw`.
-fn withdraw(id: &str, delete_data: bool, yes: bool, f: &Folders) -> Result<()> {
+fn withdraw(id: &str, delete_data: bool, yes: bool, f: &StudyFolders) -> Result<()> {
     validate_id(id).map_err(|e| bad(e.to_string()))?;
     let dirs = f.resolve();
     let record_path = ParticipantRecord::path(&dirs.participants, id).map_err(|e| bad(e.to_string()))?;

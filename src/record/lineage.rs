@@ -71,21 +71,26 @@ pub fn open_sessions(dir: &Path) -> Vec<LogContents> {
         .collect();
     names.sort();
     let logs: Vec<LogContents> = names.iter().filter_map(|p| read_log(p).ok()).collect();
+    session_heads(&logs).into_iter().filter(|l| !is_over(l)).cloned().collect()
+}
+
+/// Of logs already read, the head of each session: per folder and session id, the log no
+/// other continues (of a fork's branches, the one created last), in the order given.
+pub fn session_heads(logs: &[LogContents]) -> Vec<&LogContents> {
     let file_name = |p: &Path| p.file_name().map(|n| n.to_string_lossy().into_owned());
-    let continued = |l: &LogContents| {
-        logs.iter().any(|o| o.start.session_id == l.start.session_id && o.start.resumed_from == file_name(&l.path))
+    let same = |a: &LogContents, b: &LogContents| {
+        a.start.session_id == b.start.session_id && a.path.parent() == b.path.parent()
     };
-    let mut open: Vec<LogContents> = Vec::new();
+    let continued = |l: &LogContents| logs.iter().any(|o| same(o, l) && o.start.resumed_from == file_name(&l.path));
+    let mut heads: Vec<&LogContents> = Vec::new();
     for l in logs.iter().filter(|l| !continued(l)) {
-        match open.iter_mut().find(|o| o.start.session_id == l.start.session_id) {
-            // A fork's branches: the one created last.
-            Some(o) if created_key(&l.path) > created_key(&o.path) => *o = l.clone(),
+        match heads.iter_mut().find(|h| same(h, l)) {
+            Some(h) if created_key(&l.path) > created_key(&h.path) => *h = l,
             Some(_) => {}
-            None => open.push(l.clone()),
+            None => heads.push(l),
         }
     }
-    open.retain(|l| !is_over(l));
-    open
+    heads
 }
 
 /// Whether a log's session is over (ended or aborted): such a log is only read, never

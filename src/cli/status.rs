@@ -1,0 +1,107 @@
+//! `handover status`: where the study stands, on one screen or as JSON.
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+use clap::{Args, ValueEnum};
+use handover::study_status::{ParticipantState, StudyStatus, study_status};
+
+use super::input::{StudyFolders, load_protocol};
+
+/// Where the study stands: participants (registered, waiting, in progress, completed,
+/// dropped out, withdrawn), pilot sessions, the counterbalancing slots and the next
+/// participant's order, the sessions not over with the command that continues each, and the
+/// logs that cannot be read. Only reads; exit status 1 when a log cannot be read.
+#[derive(Debug, Args)]
+pub struct StatusArgs {
+    #[command(flatten)]
+    folders: StudyFolders,
+    /// The study's protocol, for the condition orders (default: the embedded one).
+    #[arg(long, value_name = "FILE")]
+    protocol: Option<PathBuf>,
+    /// Output on stdout.
+    #[arg(long, value_enum, default_value_t = Format::Table)]
+    format: Format,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq)]
+enum Format {
+    Table,
+    Json,
+}
+
+pub fn run(args: StatusArgs) -> Result<()> {
+    let (_, study) = load_protocol(args.protocol.as_deref())?;
+    let dirs = args.folders.resolve();
+    let status = study_status(&dirs, &study);
+    match args.format {
+        Format::Json => outln!("{}", serde_json::to_string_pretty(&status)?),
+        Format::Table => print_table(&status, &study.protocol.session.program_labels)?,
+    }
+    if !status.unreadable.is_empty() {
+        anyhow::bail!("{} log(s) cannot be read", status.unreadable.len());
+    }
+    Ok(())
+}
+
+fn print_table(s: &StudyStatus, labels: &[String]) -> Result<()> {
+    outln!("Study: participants {} · logs {}", s.participants_dir.display(), s.logs_dir.display());
+    let deleted =
+        if s.deleted.is_empty() { String::new() } else { format!(" ({} with data deleted)", s.deleted.len()) };
+    outln!("Participants: {}{deleted}", s.summary_line());
+    for state in [ParticipantState::InProgress, ParticipantState::Waiting] {
+        let ids: Vec<&str> = s.participants.iter().filter(|p| p.state == state).map(|p| p.id.as_str()).collect();
+        if !ids.is_empty() {
+            outln!("  {}: {}", state.name(), ids.join(", "));
+        }
+    }
+    let p = &s.pilot_sessions;
+    outln!(
+        "Pilot sessions (dry runs, rehearsals, pilots): {} completed, {} aborted, {} not over",
+        p.completed,
+        p.aborted,
+        p.not_over
+    );
+    outln!("Counterbalancing (completed sessions, registered participants waiting):");
+    for slot in &s.slots {
+        let order: Vec<String> = slot.order.iter().zip(labels).map(|(c, l)| format!("{l} = {c}")).collect();
+        let next = if slot.slot == s.next_slot { "   ← the next new participant" } else { "" };
+        outln!(
+            "  slot {} ({}): {} completed, {} waiting{next}",
+            slot.slot,
+            order.join(", "),
+            slot.completed,
+            slot.waiting
+        );
+    }
+    if s.open_sessions.is_empty() {
+        outln!("Sessions not over: none");
+    } else {
+        outln!("Sessions not over:");
+        for o in &s.open_sessions {
+            let how = match (o.live, o.closed) {
+                (true, _) => "running now",
+                (false, true) => "stopped (quit or signal)",
+                (false, false) => "interrupted (crash or kill)",
+            };
+            let pilot = if o.pilot { " [pilot]" } else { "" };
+            outln!(
+                "  {}{pilot}: {how}; {} trials, last event {}; {}",
+                o.participant,
+                o.trials,
+                o.last_event,
+                o.log.display()
+            );
+            if !o.live {
+                outln!("    continue: {}", o.resume);
+            }
+        }
+    }
+    if !s.unreadable.is_empty() {
+        outln!("Logs that cannot be read (not counted):");
+        for u in &s.unreadable {
+            outln!("  {}", u.error);
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,216 @@
+//! Where a study stands, at a glance (`handover status`): its participants by state, its pilot
+//! sessions, the counterbalancing and the next participant's order, the sessions interrupted
+//! with the command that continues each, and the logs that cannot be read. Only reads.
+
+use std::path::PathBuf;
+
+use serde::Serialize;
+
+use crate::counterbalance::completed_per_slot;
+use crate::participant::{deleted, registered};
+use crate::protocol::Study;
+use crate::record::{LogContents, is_over, mcap_files, read_log, session_heads};
+use crate::session::{Event, condition_order};
+use crate::study_dir::{StudyDirs, holder_running, shell_word};
+
+/// A participant's state in the study.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ParticipantState {
+    /// Registered, no session yet.
+    Waiting,
+    /// A session not over (running now, or interrupted and resumable).
+    InProgress,
+    /// A session completed.
+    Completed,
+    /// Sessions only aborted (a dropout).
+    DroppedOut,
+    Withdrawn,
+}
+
+impl ParticipantState {
+    pub fn name(self) -> &'static str {
+        match self {
+            ParticipantState::Waiting => "waiting",
+            ParticipantState::InProgress => "in progress",
+            ParticipantState::Completed => "completed",
+            ParticipantState::DroppedOut => "dropped out",
+            ParticipantState::Withdrawn => "withdrawn",
+        }
+    }
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct ParticipantStatus {
+    pub id: String,
+    pub slot: usize,
+    pub state: ParticipantState,
+}
+
+/// A session not over: where it stopped and the whole command that continues it.
+#[derive(Clone, Debug, Serialize)]
+pub struct OpenSession {
+    pub participant: String,
+    pub pilot: bool,
+    pub log: PathBuf,
+    pub events: usize,
+    /// Trials recorded (grasps net of undos and voided grasps).
+    pub trials: usize,
+    /// When its last event happened (RFC 3339 UTC).
+    pub last_event: String,
+    /// A console (or a dry run) runs it now.
+    pub live: bool,
+    /// Closed by a quit or a signal (else left open by a crash or `kill -9`).
+    pub closed: bool,
+    pub resume: String,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SlotStatus {
+    pub slot: usize,
+    /// The conditions in the order run (Program A first).
+    pub order: Vec<String>,
+    pub completed: usize,
+    pub waiting: usize,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Unreadable {
+    pub log: PathBuf,
+    pub error: String,
+}
+
+/// The study at a glance.
+#[derive(Clone, Debug, Serialize)]
+pub struct StudyStatus {
+    pub participants_dir: PathBuf,
+    pub logs_dir: PathBuf,
+    pub participants: Vec<ParticipantStatus>,
+    /// Withdrawn participants whose data was deleted (only the id is left).
+    pub deleted: Vec<String>,
+    /// Pilot sessions (dry runs, rehearsals, `run --pilot`): completed, aborted, not over.
+    pub pilot_sessions: PilotCounts,
+    pub slots: Vec<SlotStatus>,
+    /// The slot the next new participant gets.
+    pub next_slot: usize,
+    pub open_sessions: Vec<OpenSession>,
+    pub unreadable: Vec<Unreadable>,
+}
+
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct PilotCounts {
+    pub completed: usize,
+    pub aborted: usize,
+    pub not_over: usize,
+}
+
+/// Reads the study's records and logs (every log once).
+pub fn study_status(dirs: &StudyDirs, study: &Study) -> StudyStatus {
+    let mut logs: Vec<LogContents> = Vec::new();
+    let mut unreadable = Vec::new();
+    for path in mcap_files(&dirs.logs) {
+        match read_log(&path) {
+            Ok(log) => logs.push(log),
+            Err(e) => unreadable.push(Unreadable { log: path, error: e.to_string() }),
+        }
+    }
+    let heads = session_heads(&logs);
+    let ended = |l: &LogContents| l.events.iter().any(|e| e.event == Event::Ended);
+    let mut pilot_sessions = PilotCounts::default();
+    for h in heads.iter().filter(|h| h.start.pilot) {
+        match (ended(h), is_over(h)) {
+            (true, _) => pilot_sessions.completed += 1,
+            (false, true) => pilot_sessions.aborted += 1,
+            (false, false) => pilot_sessions.not_over += 1,
+        }
+    }
+    let participants = registered(&dirs.participants)
+        .into_iter()
+        .map(|r| {
+            let theirs: Vec<&&LogContents> =
+                heads.iter().filter(|h| !h.start.pilot && h.start.participant == r.id).collect();
+            let state = if r.is_withdrawn() {
+                ParticipantState::Withdrawn
+            } else if theirs.iter().any(|h| ended(h)) {
+                ParticipantState::Completed
+            } else if theirs.iter().any(|h| !is_over(h)) {
+                ParticipantState::InProgress
+            } else if !theirs.is_empty() {
+                ParticipantState::DroppedOut
+            } else {
+                ParticipantState::Waiting
+            };
+            ParticipantStatus { id: r.id, slot: r.slot, state }
+        })
+        .collect();
+    let open_sessions = heads
+        .iter()
+        .filter(|h| !is_over(h))
+        .map(|h| {
+            let trials = h.events.iter().fold(0usize, |n, e| match e.event {
+                Event::GraspRecorded { .. } => n + 1,
+                Event::GraspUndone => n.saturating_sub(1),
+                _ => n,
+            });
+            let last_ns = h.events.last().map_or(0, |e| e.time_ns);
+            let last_event = chrono::DateTime::from_timestamp_nanos(last_ns as i64)
+                .to_rfc3339_opts(chrono::SecondsFormat::Secs, true);
+            let resume = if h.start.pilot {
+                format!("handover resume {}", shell_word(&h.path.display().to_string()))
+            } else {
+                dirs.resume_command(&h.start.participant)
+            };
+            OpenSession {
+                participant: h.start.participant.clone(),
+                pilot: h.start.pilot,
+                log: h.path.clone(),
+                events: h.events.len(),
+                trials,
+                last_event,
+                live: h.path.parent().and_then(holder_running) == Some(true),
+                closed: h.finished,
+                resume,
+            }
+        })
+        .collect();
+    let counts = completed_per_slot(&dirs.logs, &dirs.participants, 2);
+    let slots = (0..counts.completed.len())
+        .map(|slot| SlotStatus {
+            slot,
+            order: condition_order(study, slot).iter().map(|c| c.name().to_string()).collect(),
+            completed: counts.completed[slot],
+            waiting: counts.waiting[slot],
+        })
+        .collect();
+    StudyStatus {
+        participants_dir: dirs.participants.clone(),
+        logs_dir: dirs.logs.clone(),
+        participants,
+        deleted: deleted(&dirs.participants),
+        pilot_sessions,
+        slots,
+        next_slot: counts.least_filled(),
+        open_sessions,
+        unreadable,
+    }
+}
+
+impl StudyStatus {
+    /// How many participants are in a state.
+    pub fn count(&self, state: ParticipantState) -> usize {
+        self.participants.iter().filter(|p| p.state == state).count()
+    }
+
+    /// The one line the console's setup screen shows for the study.
+    pub fn summary_line(&self) -> String {
+        let states = [
+            ParticipantState::Completed,
+            ParticipantState::InProgress,
+            ParticipantState::Waiting,
+            ParticipantState::DroppedOut,
+            ParticipantState::Withdrawn,
+        ];
+        let parts: Vec<String> = states.iter().map(|&s| format!("{} {}", self.count(s), s.name())).collect();
+        format!("{} registered: {}", self.participants.len(), parts.join(", "))
+    }
+}
