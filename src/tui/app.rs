@@ -114,7 +114,7 @@ pub struct App {
     /// The last message for the operator.
     pub status: String,
     /// What to say once the event under way has taken effect (see `submit_saying`).
-    say_after: Option<String>,
+    pub(super) say_after: Option<String>,
     /// Which pair of joints the particle view shows.
     pub joint_pair: usize,
     /// Position in the questionnaire: items, then the forced choice, then finish.
@@ -415,6 +415,10 @@ impl App {
             void_reasons: crate::session::VoidReason::ALL.len(),
             robot: self.robot.is_some(),
             can_undo: self.session().is_some_and(|s| s.can_undo()),
+            joints: matches!(
+                self.session().map(|s| s.prompt()),
+                Some(Prompt::Present(v) | Prompt::Grasp(v)) if v.phase == crate::session::Phase::Training
+            ),
         }
     }
 
@@ -658,6 +662,14 @@ impl App {
         } else if let Some(Prompt::ForcedChoice) = self.session().map(|s| s.prompt()) {
             self.cursor = self.likert_count();
         }
+    }
+
+    /// The questionnaire in the participant's hands is answered: the screen asks them to hand
+    /// the keyboard back.
+    pub fn participant_done(&self) -> bool {
+        self.participant_mode
+            && self.cursor > self.likert_count()
+            && self.session().is_some_and(|s| s.prompt() == Prompt::Finish)
     }
 
     /// Number of Likert questions.

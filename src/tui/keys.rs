@@ -114,8 +114,10 @@ pub struct Counts {
     pub void_reasons: usize,
     /// Whether a robot is connected (its keys act and are listed).
     pub robot: bool,
-    /// Whether there is a grasp to undo (`u` acts and is listed).
+    /// Whether there is a grasp to undo (`u` acts and is in the footer).
     pub can_undo: bool,
+    /// Whether the particle view with its joints is shown (training trials: Tab acts).
+    pub joints: bool,
 }
 
 impl Counts {
@@ -417,10 +419,18 @@ pub fn key_label(keys: Keys, counts: Counts) -> String {
     }
 }
 
-/// Whether a binding can act at all now (a robot's keys need a robot, undo a grasp to undo).
+/// Whether a binding can act at all now (a robot's keys need a robot, undo a grasp to undo,
+/// Tab the particle view of a training trial).
 fn acts(b: &Binding, counts: Counts) -> bool {
-    (!matches!(b.keys, Keys::RobotChar(_)) || counts.robot)
+    in_help(b, counts)
         && (!matches!(b.does, Does::Is(Action::Undo)) || counts.can_undo)
+        && (!matches!(b.does, Does::Is(Action::SwitchJoints)) || counts.joints)
+}
+
+/// Whether the help lists a binding: every key of the session, the robot's only with a robot
+/// (the help says when a key acts, e.g. undo "until the next query").
+fn in_help(b: &Binding, counts: Counts) -> bool {
+    !matches!(b.keys, Keys::RobotChar(_)) || counts.robot
 }
 
 /// What `u` says when there is no grasp to undo.
@@ -477,7 +487,7 @@ pub fn help(counts: Counts) -> Vec<(&'static str, Vec<(String, &'static str)>)> 
         .into_iter()
         .map(|(section, heading)| {
             let mut lines: Vec<(String, &'static str)> = Vec::new();
-            for b in BINDINGS.iter().filter(|b| b.section == section && !b.help.is_empty() && acts(b, counts)) {
+            for b in BINDINGS.iter().filter(|b| b.section == section && !b.help.is_empty() && in_help(b, counts)) {
                 let line = (key_label(b.keys, counts), b.help);
                 if !lines.contains(&line) {
                     lines.push(line);
@@ -496,7 +506,8 @@ mod tests {
         KeyEvent::new(code, KeyModifiers::NONE)
     }
 
-    const COUNTS: Counts = Counts { regions: 2, scale_points: 5, void_reasons: 4, robot: false, can_undo: true };
+    const COUNTS: Counts =
+        Counts { regions: 2, scale_points: 5, void_reasons: 4, robot: false, can_undo: true, joints: true };
 
     fn action_for(mode: Mode, key: KeyEvent) -> Option<Action> {
         super::action_for(mode, key, COUNTS)
@@ -622,6 +633,10 @@ mod tests {
         // `u` is listed only with a grasp to undo.
         assert!(hints(Mode::Present, COUNTS).iter().any(|(k, _)| k == "u"));
         assert!(!hints(Mode::Present, Counts { can_undo: false, ..COUNTS }).iter().any(|(k, _)| k == "u"));
+        // The help lists it all the same, saying when it acts; Tab only where the joints are shown.
+        let trials = |c: Counts| help(c).into_iter().find(|(h, _)| *h == "Trials").unwrap().1;
+        assert!(trials(Counts { can_undo: false, ..COUNTS }).iter().any(|(k, _)| k == "u"));
+        assert!(!hints(Mode::Present, Counts { joints: false, ..COUNTS }).iter().any(|(k, _)| k == "Tab"));
     }
 
     /// In the participant's hands only the answering keys act: no quit (Ctrl+C included),

@@ -68,7 +68,9 @@ impl App {
             }
             (Mode::LineEdit | Mode::VoidReason, Action::Cancel) => self.overlay = None,
             (Mode::LineEdit, Action::Confirm) => match self.overlay.take() {
-                Some(Overlay::Note(text)) if !text.trim().is_empty() => self.submit(Event::Note { text }),
+                Some(Overlay::Note(text)) if !text.trim().is_empty() => {
+                    self.submit_saying(Event::Note { text }, "Note logged".into())
+                }
                 Some(Overlay::AbortReason(text)) if !text.trim().is_empty() => {
                     self.submit(Event::Aborted { reason: text.trim().to_string() })
                 }
@@ -146,7 +148,13 @@ impl App {
                 let q = s.query(v.query);
                 match q.regions.get(k) {
                     Some(&r) => {
-                        let region = s.study().object(q).regions[r].id.clone();
+                        let grip = &s.study().object(q).regions[r];
+                        let region = grip.id.clone();
+                        let phase = match v.program {
+                            Some(k) => format!("{}, trial {}", s.start().program_labels[k], v.trial),
+                            None => format!("test trial {}", v.trial),
+                        };
+                        self.say_after = Some(format!("Recorded: {} ({phase}); u undoes it", grip.label));
                         self.grasp(region, None);
                     }
                     None => self.status = format!("Only {} regions are offered", q.regions.len()),

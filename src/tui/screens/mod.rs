@@ -144,6 +144,10 @@ const DISPENSABLE: [&str; 5] = ["joints", "choice", "move", "pause", "note"];
 /// narrowest the most dispensable dropped, then the last ones (help and quit are always
 /// listed).
 fn key_hints(app: &App, width: u16) -> Line<'static> {
+    // The participant who has answered everything only hands the keyboard back.
+    if app.participant_done() {
+        return Line::default();
+    }
     let pairs = super::keys::hints(app.mode(), app.counts());
     let build = |pairs: &[(String, &'static str)], gap: &str| -> Line<'static> {
         Line::from(

@@ -48,9 +48,9 @@ pub fn render(_app: &App, view: &SummaryView, frame: &mut Frame, area: Rect) {
     let mut widths = vec![Constraint::Length(label_w)];
     widths.extend((0..iterations).map(|_| Constraint::Min(6)));
     frame.render_widget(
-        Table::new(rows, widths)
-            .header(Row::new(header).style(theme::title()))
-            .block(Block::bordered().title(" Test-set log-likelihood of the mode after each training iteration ")),
+        Table::new(rows, widths).header(Row::new(header).style(theme::title())).block(
+            Block::bordered().title(" Test-set log-likelihood of the posterior mean after each training iteration "),
+        ),
         table_area,
     );
     let mut lines = Vec::new();
