@@ -473,6 +473,17 @@ fn an_existing_participant_s_body_height_scales_the_arm() {
     assert_eq!(replayed.sha256, log.start.protocol_sha256);
 }
 
+/// The label of the query prompted now, as the protocol writes it.
+fn q_label(a: &App) -> String {
+    let s = a.session().unwrap();
+    match s.prompt() {
+        handover::session::Prompt::Present(v) | handover::session::Prompt::Grasp(v) => {
+            s.query(v.query).query.label.clone()
+        }
+        p => panic!("{p:?}"),
+    }
+}
+
 #[test]
 fn a_left_handed_short_participant_gets_mirrored_scaled_poses_named_from_both_sides() {
     let dir = tmpdir("left");
@@ -501,8 +512,14 @@ fn a_left_handed_short_participant_gets_mirrored_scaled_poses_named_from_both_si
         "{trial}"
     );
     // The protocol's labels are written for a right hand: mirrored, their "left" is the
-    // participant's right, and the screen says so.
-    assert!(trial.contains("left, right  mirrored: a label's 'left' is their right; colours hold"), "{trial}");
+    // participant's right, so the screen names poses and grips as the participant has them.
+    assert!(trial.contains("left, right  the participant's (the protocol's labels mirrored); colours hold"), "{trial}");
+    let label = handover::tui::theme::as_experienced(&q_label(&a), handover::kinematics::Hand::Left);
+    assert!(trial.contains(&format!("pose         {label}")), "{trial}");
+    assert!(
+        trial.contains("Right grip (blue)") && trial.contains("Left grip (red)"),
+        "grips named as they are: {trial}"
+    );
     // The pose shown is the protocol's, scaled by the reach (1.55 / 1.75) and mirrored (y negated).
     let handover::session::Prompt::Present(view) = a.session().unwrap().prompt() else { panic!("a trial is prompted") };
     let q = a.session().unwrap().query(view.query).clone();

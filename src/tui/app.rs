@@ -633,10 +633,12 @@ impl App {
                 let q = session.query(t.query);
                 let object = session.study().object(q);
                 let implied = &object.regions[q.regions[g.implied_region]];
-                let keyed = object.regions.iter().find(|r| r.id == *region).map_or(region.as_str(), |r| &r.label);
+                let shown = |label: &str| super::screens::trial::grip_label(session, label);
+                let keyed = object.regions.iter().find(|r| r.id == *region).map_or(region.clone(), |r| shown(&r.label));
                 format!(
                     "The measured arm is nearest a {} ({}) configuration, the key said {keyed} ({region}): the belief learned from the measurement; u undoes the key if it was wrong",
-                    implied.label, implied.id
+                    shown(&implied.label),
+                    implied.id
                 )
             }
             (None, _) => {

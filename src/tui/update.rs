@@ -154,7 +154,8 @@ impl App {
                             Some(k) => format!("{}, trial {}", s.start().program_labels[k], v.trial),
                             None => format!("test trial {}", v.trial),
                         };
-                        self.say_after = Some(format!("Recorded: {} ({phase}); u undoes it", grip.label));
+                        let label = super::screens::trial::grip_label(s, &grip.label);
+                        self.say_after = Some(format!("Recorded: {label} ({phase}); u undoes it"));
                         self.grasp(region, None);
                     }
                     None => self.status = format!("Only {} regions are offered", q.regions.len()),

@@ -21,14 +21,18 @@ const SIDE_MIN_WIDTH: u16 = 40;
 /// The belief panel's width with short names (component, prior, mean, interval).
 const BELIEF_COMPACT_WIDTH: u16 = 34;
 
+/// A grip's label as this session's participant experiences it (their left, their right).
+pub fn grip_label(session: &Session, label: &str) -> String {
+    theme::as_experienced(label, session.study().arm.side)
+}
+
 /// The grasp panel's width: its widest line (key, label, id) and its borders.
 fn grasp_width(session: &Session, v: &TrialView) -> u16 {
     let q = session.query(v.query);
     let object = session.study().object(q);
-    let widest = q
-        .regions
-        .iter()
-        .map(|&r| 4 + object.regions[r].label.chars().count() + 2 + object.regions[r].id.chars().count());
+    let widest = q.regions.iter().map(|&r| {
+        4 + grip_label(session, &object.regions[r].label).chars().count() + 2 + object.regions[r].id.chars().count()
+    });
     (widest.chain([theme::GRASP.chars().count()]).max().unwrap_or(0) + 2) as u16
 }
 
@@ -142,7 +146,7 @@ pub fn instruction_lines(
             Span::styled(format!("  {}", object.label), theme::title()),
             Span::raw(format!("  (query {})", q.query.id)),
         ]),
-        Line::from(format!("  pose         {}", q.query.label)),
+        Line::from(format!("  pose         {}", theme::as_experienced(&q.query.label, side))),
         Line::from(format!("  position     x {x:+.3}  y {y:+.3}  z {z:+.3} m, of the object's centre")),
         Line::from(format!("  orientation  roll {r:+.1}°  pitch {p:+.1}°  yaw {yaw:+.1}°")),
         Line::from(format!("  frame        {}", theme::frame_of(side))),
@@ -165,7 +169,7 @@ fn grasp_prompt(session: &Session, v: &TrialView, active: bool, frame: &mut Fram
     for (k, &r) in q.regions.iter().enumerate() {
         lines.push(Line::from(vec![
             Span::styled(format!(" {} ", k + 1), if active { theme::key() } else { theme::dim() }),
-            Span::raw(format!(" {}  ", object.regions[r].label)),
+            Span::raw(format!(" {}  ", grip_label(session, &object.regions[r].label))),
             Span::styled(object.regions[r].id.clone(), theme::dim()),
         ]));
     }
@@ -191,8 +195,8 @@ fn history_panel(session: &Session, v: &TrialView, frame: &mut Frame, area: Rect
         .filter(|t| t.phase == v.phase && t.run == v.program)
         .map(|t| {
             let q = session.query(t.query);
-            let region = &session.study().object(q).regions[q.regions[t.region]].label;
-            (t.trial, 1, row(t.trial, &q.query.id, region.clone()))
+            let region = grip_label(session, &session.study().object(q).regions[q.regions[t.region]].label);
+            (t.trial, 1, row(t.trial, &q.query.id, region))
         })
         .collect();
     rows.extend(session.voids().iter().filter(|x| x.phase == v.phase && x.run == v.program).map(|x| {
