@@ -88,6 +88,47 @@ pub(crate) fn spaced(lines: Vec<Line<'static>>, rows: usize, width: usize) -> Ve
     }
 }
 
+/// A text cut to `width` columns, with an ellipsis where it was cut: a cut is never silent.
+pub(crate) fn fit(text: &str, width: usize) -> String {
+    if text.chars().count() <= width {
+        return text.to_string();
+    }
+    let mut out: String = text.chars().take(width.saturating_sub(1)).collect();
+    if width > 0 {
+        out.push('…');
+    }
+    out
+}
+
+/// A text word-wrapped at `width` columns into at most `rows` rows, the last ending in an
+/// ellipsis when the text goes on.
+pub(crate) fn clip_wrapped(text: &str, width: usize, rows: usize) -> String {
+    let width = width.max(1);
+    let mut lines: Vec<String> = Vec::new();
+    let mut current = String::new();
+    for word in text.split(' ') {
+        let candidate = if current.is_empty() { word.to_string() } else { format!("{current} {word}") };
+        if candidate.chars().count() <= width || current.is_empty() {
+            current = candidate;
+        } else {
+            lines.push(std::mem::take(&mut current));
+            current = word.to_string();
+        }
+    }
+    lines.push(current);
+    if lines.len() <= rows {
+        return text.to_string();
+    }
+    lines.truncate(rows);
+    if let Some(last) = lines.last_mut() {
+        *last = fit(&format!("{last} …"), width);
+        if !last.ends_with('…') {
+            last.push('…');
+        }
+    }
+    lines.join(" ")
+}
+
 /// The rows lines take when word-wrapped at `width` columns.
 pub(crate) fn rows_of(lines: &[Line], width: usize) -> usize {
     lines.iter().map(|l| wrapped_rows(l, width.max(1))).sum()
@@ -174,5 +215,21 @@ fn key_hints(app: &App, width: u16) -> Line<'static> {
             }
             None => return packed,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{clip_wrapped, fit};
+
+    #[test]
+    fn a_cut_text_ends_in_an_ellipsis() {
+        assert_eq!(fit("participant sneezed", 19), "participant sneezed");
+        assert_eq!(fit("participant sneezed", 12), "participant…");
+        assert_eq!(fit("· 3 more when taller ", 10).chars().count(), 10);
+        let text = "The user study of Bestick et al.: bicycle handlebars and a U-lock, each with two grips";
+        assert_eq!(clip_wrapped(text, 40, 5), text);
+        let two = clip_wrapped(text, 40, 2);
+        assert!(two.ends_with('…') && two.chars().count() <= 80, "{two}");
     }
 }

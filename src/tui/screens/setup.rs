@@ -110,7 +110,13 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
         p.learning.particles,
         p.learning.alpha
     )));
-    lines.push(Line::from(format!("  {}", p.description)));
+    // The description takes the rows left, cut with an ellipsis when it does not fit.
+    let width = area.width.saturating_sub(2) as usize;
+    let left = (area.height.saturating_sub(2) as usize).saturating_sub(super::rows_of(&lines, width));
+    if left > 0 {
+        let description = super::clip_wrapped(&p.description, width.saturating_sub(2), left);
+        lines.push(Line::from(format!("  {description}")));
+    }
     frame.render_widget(
         Paragraph::new(lines).wrap(Wrap { trim: false }).block(Block::bordered().title(" Setup ")),
         area,

@@ -181,12 +181,14 @@ fn grasp_prompt(session: &Session, v: &TrialView, active: bool, frame: &mut Fram
 fn history_panel(session: &Session, v: &TrialView, frame: &mut Frame, area: Rect) {
     // Narrow: the grip (or the void's reason) only; the query's id needs the width.
     let with_query = area.width >= 62;
+    // The last column: the panel less its borders, the other columns and their spacing.
+    let what_w = (area.width as usize).saturating_sub(2 + 3 + 1 + if with_query { 22 + 1 } else { 0 });
     let row = |trial: usize, query: &str, what: String| {
         let mut cells = vec![trial.to_string()];
         if with_query {
-            cells.push(query.to_string());
+            cells.push(super::fit(query, 22));
         }
-        cells.push(what);
+        cells.push(super::fit(&what, what_w));
         Row::new(cells)
     };
     let mut rows: Vec<(usize, usize, Row)> = session
@@ -258,9 +260,11 @@ fn belief_panel(app: &App, session: &Session, run: usize, frame: &mut Frame, are
     let shown_rows = (table_h as usize).saturating_sub(1).min(n_rows);
     let mut bottom = if spark_h == 0 { format!(" entropy {last:.2} nats ") } else { String::new() };
     if shown_rows < n_rows {
-        bottom.push_str(&format!("· {} more when taller ", n_rows - shown_rows));
+        let hidden = n_rows - shown_rows;
+        bottom.push_str(&format!("· {hidden} {} hidden ", if hidden == 1 { "row" } else { "rows" }));
     }
-    let outer = Block::bordered().title(block_title).title_bottom(bottom);
+    let room = (area.width as usize).saturating_sub(2);
+    let outer = Block::bordered().title(super::fit(&block_title, room)).title_bottom(super::fit(&bottom, room));
     let inner = outer.inner(area);
     frame.render_widget(outer, area);
     let [spark_area, table_area, canvas_area] =
