@@ -40,6 +40,7 @@ fn config(dir: &Path, simulate: bool) -> AppConfig {
         participant: "new".into(),
         simulate,
         pilot: false,
+        practice: false,
         pace: Duration::ZERO,
         seed: Some(1),
         tap: None,
@@ -886,6 +887,58 @@ fn a_pilot_with_a_real_person_is_kept_apart() {
         let out = std::process::Command::new(env!("CARGO_BIN_EXE_handover")).args(args).output().unwrap();
         assert_eq!(out.status.code(), Some(2), "{args:?}");
     }
+}
+
+/// `run --practice`: a rehearsal in which the simulated participant only chooses; the
+/// status line says what they did and which key records it, nothing moves by itself, and
+/// an operator who presses what it says runs the whole session to its end.
+#[test]
+fn a_practice_rehearsal_waits_for_the_operator_s_keys() {
+    use handover::session::Prompt;
+    let dir = tmpdir("practice");
+    let mut a = App::new(AppConfig { practice: true, ..config(&dir, true) });
+    a.tick(T0);
+    press(&mut a, KeyCode::Enter);
+    for k in 1..20 {
+        a.tick(T0 + k * 1_000_000_000);
+    }
+    assert!(matches!(a.session().unwrap().prompt(), Prompt::Present(ref v) if v.trial == 1), "nothing moves by itself");
+    let key_in = |hint: &str| -> char {
+        let after = hint.split("press ").nth(1).expect("the hint names a key");
+        after.chars().next().unwrap()
+    };
+    let mut hinted = 0;
+    for _ in 0..400 {
+        if a.transition().is_some() {
+            press(&mut a, KeyCode::Enter);
+            continue;
+        }
+        match a.session().unwrap().prompt() {
+            Prompt::Present(_) => press(&mut a, KeyCode::Enter),
+            Prompt::Grasp(_) => {
+                let hint = a.practice_hint().expect("the participant's grip is said");
+                assert!(screen(&mut a, 80, 24).contains("Practice: the participant took the"), "on the status line");
+                keys(&mut a, &key_in(&hint).to_string());
+                hinted += 1;
+            }
+            Prompt::Likert { .. } | Prompt::ForcedChoice => {
+                let hint = a.practice_hint().expect("the participant's answer is said");
+                keys(&mut a, &key_in(&hint).to_string());
+                press(&mut a, KeyCode::Enter);
+                hinted += 1;
+            }
+            Prompt::Finish => press(&mut a, KeyCode::Enter),
+            Prompt::Done { completed } => {
+                assert!(completed);
+                break;
+            }
+            Prompt::Paused => panic!("not paused"),
+        }
+    }
+    assert!(matches!(a.session().map(|s| s.prompt()), Some(Prompt::Done { completed: true }) | None));
+    assert_eq!(hinted, 26 + 8 + 1, "every grasp and answer was the operator's key");
+    let log = read_log(&handover::record::mcap_files(&dir.join("logs"))[0]).unwrap();
+    assert!(log.start.pilot && log.start.simulated_truth.is_some());
 }
 
 /// The questionnaire handed to the participant: one statement, nothing that un-blinds, only

@@ -37,6 +37,10 @@ pub struct RunArgs {
     /// counterbalancing never counts it.
     #[arg(long, conflicts_with_all = ["simulate", "participant"])]
     pilot: bool,
+    /// A rehearsal to practise on: a simulated participant chooses, the status line says
+    /// what they did, and you press every key (the log is flagged pilot).
+    #[arg(long, conflicts_with_all = ["simulate", "pilot", "participant"])]
+    practice: bool,
     /// Milliseconds between the simulated participant's actions.
     #[arg(long, value_name = "MS", default_value_t = 800)]
     pace: u64,
@@ -59,6 +63,7 @@ impl RunArgs {
             folders: StudyFolders::default(),
             simulate: false,
             pilot: false,
+            practice: false,
             pace: 800,
             seed: None,
             robot: RobotArgs::default(),
@@ -88,7 +93,7 @@ fn finish(result: Result<Outcome, String>) -> Result<()> {
 }
 
 pub fn run(args: RunArgs) -> Result<()> {
-    let RunArgs { protocol, participant, folders, simulate, pilot, pace, seed, robot, live } = args;
+    let RunArgs { protocol, participant, folders, simulate, pilot, practice, pace, seed, robot, live } = args;
     if participant != "new" {
         validate_id(&participant).map_err(|e| bad(format!("--participant: {e}")))?;
     }
@@ -99,8 +104,9 @@ pub fn run(args: RunArgs) -> Result<()> {
         protocol_text,
         dirs: folders.resolve(),
         participant,
-        simulate,
+        simulate: simulate || practice,
         pilot,
+        practice,
         pace: Duration::from_millis(pace),
         seed,
         tap: None,
@@ -130,6 +136,7 @@ fn config_of(old: &LogContents, dirs: StudyDirs, simulate: bool, pace: u64) -> R
         participant: old.start.participant.clone(),
         simulate,
         pilot: old.start.pilot && old.start.simulated_truth.is_none(),
+        practice: false,
         pace: Duration::from_millis(pace),
         seed: Some(old.start.seed),
         tap: None,

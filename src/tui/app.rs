@@ -39,6 +39,9 @@ pub struct AppConfig {
     /// A pilot with a real person (a colleague, a dress rehearsal): its own `pilot-` id, no
     /// participant record, the log flagged pilot (reported apart, never counterbalanced).
     pub pilot: bool,
+    /// With `simulate`: the operator presses every key; the simulated participant only
+    /// chooses, and the status line says what they did (a rehearsal to practise on).
+    pub practice: bool,
     /// Wait between simulated actions.
     pub pace: Duration,
     /// The session seed (random when absent).
@@ -372,6 +375,38 @@ impl App {
         }
     }
 
+    /// In a practice rehearsal, what the simulated participant did and the key that records
+    /// it; `None` when the operator's next step is not the participant's.
+    pub fn practice_hint(&self) -> Option<String> {
+        if !self.config.practice || self.transition().is_some() || self.overlay.is_some() {
+            return None;
+        }
+        let s = self.session()?;
+        let sim = self.plan.as_ref()?.simulated.as_ref()?;
+        let scale = &s.study().protocol.questionnaire.scale;
+        match (s.prompt(), sim.respond(s)?) {
+            (Prompt::Grasp(v), Event::GraspRecorded { region, .. }) => {
+                let q = s.query(v.query);
+                let object = s.study().object(q);
+                let k = q.regions.iter().position(|&r| object.regions[r].id == region)?;
+                let label = super::screens::trial::grip_label(s, &object.regions[q.regions[k]].label);
+                Some(format!("Practice: the participant took the {label}: press {}", k + 1))
+            }
+            (Prompt::Likert { index, .. }, Event::LikertAnswered { value, .. }) if self.cursor == index => {
+                let k = scale.iter().position(|p| p.value == value)?;
+                Some(format!("Practice: the participant answers “{}”: press {}, then Enter", scale[k].label, k + 1))
+            }
+            (Prompt::ForcedChoice, Event::ForcedChoice { program }) => {
+                let key = char::from(b'a' + program as u8);
+                Some(format!(
+                    "Practice: the participant prefers {}: press {key}, then Enter",
+                    s.start().program_labels[program]
+                ))
+            }
+            _ => None,
+        }
+    }
+
     /// What `u` would undo now, as the operator names it ("the grasp of Program A, trial
     /// 5"); `None` when there is nothing to undo.
     pub fn undoable(&self) -> Option<String> {
@@ -458,6 +493,10 @@ impl App {
             return;
         }
         let Some(sim) = self.plan.as_ref().and_then(|p| p.simulated.clone()) else { return };
+        // In practice the operator acts; the participant's choices are only said.
+        if self.config.practice {
+            return;
+        }
         if now_ns.saturating_sub(self.last_simulated_ns) < self.config.pace.as_nanos() as u64 {
             return;
         }

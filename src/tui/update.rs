@@ -155,8 +155,18 @@ impl App {
                             None => format!("test trial {}", v.trial),
                         };
                         let label = super::screens::trial::grip_label(s, &grip.label);
-                        self.say_after = Some(format!("Recorded: {label} ({phase}); u undoes it"));
-                        self.grasp(region, None);
+                        let said = format!("Recorded: {label} ({phase}); u undoes it");
+                        // Practising on a measured protocol: the simulated arm, when the key agrees.
+                        let simulated =
+                            match (self.config.practice, self.plan.as_ref().and_then(|p| p.simulated.as_ref())) {
+                                (true, Some(sim)) => match sim.respond(s) {
+                                    Some(Event::GraspRecorded { region: r, measured }) if r == region => measured,
+                                    _ => None,
+                                },
+                                _ => None,
+                            };
+                        self.say_after = Some(said);
+                        self.grasp(region, simulated);
                     }
                     None => self.status = format!("Only {} regions are offered", q.regions.len()),
                 }

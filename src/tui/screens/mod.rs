@@ -22,7 +22,12 @@ pub fn render(app: &App, frame: &mut Frame) {
         overlays::too_small(frame, area);
         return;
     }
-    let msg = if app.busy() { theme::COMPUTING.to_string() } else { app.status.clone() };
+    let msg = match (app.busy(), app.practice_hint()) {
+        (true, _) => theme::COMPUTING.to_string(),
+        (false, Some(hint)) if app.status.is_empty() => hint,
+        (false, Some(hint)) => format!("{hint} · {}", app.status),
+        (false, None) => app.status.clone(),
+    };
     // A long message takes a second line rather than being cut.
     let status_h = if Line::from(msg.as_str()).width() > area.width as usize { 2 } else { 1 };
     let [top, body, status, keys] = Layout::vertical([
