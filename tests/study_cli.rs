@@ -598,3 +598,19 @@ fn status_shows_where_the_study_stands() {
     assert_eq!(code, 1);
     assert!(out.contains("broken.mcap") && out.contains("MCAP magic"), "{out}");
 }
+
+/// docs/reference.md is the program's own `man --format markdown`: it cannot drift from the
+/// commands and flags the program accepts.
+#[test]
+fn the_reference_is_generated_from_the_command_line() {
+    let (code, out, err) = handover(&["man", "--format", "markdown"]);
+    assert_eq!(code, 0, "{err}");
+    let file = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/reference.md")).unwrap();
+    assert!(
+        file == out,
+        "docs/reference.md is out of date: regenerate it with `cargo run -- man --format markdown > docs/reference.md`"
+    );
+    for command in ["run", "resume", "status", "analyze", "participant new", "dry-run", "follow"] {
+        assert!(out.contains(&format!("`handover {command}`")), "{command}");
+    }
+}

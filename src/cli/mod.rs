@@ -68,6 +68,7 @@ mod observations;
 mod participant;
 mod plan;
 mod protocol;
+mod reference;
 mod resume;
 mod robot;
 mod score;
@@ -186,10 +187,22 @@ enum Command {
         #[arg(value_enum)]
         shell: clap_complete::Shell,
     },
-    /// Print the manual page (roff) on stdout, e.g. `handover man > handover.1; man ./handover.1`.
+    /// Print the manual page on stdout: roff (`handover man > handover.1; man ./handover.1`) or
+    /// Markdown (docs/reference.md is this output).
     ///
     /// Writes: the page on stdout; no file.
-    Man,
+    Man {
+        /// The page's format.
+        #[arg(long, value_enum, default_value_t = ManFormat::Roff)]
+        format: ManFormat,
+    },
+}
+
+/// The formats of `handover man`.
+#[derive(Debug, Clone, Copy, clap::ValueEnum, PartialEq)]
+pub enum ManFormat {
+    Roff,
+    Markdown,
 }
 
 /// Runs the chosen subcommand.
@@ -218,9 +231,15 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             clap_complete::generate(shell, &mut Cli::command(), "handover", &mut out);
             Ok(())
         }
-        Command::Man => {
+        Command::Man { format: ManFormat::Roff } => {
             use clap::CommandFactory;
             clap_mangen::Man::new(Cli::command()).render(&mut std::io::stdout().lock())?;
+            Ok(())
+        }
+        Command::Man { format: ManFormat::Markdown } => {
+            use clap::CommandFactory;
+            use std::io::Write as _;
+            write!(std::io::stdout().lock(), "{}", reference::markdown(&Cli::command()))?;
             Ok(())
         }
     }

@@ -23,7 +23,8 @@ pub struct ParticipantArgs {
 #[derive(Debug, Subcommand)]
 enum ParticipantCommand {
     /// Create a random, uninformative id and participants/<id>.json with its counterbalancing
-    /// slot: the order (AB or BA) with the fewest completed real sessions in the logs.
+    /// slot: the order (AB or BA) with the fewest participants who completed a real session
+    /// or are registered and waiting for one.
     ///
     /// Writes: PARTICIPANTS/<id>.json (owner-only); the id on stdout.
     New {
