@@ -510,6 +510,8 @@ fn every_help_says_what_the_command_writes() {
         vec!["participant", "show"],
         vec!["dry-run"],
         vec!["resume"],
+        vec!["follow"],
+        vec!["status"],
         vec!["analyze"],
         vec!["completions"],
         vec!["man"],

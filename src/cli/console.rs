@@ -47,7 +47,7 @@ pub struct RunArgs {
     /// The session seed, 0 to 2^53 − 1 (random by default; recorded in the log).
     #[arg(long, value_parser = clap::value_parser!(u64).range(0..=handover::MAX_SESSION_SEED))]
     seed: Option<u64>,
-    /// A robot in the loop: `s` sends each query's pose to it (see README "With a robot").
+    /// A robot in the loop: `s` sends each query's pose to it (see docs/guide.md "With a robot").
     #[command(flatten)]
     robot: RobotArgs,
     #[command(flatten)]

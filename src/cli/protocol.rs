@@ -1,4 +1,4 @@
-//! `handover protocol check FILE`: validate a protocol and summarise it.
+//! `handover protocol check [FILE]`: validate a protocol and summarise it.
 
 use std::path::PathBuf;
 
@@ -27,8 +27,8 @@ enum ProtocolCommand {
     ///
     /// Writes: the problems or the summary on stdout; no file.
     Check {
-        /// The protocol JSON file.
-        file: PathBuf,
+        /// The protocol JSON file (default: the embedded protocols/bike-handover.json).
+        file: Option<PathBuf>,
         /// Check it for a participant of this body height (m): the arm and the poses scaled
         /// as a session scales them, every grip of every query reachable.
         #[arg(long, value_name = "M", conflicts_with = "bodies")]
@@ -50,10 +50,10 @@ const BODY_RANGE_CM: (u32, u32, u32) = (150, 195, 5);
 pub fn run(args: ProtocolArgs) -> Result<()> {
     match args.command {
         ProtocolCommand::Check { file, bodies: true, .. } => {
-            let (text, study) = load_protocol(Some(&file))?;
+            let (text, study) = load_protocol(file.as_deref())?;
             outln!(
                 "{}: bodies served (height × dominant hand; the arm and the poses scaled as a session scales them):",
-                file.display()
+                study.source_name
             );
             let (mut served, mut all) = (0, 0);
             for cm in (BODY_RANGE_CM.0..=BODY_RANGE_CM.1).step_by(BODY_RANGE_CM.2 as usize) {
@@ -86,7 +86,7 @@ pub fn run(args: ProtocolArgs) -> Result<()> {
             Ok(())
         }
         ProtocolCommand::Check { file, body_height, handedness, bodies: false } => {
-            let (text, study) = load_protocol(Some(&file))?;
+            let (text, study) = load_protocol(file.as_deref())?;
             let study = if body_height.is_some() || handedness.is_some() {
                 let height_m = body_height.map(|h| checked_height("--body-height", h)).transpose()?;
                 let body = Body { height_m, hand: handedness.map(Into::into).unwrap_or_default() };
@@ -97,7 +97,7 @@ pub fn run(args: ProtocolArgs) -> Result<()> {
             let study = std::sync::Arc::new(study);
             // What a session builds, and one learning step: an accepted protocol runs.
             check_runs(std::sync::Arc::clone(&study))
-                .map_err(|e| bad(format!("{}: the protocol does not run: {e}", file.display())))?;
+                .map_err(|e| bad(format!("{}: the protocol does not run: {e}", study.source_name)))?;
             out!("{}", summary(&study));
             Ok(())
         }

@@ -41,7 +41,7 @@ pub struct RobotArgs {
     /// status 0 means the robot holds the object there. Killed at the timeout.
     #[arg(long, value_name = "PROGRAM")]
     pub robot_command: Option<PathBuf>,
-    /// The lab's robot settings (JSON; see README "With a robot"): timeout_s, present_on
+    /// The lab's robot settings (JSON; see docs/guide.md "With a robot"): timeout_s, present_on
     /// (operator or at_pose), shoulder_frame_id, base_frame, ros2 {domain_id, pose_topic,
     /// trial_topic, status_topic, networks, resend_s}.
     #[arg(long, value_name = "FILE")]
