@@ -101,7 +101,7 @@ fn timing(seconds: f64, threads: usize) -> String {
 
 /// Learn how a person likes to take objects from a robot, and run the study that measures it.
 #[derive(Debug, Parser)]
-#[command(name = "handover", version, about, long_about = None)]
+#[command(name = "handover", version = handover::record::VERSION, about, long_about = None)]
 pub struct Cli {
     /// Without a command, the operator console opens on the embedded default protocol.
     #[command(subcommand)]

@@ -47,8 +47,12 @@ pub use writer::{McapWriter, Sink};
 /// message shape, or to the file's layout, raises it (`docs/log-format.md`, "Formats").
 /// 1: unindexed records, `/test/log_likelihood` for every condition, the body only at the start.
 /// 2: one chunk and its message indexes per event, schemas in the viewers' subset,
-///    `/test/log_likelihood/<condition>`, the body in every `/human/arm`, seeds below 2^53.
+///    `/test/log_likelihood/<condition>`, `/session/transition`, the body in every
+///    `/human/arm`, seeds below 2^53.
 pub const LOG_FORMAT: u32 = 2;
+
+/// What `handover --version` says: the software's version and the log format it writes.
+pub const VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), " (writes log format 2, reads 1 and 2)");
 
 /// Name of the attachment that holds the protocol text.
 pub const PROTOCOL_ATTACHMENT: &str = "protocol.json";

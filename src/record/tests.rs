@@ -400,3 +400,9 @@ fn a_log_with_a_malformed_robot_command_is_refused_naming_the_field() {
         assert!(crate::session::validate_sent_pose(&pose).is_err(), "{pose:?}");
     }
 }
+
+#[test]
+fn the_version_names_the_log_format_written() {
+    assert!(super::VERSION.contains(&format!("writes log format {}", super::LOG_FORMAT)), "{}", super::VERSION);
+    assert!(super::VERSION.starts_with(env!("CARGO_PKG_VERSION")));
+}
