@@ -34,20 +34,15 @@ pub fn median(v: &[f64]) -> f64 {
     quantile(v, 0.5)
 }
 
-/// The 0.975 quantile of Student's t with `df` degrees of freedom (two-sided 95 %), from
-/// the standard table for df ≤ 30 and the normal value beyond; NaN for df = 0.
+/// The 0.975 quantile of Student's t with `df` degrees of freedom (two-sided 95 %; R's
+/// `qt(0.975, df)`), from statrs's inverse of the regularised incomplete beta function; NaN
+/// for df = 0.
 pub fn t_975(df: usize) -> f64 {
-    const TABLE: [f64; 30] = [
-        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160, 2.145, 2.131,
-        2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056, 2.052, 2.048, 2.045, 2.042,
-    ];
-    match df {
-        0 => f64::NAN,
-        1..=30 => TABLE[df - 1],
-        31..=60 => 2.000 + (2.042 - 2.000) * (60 - df) as f64 / 30.0,
-        61..=120 => 1.980 + (2.000 - 1.980) * (120 - df) as f64 / 60.0,
-        _ => 1.960,
+    use statrs::distribution::{ContinuousCDF, StudentsT};
+    if df == 0 {
+        return f64::NAN;
     }
+    StudentsT::new(0.0, 1.0, df as f64).map_or(f64::NAN, |t| t.inverse_cdf(0.975))
 }
 
 /// The mean of `v` with its 95 % confidence interval (Student's t); the interval is NaN for
@@ -117,8 +112,8 @@ pub struct Wilcoxon {
     pub w_plus: f64,
     /// Two-sided p-value.
     pub p_value: f64,
-    /// Whether p is exact (all 2^n sign patterns enumerated, n ≤ 20) or from the normal
-    /// approximation with tie correction.
+    /// Whether p is exact (the null distribution over all 2^n sign patterns, n ≤
+    /// [`WILCOXON_EXACT_MAX`]) or from the normal approximation with tie correction.
     pub exact: bool,
 }
 
@@ -142,10 +137,16 @@ fn ranks(abs: &[f64]) -> Vec<f64> {
     r
 }
 
+/// Up to this many non-zero pairs the Wilcoxon p-value is exact (the null distribution
+/// computed by recursion over the ranks, O(n³) work); beyond it, the normal approximation.
+pub const WILCOXON_EXACT_MAX: usize = 300;
+
 /// The two-sided Wilcoxon signed-rank test of paired differences `d` against 0. Zero
-/// differences are dropped; ties in |d| get mid-ranks. With at most 20 non-zero pairs the
-/// p-value is exact: the share of the 2^n equally likely sign patterns (under H0) whose
-/// W+ is at least as far from n(n+1)/4 as the observed one. `None` without non-zero pairs.
+/// differences are dropped; ties in |d| get mid-ranks. With at most [`WILCOXON_EXACT_MAX`]
+/// non-zero pairs the p-value is exact: the probability, over the 2^n equally likely sign
+/// patterns under H0 (each rank with its mid-rank), that W+ is at least as far from its
+/// centre as the observed one; beyond, the normal approximation with the tie correction of
+/// the variance (no continuity correction). `None` without non-zero pairs.
 pub fn wilcoxon_signed_rank(d: &[f64]) -> Option<Wilcoxon> {
     let nz: Vec<f64> = d.iter().copied().filter(|x| *x != 0.0).collect();
     let n = nz.len();
@@ -157,16 +158,8 @@ pub fn wilcoxon_signed_rank(d: &[f64]) -> Option<Wilcoxon> {
     let w_plus: f64 = nz.iter().zip(&r).filter(|(x, _)| **x > 0.0).map(|(_, r)| r).sum::<f64>() + 0.0;
     let centre: f64 = r.iter().sum::<f64>() / 2.0;
     let observed = (w_plus - centre).abs();
-    if n <= 20 {
-        let mut extreme = 0u64;
-        for mask in 0u64..(1 << n) {
-            let w: f64 = (0..n).filter(|&i| mask >> i & 1 == 1).map(|i| r[i]).sum();
-            if (w - centre).abs() >= observed - 1e-9 {
-                extreme += 1;
-            }
-        }
-        let p = extreme as f64 / (1u64 << n) as f64;
-        return Some(Wilcoxon { n, w_plus, p_value: p.min(1.0), exact: true });
+    if n <= WILCOXON_EXACT_MAX {
+        return Some(Wilcoxon { n, w_plus, p_value: exact_p(&r, w_plus).min(1.0), exact: true });
     }
     // Normal approximation with the tie correction of the variance.
     let mut tie_term = 0.0;
@@ -185,35 +178,114 @@ pub fn wilcoxon_signed_rank(d: &[f64]) -> Option<Wilcoxon> {
     let nf = n as f64;
     let var = nf * (nf + 1.0) * (2.0 * nf + 1.0) / 24.0 - tie_term / 48.0;
     let z = observed / var.sqrt();
-    let p = 2.0 * (1.0 - standard_normal_cdf(z));
+    // 2(1 − Φ(z)) as erfc(z/√2): no cancellation in a tiny tail.
+    let p = statrs::function::erf::erfc(z / std::f64::consts::SQRT_2);
     Some(Wilcoxon { n, w_plus, p_value: p.min(1.0), exact: false })
 }
 
-/// Φ(z) by the complementary error function (Abramowitz–Stegun 7.1.26, |error| < 1.5e-7).
-fn standard_normal_cdf(z: f64) -> f64 {
-    let x = z.abs() / std::f64::consts::SQRT_2;
-    let t = 1.0 / (1.0 + 0.327_591_1 * x);
-    let poly =
-        t * (0.254_829_592 + t * (-0.284_496_736 + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
-    let erfc = poly * (-x * x).exp();
-    if z >= 0.0 { 1.0 - erfc / 2.0 } else { erfc / 2.0 }
+/// The exact two-sided p of W+ = `w_plus` over the sign patterns of `ranks` (mid-ranks are
+/// multiples of ½, so twice a rank is an integer): the distribution of 2W+ is built one rank
+/// at a time, P_k(s) = ½ P_{k−1}(s) + ½ P_{k−1}(s − 2r_k), and the p-value sums the
+/// probabilities of the sums at least as far from the centre as the observed one.
+fn exact_p(ranks: &[f64], w_plus: f64) -> f64 {
+    let doubled: Vec<usize> = ranks.iter().map(|r| (2.0 * r).round() as usize).collect();
+    let total: usize = doubled.iter().sum();
+    let mut p = vec![0.0f64; total + 1];
+    p[0] = 1.0;
+    let mut reach = 0;
+    for &r in &doubled {
+        reach += r;
+        for s in (0..=reach).rev() {
+            let with = if s >= r { p[s - r] } else { 0.0 };
+            p[s] = 0.5 * p[s] + 0.5 * with;
+        }
+    }
+    // Distances from the centre in units of ½ rank (the centre is total/2 in doubled units).
+    let observed = ((2.0 * w_plus).round() as i64 * 2 - total as i64).abs();
+    p.iter().enumerate().filter(|(s, _)| (*s as i64 * 2 - total as i64).abs() >= observed).map(|(_, q)| q).sum()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    /// `qt(0.975, df)` as R and scipy 1.17.1 (`scipy.stats.t.ppf(0.975, df)`) give it, to
+    /// 10 decimals: the table's range, the old table's interpolated ranges (31–120), and beyond.
+    const T_975: [(usize, f64); 22] = [
+        (1, 12.7062047362),
+        (2, 4.3026527297),
+        (3, 3.1824463053),
+        (4, 2.7764451052),
+        (5, 2.5705818356),
+        (10, 2.228138852),
+        (15, 2.1314495456),
+        (20, 2.0859634473),
+        (29, 2.0452296421),
+        (30, 2.0422724563),
+        (31, 2.0395134464),
+        (40, 2.0210753903),
+        (45, 2.0141033889),
+        (59, 2.0009953781),
+        (60, 2.000297822),
+        (61, 1.999623585),
+        (90, 1.9866745407),
+        (119, 1.9800998765),
+        (120, 1.9799304051),
+        (121, 1.9797637625),
+        (200, 1.9718962236),
+        (1000, 1.9623390808),
+    ];
+
     #[test]
-    fn t_quantiles_and_intervals() {
-        assert_eq!(t_975(4), 2.776);
-        assert_eq!(t_975(1000), 1.96);
+    fn t_quantiles_match_r_and_scipy() {
+        for (df, q) in T_975 {
+            assert!((t_975(df) - q).abs() < 1e-8, "df {df}: {} vs {q}", t_975(df));
+        }
         assert!(t_975(0).is_nan());
         let (m, lo, hi) = mean_ci95(&[1.0, 2.0, 3.0]);
-        // se = 1/√3, t(2) = 4.303.
-        assert!(
-            (m - 2.0).abs() < 1e-12 && (hi - m - 4.303 / 3f64.sqrt()).abs() < 1e-9 && (m - lo - (hi - m)).abs() < 1e-12
-        );
+        // se = 1/√3, t(2) = 4.3026527297.
+        let h = 4.3026527297 / 3f64.sqrt();
+        assert!((m - 2.0).abs() < 1e-12 && (hi - m - h).abs() < 1e-8 && (m - lo - (hi - m)).abs() < 1e-12);
         assert!(mean_ci95(&[1.0]).1.is_nan());
+    }
+
+    /// Two-sided exact Wilcoxon p-values from scipy 1.17.1: `wilcoxon(d, method='exact')`
+    /// for data without ties or zeros, and for data with them the exact sign-flip
+    /// distribution of W+ on mid-ranks (`permutation_test((nz,), W+, permutation_type=
+    /// 'samples', n_resamples=inf)`, zeros dropped first); R's `wilcox.test(d, exact=TRUE)`
+    /// gives the same for the untied cases.
+    #[test]
+    fn exact_wilcoxon_matches_scipy() {
+        let signs = |n: i32, k: i32| -> Vec<f64> { (1..=n).map(|i| if i % k == 0 { -i } else { i } as f64).collect() };
+        let cases: [(Vec<f64>, f64); 6] = [
+            (vec![1.0, -2.0, 3.0, 4.0, 5.0, -6.0, 7.0, 8.0, 9.0, 10.0], 0.048828125),
+            (signs(25, 4), 0.034173786640167236),
+            (signs(40, 3), 0.06616061626664305),
+            (vec![0.0, 1.0, -1.0, 2.0, 2.0, -3.0, 4.0, 4.0, 4.0, 5.0], 0.05859375),
+            (
+                vec![1.5, 1.5, -1.5, 2.0, 2.0, 2.0, -3.0, 3.0, 3.5, -0.5, 0.5, 4.0, 4.0, 4.0, 4.0, 6.0],
+                0.004180908203125,
+            ),
+            (vec![1.0, 2.0, 3.0, 4.0, 5.0], 0.0625),
+        ];
+        for (d, p) in cases {
+            let w = wilcoxon_signed_rank(&d).unwrap();
+            assert!(w.exact, "{d:?}");
+            assert!((w.p_value - p).abs() < 1e-12 * p.max(1e-3), "{d:?}: {} vs {p}", w.p_value);
+        }
+    }
+
+    /// Beyond the exact range: the normal approximation with the tie correction, as scipy's
+    /// `wilcoxon(d, method='approx', correction=False)` (700 pairs with ties).
+    #[test]
+    fn normal_approximation_matches_scipy_beyond_the_exact_range() {
+        let d: Vec<f64> = (2..702).map(|i: i64| if i % 3 != 0 { i / 2 } else { -(i / 2) } as f64).collect();
+        let w = wilcoxon_signed_rank(&d).unwrap();
+        assert!(!w.exact && w.n == 700);
+        assert!((w.p_value - 1.5413934063348332e-14).abs() < 1e-6 * 1.5413934063348332e-14, "{}", w.p_value);
+        // 2(1 − Φ(1.959964)) = 2 × scipy's norm.sf(1.959964).
+        let p = statrs::function::erf::erfc(1.959964 / std::f64::consts::SQRT_2);
+        assert!((p - 0.0499999981928846).abs() < 1e-11, "{p}");
     }
 
     #[test]
@@ -245,10 +317,11 @@ mod tests {
     }
 
     #[test]
-    fn normal_approximation_for_large_samples() {
-        let d: Vec<f64> = (1..=30).map(|i| i as f64).collect();
+    fn the_exact_distribution_is_fast_at_the_limit() {
+        let d: Vec<f64> = (1..=WILCOXON_EXACT_MAX as i64).map(|i| if i % 2 == 0 { i } else { -i / 2 } as f64).collect();
+        let t0 = std::time::Instant::now();
         let w = wilcoxon_signed_rank(&d).unwrap();
-        assert!(!w.exact && w.p_value < 1e-5);
-        assert!((standard_normal_cdf(1.959_964) - 0.975).abs() < 1e-6);
+        assert!(w.exact && w.p_value > 0.0 && w.p_value < 1.0);
+        assert!(t0.elapsed().as_secs_f64() < 2.0, "{:?}", t0.elapsed());
     }
 }

@@ -220,6 +220,6 @@ pub(super) fn table1_markdown(s: &StudySummary) -> String {
     }
     o += " | |\n";
     o += "\nWilcoxon signed-rank, two-sided, on per-participant differences (first condition − second); \
-zero differences are dropped, tied |differences| get mid-ranks; p is exact (all sign patterns) for up to 20 pairs.\n";
+zero differences are dropped, tied |differences| get mid-ranks; p is exact (the null distribution over all sign patterns) for up to 300 pairs, else from the normal approximation.\n";
     o
 }
