@@ -941,6 +941,20 @@ fn a_practice_rehearsal_waits_for_the_operator_s_keys() {
     assert!(log.start.pilot && log.start.simulated_truth.is_some());
 }
 
+/// At 80×24 the history has room for a few rows: the earliest give way, and its title
+/// counts them, so nothing is cut without a word.
+#[test]
+fn the_history_says_how_many_earlier_trials_it_hides() {
+    let dir = tmpdir("history");
+    let mut a = app(&dir);
+    press(&mut a, KeyCode::Enter);
+    trials(&mut a, 4, '1');
+    let s = screen(&mut a, 80, 24);
+    let title = s.lines().find(|l| l.contains("History of this phase")).expect("the history panel");
+    assert!(title.contains("earlier"), "{s}");
+    assert!(!screen(&mut a, 160, 45).contains(" earlier "), "all four fit when tall");
+}
+
 /// The questionnaire handed to the participant: one statement, nothing that un-blinds, only
 /// the answering keys act (no quit, note, pause or help; Ctrl+C included), Enter at the end
 /// asks for the keyboard back instead of finishing, and Ctrl+E gives it back.

@@ -219,9 +219,15 @@ fn history_panel(session: &Session, v: &TrialView, frame: &mut Frame, area: Rect
     } else {
         (vec![Constraint::Length(3), Constraint::Fill(1)], vec!["#", "grip taken"])
     };
+    // The rows that do not fit are the earliest; the title counts them.
+    let title = match skip {
+        0 => " History of this phase ".to_string(),
+        n => format!(" History of this phase · {n} earlier "),
+    };
+    let title = super::fit(&title, (area.width as usize).saturating_sub(2));
     let table = Table::new(rows.into_iter().skip(skip).map(|(_, _, row)| row), widths)
         .header(Row::new(header).style(theme::title()))
-        .block(Block::bordered().title(" History of this phase "));
+        .block(Block::bordered().title(title));
     frame.render_widget(table, area);
 }
 
