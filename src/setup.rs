@@ -89,15 +89,19 @@ pub fn plan_session(c: &SetupConfig) -> Plan {
         };
     }
     let (mut study, mut protocol_text) = (Arc::clone(study), c.protocol_text.to_string());
-    let counts = crate::counterbalance::completed_per_slot(&c.dirs.logs, &c.dirs.participants, 2);
-    let balance = counts.describe();
+    // Where the study stands (the setup screen's line) and the next slot, from one reading.
+    let status = crate::study_status::study_status(c.dirs, &study);
+    let slots: Vec<String> =
+        status.slots.iter().map(|s| format!("slot {}: {} done, {} waiting", s.slot, s.completed, s.waiting)).collect();
+    let balance = format!("{} · {}", status.summary_line(), slots.join(" · "));
+    let next_slot = status.next_slot;
     let (id, slot, new_record, error) = if c.pilot {
         // Kept apart as dry runs are: no record, no slot of the study's taken.
         let id = format!("pilot-{}", new_id(&mut rand::rng()).trim_start_matches("p-"));
-        (id, counts.least_filled(), None, None)
+        (id, next_slot, None, None)
     } else if c.participant == "new" {
         let id = new_id(&mut rand::rng());
-        let slot = counts.least_filled();
+        let slot = next_slot;
         let rec = ParticipantRecord {
             id: id.clone(),
             slot,

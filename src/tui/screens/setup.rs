@@ -74,10 +74,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
                 Span::styled(plan.folders.clone(), if plan.new_folders { theme::warning() } else { theme::dim() }),
             ]));
             if let Some(balance) = &plan.balance {
-                lines.push(Line::from(vec![
-                    Span::styled("Counterbalancing: ", theme::title()),
-                    Span::raw(balance.clone()),
-                ]));
+                lines.push(Line::from(vec![Span::styled("Study: ", theme::title()), Span::raw(balance.clone())]));
             }
             if plan.new_folders {
                 lines.push(Line::from(Span::styled(
