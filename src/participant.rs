@@ -28,11 +28,6 @@ impl SimulatedPerson {
         }
         pass.argmin(&scratch)
     }
-
-    /// The region (handle) of a drawn configuration: what a person reports.
-    pub fn choose_region(&self, set: &FeasibleSet, rng: &mut SeededRng) -> usize {
-        set.region_of(self.choose(set, rng))
-    }
 }
 
 #[cfg(test)]

@@ -401,10 +401,6 @@ impl Session {
         self.choice
     }
 
-    pub fn is_paused(&self) -> bool {
-        self.paused
-    }
-
     /// The robot's commands for the trial under way, if it was sent any.
     pub fn robot(&self) -> Option<&RobotTrack> {
         self.robot.as_ref()
