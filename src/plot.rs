@@ -1,7 +1,4 @@
 //! SVG plots (plotters' SVG backend), shared by the commands that draw.
-//!
-//! Its length: one function per kind of figure, sharing the palette, tick labels and legend
-//! rules.
 
 use std::path::Path;
 

@@ -11,9 +11,6 @@
 //! its neighbours (in ln α), and the support interval is where the log evidence is within
 //! [`SUPPORT_DROP`] of the maximum (a likelihood-ratio 95 % interval), its ends interpolated
 //! linearly between grid points.
-//!
-//! Its length: one estimator (the evidence integral, its maximiser, the support interval,
-//! pooling) and its tests; split, its steps would lose their shared definitions.
 
 use rayon::prelude::*;
 use serde::Serialize;

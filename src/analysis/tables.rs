@@ -1,8 +1,5 @@
 //! The tidy tables `analyze --out` writes, one `Serialize` row struct per file; their
 //! columns are documented in `docs/outputs.md` (and checked against it by `tests/outputs.rs`).
-//!
-//! Its length: one row struct per table beside the code that fills it, so that a column and its
-//! value are read together.
 
 use std::path::Path;
 

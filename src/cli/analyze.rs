@@ -1,8 +1,4 @@
 //! `handover analyze`: the paper's user-study results (Fig. 10, Table I) from session logs.
-//!
-//! Its length: the command's options, its one pass over the logs (read, count once, replay,
-//! verify, α, re-fit) and its JSON; the tables are in `analyze_report.rs`, the measured re-fit
-//! in `analyze_measured.rs`.
 
 use std::path::{Path, PathBuf};
 

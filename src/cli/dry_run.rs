@@ -1,7 +1,4 @@
 //! `handover dry-run`: whole sessions answered by simulated participants, logged as pilot.
-//!
-//! Its length: the options, the runs over seeds and versus a second protocol, and the
-//! per-participant report.
 
 use std::path::PathBuf;
 use std::sync::Arc;

@@ -1,8 +1,5 @@
 //! `handover plan`: the power of a protocol's study at several sizes, from whole simulated
 //! studies (`src/plan.rs`).
-//!
-//! Its length: the command's flags with their help, their checks, the run (whole, a shard,
-//! or a merge of shards), its table, its files and its figure — one command, top to bottom.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

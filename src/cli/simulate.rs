@@ -1,7 +1,4 @@
 //! `handover simulate`: the paper's simulation studies (sections V and VI, Fig. 2–4 and 8).
-//!
-//! Its length: the command's flags with their help, their checks, the run, its table and its
-//! plots — one command, read top to bottom.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;

@@ -1,4 +1,4 @@
-//! What measuring the arm buys (issue 16's science): the same trials learned from the region
+//! What measuring the arm buys (the paper's footnote 2): the same trials learned from the region
 //! taken, from the configuration, and from the configuration measured with Gaussian noise of
 //! several σ, by each selector, over seeds.
 //!

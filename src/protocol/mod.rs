@@ -1,8 +1,5 @@
 //! Protocol files: the study as data (arm, objects, handover poses), parsed into typed
 //! values and validated with precise errors; the default protocol is embedded.
-//!
-//! Its length: every section of a protocol file as a typed value, with the study built from
-//! it; the checks are in `validate.rs`.
 
 mod population;
 mod validate;

@@ -1,7 +1,4 @@
 //! Validation of a parsed protocol: every problem with the field's path and what was expected.
-//!
-//! Its length: every field of a protocol checked with its path and its range, in the protocol's
-//! order; split by section, the shared cross-field rules would be repeated.
 
 use std::collections::HashSet;
 use std::fmt;

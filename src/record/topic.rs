@@ -150,7 +150,7 @@ impl Topic {
     }
 
     /// Whether its channel is registered with its first message: the robot's topics, so
-    /// that a session without a robot logs exactly what it logged before there was one.
+    /// that a session without a robot has no robot channel at all.
     pub fn registered_on_use(self) -> bool {
         matches!(self, Topic::RobotCommand | Topic::RobotStatus)
     }

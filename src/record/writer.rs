@@ -12,9 +12,6 @@
 //! index), summary offsets and a footer with the summary CRC. A reader that seeks through
 //! the summary's indexes and one that streams the records read the same messages; a file cut
 //! by a crash streams up to its last whole commit.
-//!
-//! Its length: one binary format (the MCAP records this writer emits, their CRCs, the summary)
-//! and its failure tests.
 
 use std::collections::BTreeMap;
 use std::io::{Seek, SeekFrom, Write};

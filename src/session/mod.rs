@@ -1,9 +1,6 @@
 //! The study session as a pure state machine: `Session::apply(event)` folds one event into
 //! the state, `Session::prompt()` says what the operator must do next. No terminal, file or
 //! clock in here: the shells (console, dry run, replay) do the I/O.
-//!
-//! Its length: the session's state, its views and prompts, and its construction; the events are
-//! applied in `apply.rs`.
 
 mod apply;
 mod events;

@@ -1,9 +1,6 @@
 //! The console's state and its update: intents in, events to the session out. Every event
 //! goes through the recorder (durable on disk) before its consequence is shown; that work
 //! runs on a worker thread, and keys pressed meanwhile wait in order.
-//!
-//! Its length: the console's state and its life cycle (new, resume, read-only summary, start,
-//! submit, quit); intents are in `update.rs`, the worker in `worker.rs`.
 
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};

@@ -1,7 +1,4 @@
 //! Every key binding, in one place, as a pure function from (mode, key) to an intent.
-//!
-//! Its length: the one key table (every binding on one line) and the tests that the footer and
-//! help are the key map.
 
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyEventKind, KeyModifiers};
 
