@@ -374,3 +374,24 @@ fn the_slurm_array_example_runs_its_shards_and_merges_them_without_a_cluster() {
     assert!(std::fs::read(dir.join("metrics.csv")).unwrap() == std::fs::read(dir.join("whole/metrics.csv")).unwrap());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A selector named twice runs once, wherever the repetition is.
+#[test]
+fn an_algorithm_named_twice_runs_once() {
+    let (code, out, err) = handover(&[
+        "simulate",
+        "planar2",
+        "--seeds",
+        "1",
+        "--trials",
+        "2",
+        "--iterations",
+        "2",
+        "--algorithms",
+        "active,passive,active",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let rows = out.lines().filter(|l| l.starts_with("active ")).count();
+    assert_eq!(rows, 1, "{out}");
+    assert_eq!(out.lines().filter(|l| l.starts_with("passive ")).count(), 1, "{out}");
+}

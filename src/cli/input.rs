@@ -101,3 +101,15 @@ impl StudyFolders {
         )
     }
 }
+
+/// A list with each value kept at its first place only (`a,b,a` is `a,b`): a value given twice
+/// is run once.
+pub fn first_occurrences<T: PartialEq + Clone>(values: &[T]) -> Vec<T> {
+    let mut out: Vec<T> = Vec::with_capacity(values.len());
+    for v in values {
+        if !out.contains(v) {
+            out.push(v.clone());
+        }
+    }
+    out
+}

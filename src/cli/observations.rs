@@ -52,8 +52,7 @@ pub fn run(a: ObservationsArgs) -> Result<()> {
     if a.scenarios.is_empty() || a.algorithms.is_empty() {
         return Err(bad("--scenarios and --algorithms need at least one value each"));
     }
-    let mut algorithms = a.algorithms.clone();
-    algorithms.dedup();
+    let algorithms = super::input::first_occurrences(&a.algorithms);
     let (pool, threads) = a.sweep.pool()?;
     if let Some(dir) = &a.out {
         handover::private_files::create_dir(dir).with_context(|| format!("cannot create {}", dir.display()))?;

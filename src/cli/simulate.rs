@@ -179,8 +179,7 @@ fn check(a: &SimulateArgs) -> Result<Checked> {
             SimObservation::Measured { sigma_rad: deg.to_radians() }
         }
     };
-    let mut algorithms = a.algorithms.clone();
-    algorithms.dedup();
+    let algorithms = super::input::first_occurrences(&a.algorithms);
     let settings = Settings {
         learn: a.learn,
         trials: a.trials,
