@@ -616,3 +616,27 @@ fn the_reference_is_generated_from_the_command_line() {
         assert!(out.contains(&format!("`handover {command}`")), "{command}");
     }
 }
+
+/// `HANDOVER_STUDY_DIR` names the study folder for the commands that take `--study-dir`'s
+/// shared folders (`run`, `participant`, `status`); the flag wins over it.
+#[test]
+fn the_study_folder_can_come_from_the_environment() {
+    let dir = tmpdir("env-study");
+    let run = |envdir: &std::path::Path, args: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_handover"))
+            .args(args)
+            .env("HANDOVER_STUDY_DIR", envdir)
+            .current_dir(std::env::temp_dir())
+            .output()
+            .unwrap();
+        (out.status.code(), String::from_utf8_lossy(&out.stdout).into_owned())
+    };
+    let (code, id) = run(&dir, &["participant", "new"]);
+    assert_eq!(code, Some(0));
+    assert!(dir.join("participants").join(format!("{}.json", id.trim())).is_file());
+    let (_, status) = run(&dir, &["status"]);
+    assert!(status.contains("1 registered"), "{status}");
+    let other = tmpdir("env-study-flag");
+    let (_, status) = run(&dir, &["status", "--study-dir", other.to_str().unwrap()]);
+    assert!(status.contains("0 registered"), "the flag wins: {status}");
+}

@@ -81,8 +81,8 @@ pub fn body_height(flag: &str, h: f64) -> anyhow::Result<f64> {
 #[derive(Debug, Default, clap::Args)]
 pub struct StudyFolders {
     /// The study directory: participant records in DIR/participants, logs in DIR/logs
-    /// (default: the current directory).
-    #[arg(long, value_name = "DIR")]
+    /// (default: $HANDOVER_STUDY_DIR, else the current directory).
+    #[arg(long, value_name = "DIR", env = "HANDOVER_STUDY_DIR")]
     pub study_dir: Option<std::path::PathBuf>,
     /// Where participant records live (default: STUDY_DIR/participants).
     #[arg(long = "participants-dir", value_name = "DIR")]

@@ -108,6 +108,9 @@ fn meaning(a: &clap::Arg) -> String {
     if !defaults.is_empty() && a.get_num_args().is_some_and(|n| n.takes_values()) {
         s.push_str(&format!(" Default: `{}`.", defaults.join(",")));
     }
+    if let Some(env) = a.get_env() {
+        s.push_str(&format!(" Environment: `{}`.", env.to_string_lossy()));
+    }
     if a.is_required_set() {
         s.push_str(" Required.");
     }
