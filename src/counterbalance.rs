@@ -4,7 +4,7 @@
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
-use crate::record::{mcap_files, read_log};
+use crate::record::{LogContents, mcap_files, read_log};
 use crate::session::Event;
 
 /// The completed real sessions per slot, the participants registered who wait for theirs,
@@ -51,19 +51,29 @@ impl SlotCounts {
 /// in `participants` who wait for a session (see [`SlotCounts::waiting`]); participants whose
 /// record says they withdrew do not count.
 pub fn completed_per_slot(root: &Path, participants: &Path, slots: usize) -> SlotCounts {
-    let mut completed = vec![0; slots];
+    let mut logs = Vec::new();
     let mut skipped = Vec::new();
+    for path in mcap_files(root) {
+        match read_log(&path) {
+            Ok(log) => logs.push(log),
+            Err(e) => skipped.push((path, e.to_string())),
+        }
+    }
+    slot_counts(&logs, participants, slots, skipped)
+}
+
+/// [`completed_per_slot`] over logs already read (`skipped`: the files that could not be).
+pub fn slot_counts(
+    logs: &[LogContents],
+    participants: &Path,
+    slots: usize,
+    skipped: Vec<(PathBuf, String)>,
+) -> SlotCounts {
+    let mut completed = vec![0; slots];
     let mut seen = HashSet::new();
     // Participants with a completed or an aborted real session: they wait for nothing.
     let mut settled: HashSet<String> = HashSet::new();
-    for path in mcap_files(root) {
-        let log = match read_log(&path) {
-            Ok(log) => log,
-            Err(e) => {
-                skipped.push((path, e.to_string()));
-                continue;
-            }
-        };
+    for log in logs {
         let ended = log.events.iter().any(|e| e.event == Event::Ended);
         let aborted = log.events.iter().any(|e| matches!(e.event, Event::Aborted { .. }));
         if (ended || aborted) && !log.start.pilot {

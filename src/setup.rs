@@ -91,9 +91,7 @@ pub fn plan_session(c: &SetupConfig) -> Plan {
     let (mut study, mut protocol_text) = (Arc::clone(study), c.protocol_text.to_string());
     // Where the study stands (the setup screen's line) and the next slot, from one reading.
     let status = crate::study_status::study_status(c.dirs, &study);
-    let slots: Vec<String> =
-        status.slots.iter().map(|s| format!("slot {}: {} done, {} waiting", s.slot, s.completed, s.waiting)).collect();
-    let balance = format!("{} · {}", status.summary_line(), slots.join(" · "));
+    let balance = format!("{} · {}", status.summary_line(), status.counts.describe());
     let next_slot = status.next_slot;
     let (id, slot, new_record, error) = if c.pilot {
         // Kept apart as dry runs are: no record, no slot of the study's taken.

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use serde::Serialize;
 
-use crate::counterbalance::completed_per_slot;
+use crate::counterbalance::{SlotCounts, slot_counts};
 use crate::participant::{deleted, registered};
 use crate::protocol::Study;
 use crate::record::{LogContents, is_over, mcap_files, read_log, session_heads};
@@ -95,6 +95,9 @@ pub struct StudyStatus {
     pub next_slot: usize,
     pub open_sessions: Vec<OpenSession>,
     pub unreadable: Vec<Unreadable>,
+    /// The slot counts `slots` is made of (for the one-line balance).
+    #[serde(skip)]
+    pub counts: SlotCounts,
 }
 
 #[derive(Clone, Debug, Default, Serialize)]
@@ -173,7 +176,9 @@ pub fn study_status(dirs: &StudyDirs, study: &Study) -> StudyStatus {
             }
         })
         .collect();
-    let counts = completed_per_slot(&dirs.logs, &dirs.participants, 2);
+    // The logs read above, counted once more for the slots (not read again).
+    let skipped = unreadable.iter().map(|u| (u.log.clone(), u.error.clone())).collect();
+    let counts = slot_counts(&logs, &dirs.participants, 2, skipped);
     let slots = (0..counts.completed.len())
         .map(|slot| SlotStatus {
             slot,
@@ -192,6 +197,7 @@ pub fn study_status(dirs: &StudyDirs, study: &Study) -> StudyStatus {
         next_slot: counts.least_filled(),
         open_sessions,
         unreadable,
+        counts,
     }
 }
 
