@@ -474,6 +474,13 @@ fn an_existing_participant_s_body_height_scales_the_arm() {
     assert_eq!(replayed.sha256, log.start.protocol_sha256);
 }
 
+/// The robot operator's screen (`handover follow`) drawn at `w`×`h`.
+fn draw_follow(view: &handover::tui::follow::FollowView, w: u16, h: u16) -> String {
+    let mut t = Terminal::new(TestBackend::new(w, h)).unwrap();
+    t.draw(|f| handover::tui::follow::render(view, f)).unwrap();
+    t.backend().to_string()
+}
+
 /// The label of the query prompted now, as the protocol writes it.
 fn q_label(a: &App) -> String {
     let s = a.session().unwrap();
@@ -788,17 +795,13 @@ fn transitions_wait_for_the_experimenter_with_the_protocol_s_text() {
 fn a_transition_is_logged_and_the_follower_waits_for_it() {
     use handover::record::Follower;
     use handover::session::Transition;
-    use handover::tui::follow::{FollowView, render as render_follow};
+    use handover::tui::follow::FollowView;
     let dir = tmpdir("transition-log");
     let mut a = app(&dir);
     press(&mut a, KeyCode::Enter);
     let path = a.log_path().unwrap();
     let mut view = FollowView::new(Follower::open(&path).unwrap());
-    let draw = |view: &FollowView| {
-        let mut t = Terminal::new(TestBackend::new(80, 24)).unwrap();
-        t.draw(|f| render_follow(view, f)).unwrap();
-        t.backend().to_string()
-    };
+    let draw = |view: &FollowView| draw_follow(view, 80, 24);
     trials(&mut a, 5, '1');
     assert_eq!(a.transition(), Some(Transition::Program(1)));
     view.tick(T0 + 1);
@@ -1047,18 +1050,14 @@ fn a_resumed_session_shows_its_elapsed_time_and_whole_status() {
 #[test]
 fn follow_shows_the_current_instruction_from_the_live_log() {
     use handover::record::Follower;
-    use handover::tui::follow::{FollowView, render as render_follow};
+    use handover::tui::follow::FollowView;
     let dir = PathBuf::from("target/console-follow");
     let _ = std::fs::remove_dir_all(&dir);
     let mut a = app(&dir);
     press(&mut a, KeyCode::Enter);
     let path = a.log_path().unwrap();
     let mut view = FollowView::new(Follower::open(&path).unwrap());
-    let draw = |view: &FollowView, w: u16, h: u16| {
-        let mut t = Terminal::new(TestBackend::new(w, h)).unwrap();
-        t.draw(|f| render_follow(view, f)).unwrap();
-        t.backend().to_string()
-    };
+    let draw = draw_follow;
     view.tick(T0);
     let query_now = |a: &App| match a.session().unwrap().prompt() {
         handover::session::Prompt::Present(v) | handover::session::Prompt::Grasp(v) => {

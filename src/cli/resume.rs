@@ -118,7 +118,7 @@ pub fn run(args: ResumeArgs) -> Result<()> {
             p,
             &StudyDirs::resolve(args.study_dir.as_deref(), args.participants.as_deref(), args.logs.as_deref()),
         )?,
-        (None, None) => unreachable!("clap requires a log or --participant"),
+        (None, None) => return Err(bad("name the session's log, or --participant ID")),
     };
     let given = read_log(&log).map_err(|e| bad(e.to_string()))?;
     let old = choose(given, args.fork);
