@@ -153,15 +153,17 @@ pub enum RobotDrive {
     GaveUp(String),
 }
 
-/// [`drive`] with a robot in the loop, stamped with the clock: each query is commanded (the
-/// command logged before it is sent), every report is logged as it comes, and the query is
-/// presented on `at_pose`. A failure or a timeout voids the trial as a robot fault and the
-/// command is sent again; after [`MAX_ROBOT_FAILURES`] in a row the session is aborted.
+/// [`drive`] with a robot in the loop, stamped with the clock, each of the participant's
+/// answers `pace` after the last: each query is commanded (the command logged before it is
+/// sent), every report is logged as it comes, and the query is presented on `at_pose`. A
+/// failure or a timeout voids the trial as a robot fault and the command is sent again;
+/// after [`MAX_ROBOT_FAILURES`] in a row the session is aborted.
 pub fn drive_with_robot(
     rec: &mut RecordedSession,
     participant: &ScriptedParticipant,
     robot: &mut Robot,
     arm: Option<&JointStateSource>,
+    pace: Duration,
 ) -> Result<RobotDrive, SubmitError> {
     let stamp = |rec: &RecordedSession, event: Event| {
         let time_ns = now_ns().max(rec.last_time_ns() + 1);
@@ -169,6 +171,7 @@ pub fn drive_with_robot(
     };
     let mut failures = 0;
     while let Some(event) = participant.respond(rec.session()) {
+        std::thread::sleep(pace);
         if !matches!(event, Event::QueryPresented { .. }) {
             rec.submit(stamp(rec, event))?;
             continue;
@@ -240,9 +243,9 @@ fn drive_measured(
     Ok(())
 }
 
-/// A dry run's session driven to its end: through `robot` when there is one
-/// ([`drive_with_robot`]), else at `pace` ([`drive`]); with `arm`, every grasp is measured by
-/// it (stamped with the clock, as the samples are).
+/// A dry run's session driven to its end at `pace`: through `robot` when there is one
+/// ([`drive_with_robot`]), else [`drive`]; with `arm`, every grasp is measured by it (stamped
+/// with the clock, as the samples are).
 pub fn drive_session(
     rec: &mut RecordedSession,
     participant: &ScriptedParticipant,
@@ -251,7 +254,7 @@ pub fn drive_session(
     pace: Duration,
 ) -> Result<RobotDrive, SubmitError> {
     match (robot, arm) {
-        (Some(robot), arm) => drive_with_robot(rec, participant, robot, arm),
+        (Some(robot), arm) => drive_with_robot(rec, participant, robot, arm, pace),
         (None, Some(arm)) => drive_measured(rec, participant, arm, pace).map(|()| RobotDrive::Completed),
         (None, None) => drive(rec, participant, pace).map(|()| RobotDrive::Completed),
     }

@@ -291,8 +291,8 @@ fn a_c3d_file_of_joint_angles_refits_as_the_same_samples_in_a_csv() {
             _ => None,
         })
         .collect();
-    // 10 frames a second from a second before the first grasp; the frame nearest each grasp
-    // holds its angles (degrees, as C3D's f32 has them), every other frame is invalid.
+    // 10 frames a second from a second before the first grasp; the last frame at or before
+    // each grasp holds its angles (degrees, as C3D's f32 has them), every other frame is invalid.
     let start = grasps[0].0 - 1_000_000_000;
     let frames = ((grasps.last().unwrap().0 - start) / 100_000_000 + 10) as usize;
     let labels = ["RShoulderAngles", "RElbowAngles", "RWristAngles"];
@@ -300,7 +300,7 @@ fn a_c3d_file_of_joint_angles_refits_as_the_same_samples_in_a_csv() {
     let mut cells = vec![invalid; frames * labels.len()];
     let mut csv_rows = Vec::new();
     for (t, q) in &grasps {
-        let k = ((t - start) as f64 / 1e8).round() as usize;
+        let k = ((t - start) / 100_000_000) as usize;
         for (d, (label, axis)) in C3D_JOINTS.iter().enumerate() {
             let p = labels.iter().position(|l| l == label).unwrap();
             let cell = &mut cells[k * labels.len() + p];

@@ -243,3 +243,23 @@ fn a_bad_robot_option_is_bad_input() {
     assert!(mcap_files(&dir.join("logs")).is_empty(), "no session started");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_robot_in_the_loop_keeps_the_dry_runs_pace() {
+    let dir = tmpdir("pace");
+    let ok = script(&dir, "ok.sh", "cat > /dev/null\nexit 0");
+    let (code, err) = dry_run(&dir, "paced", &["--robot-command", ok.to_str().unwrap(), "--pace", "40"]);
+    assert_eq!(code, 0, "{err}");
+    let log = the_log(&dir.join("paced"));
+    // Each of the participant's answers comes at least the pace after the event before it.
+    let mut answers = 0;
+    for pair in log.events.windows(2) {
+        if matches!(pair[1].event, Event::GraspRecorded { .. } | Event::LikertAnswered { .. }) {
+            answers += 1;
+            let gap_ms = (pair[1].time_ns - pair[0].time_ns) / 1_000_000;
+            assert!(gap_ms >= 40, "{:?} {gap_ms} ms after {:?}", pair[1].event, pair[0].event);
+        }
+    }
+    assert!(answers >= 26 + 8, "{answers}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

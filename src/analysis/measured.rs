@@ -41,13 +41,39 @@ pub struct MeasurementSeries {
     pub samples: Vec<(u64, [f64; JOINTS])>,
 }
 
-/// Parses a sample time: seconds since the Unix epoch (a decimal number) or RFC 3339.
+/// Parses a sample time: seconds since the Unix epoch (a decimal number, read to the
+/// nanosecond without going through a float) or RFC 3339.
 fn parse_time(text: &str) -> Option<u64> {
+    if let Some(ns) = decimal_seconds_ns(text) {
+        return Some(ns);
+    }
     if let Ok(s) = text.parse::<f64>() {
         return (s.is_finite() && (0.0..=4.0e9).contains(&s)).then(|| (s * 1e9).round() as u64);
     }
     let t = chrono::DateTime::parse_from_rfc3339(text).ok()?;
     u64::try_from(t.timestamp_nanos_opt()?).ok()
+}
+
+/// `SECONDS[.FRACTION]` (digits only) as nanoseconds, exactly: a fraction's first nine digits
+/// are the nanoseconds, the tenth rounds them. Seconds up to 4e9, as [`parse_time`] accepts.
+fn decimal_seconds_ns(text: &str) -> Option<u64> {
+    let (whole, fraction) = text.split_once('.').unwrap_or((text, ""));
+    let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
+    if !digits(whole) || !(fraction.is_empty() || digits(fraction)) || whole.len() > 10 {
+        return None;
+    }
+    let seconds: u64 = whole.parse().ok()?;
+    if seconds > 4_000_000_000 {
+        return None;
+    }
+    let mut ns: u64 = 0;
+    for k in 0..9 {
+        ns = ns * 10 + fraction.as_bytes().get(k).map_or(0, |b| u64::from(b - b'0'));
+    }
+    if fraction.as_bytes().get(9).is_some_and(|b| *b >= b'5') {
+        ns += 1;
+    }
+    Some(seconds * 1_000_000_000 + ns)
 }
 
 impl MeasurementSeries {
@@ -168,19 +194,11 @@ impl MeasurementSeries {
         Ok(Self { path: path.to_path_buf(), samples })
     }
 
-    /// The sample nearest `time_ns` within ±`window_s`, as a measurement at that time.
+    /// The grasp's sample by [`ArmMeasurement::pick`]'s rule (the latest at or before
+    /// `time_ns`, within `window_s`), as a measurement at that time.
     pub fn at(&self, time_ns: u64, window_s: f64) -> Option<ArmMeasurement> {
-        let i = self.samples.partition_point(|(t, _)| *t < time_ns);
-        let offset = |j: usize| (self.samples[j].0 as f64 - time_ns as f64) / 1e9;
-        let best = [i.checked_sub(1), (i < self.samples.len()).then_some(i)]
-            .into_iter()
-            .flatten()
-            .min_by(|&a, &b| offset(a).abs().total_cmp(&offset(b).abs()))?;
-        (offset(best).abs() <= window_s).then(|| ArmMeasurement {
-            q_rad: self.samples[best].1.to_vec(),
-            source: MeasurementSource::File,
-            offset_s: offset(best),
-        })
+        let i = self.samples.partition_point(|(t, _)| *t <= time_ns);
+        ArmMeasurement::pick(self.samples[..i].iter().rev().take(1), time_ns, window_s, MeasurementSource::File)
     }
 }
 
@@ -370,4 +388,23 @@ pub fn refit(
         })
         .collect();
     Ok(MeasuredRefit { logged_observation, grasps: standing.len(), measured, disagreements, runs })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn decimal_times_are_read_to_the_nanosecond() {
+        assert_eq!(parse_time("1764806400.000000001"), Some(1_764_806_400_000_000_001));
+        assert_eq!(parse_time("1764806400.1"), Some(1_764_806_400_100_000_000));
+        assert_eq!(parse_time("1764806400"), Some(1_764_806_400_000_000_000));
+        assert_eq!(parse_time("1764806400.0000000015"), Some(1_764_806_400_000_000_002));
+        // Through a float this time would be off by hundreds of nanoseconds.
+        assert_ne!((("1764806400.000000001".parse::<f64>().unwrap()) * 1e9).round() as u64, 1_764_806_400_000_000_001);
+        assert_eq!(parse_time("1.7648064e9"), Some(1_764_806_400_000_000_000));
+        for bad in ["", "-1", "4000000001", "1e99", "x"] {
+            assert_eq!(parse_time(bad), None, "{bad}");
+        }
+    }
 }

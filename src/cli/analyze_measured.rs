@@ -22,8 +22,8 @@ pub struct MeasuredArgs {
     /// RFC 3339, and `<joint>_deg` or `<joint>_rad` per joint, named as the protocol's
     /// `learning.measurement.joint_names`, else the model's joint names), or a C3D file
     /// (`.c3d`; joint names `<point label>.<x|y|z>` of angle points in degrees, with
-    /// --c3d-start): each session is re-fitted with every grasp observed as the sample nearest
-    /// its time, and both fits are reported side by side (with --out, measured_fit.csv).
+    /// --c3d-start): each session is re-fitted with every grasp observed as the latest sample
+    /// at or before its time (the live rule), and both fits are reported side by side (with --out, measured_fit.csv).
     #[arg(long, value_name = "FILE")]
     measurements: Option<PathBuf>,
     /// The measuring system's names of the model's 7 joints, in the model's order (a C3D
@@ -38,7 +38,7 @@ pub struct MeasuredArgs {
     /// joint [default: the protocol's `learning.measurement.sigma_deg`].
     #[arg(long, value_delimiter = ',', value_name = "DEG,…")]
     sigma_deg: Option<Vec<f64>>,
-    /// How far from a grasp a sample may lie, s [default: the protocol's, else 0.5].
+    /// How long before a grasp its sample may lie, s [default: the protocol's, else 0.5].
     #[arg(long, value_name = "S")]
     window_s: Option<f64>,
 }

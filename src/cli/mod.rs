@@ -71,6 +71,7 @@ mod protocol;
 mod reference;
 mod resume;
 mod robot;
+mod robot_check;
 mod score;
 mod shards;
 mod simulate;
@@ -172,6 +173,12 @@ enum Command {
     ///
     /// Writes: a table (or JSON) on stdout; no file.
     Status(status::StatusArgs),
+    /// Check the lab's ROS 2 setup without moving anything: who is on the other side of each
+    /// topic the console uses, with which message type and QoS, and why nothing can match.
+    ///
+    /// Writes: a report on stdout; no file. Exit status 1 when a topic a session needs has
+    /// nothing matching on its other side.
+    RobotCheck(robot_check::RobotCheckArgs),
     /// Analyse session logs (Fig. 10, Table I), optionally verifying every derived value.
     ///
     /// Writes: a table (or JSON) on stdout; with --out DIR, the tidy CSVs of docs/outputs.md,
@@ -224,6 +231,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Resume(args) => resume::run(args),
         Command::Follow(args) => follow::run(args),
         Command::Status(args) => status::run(args),
+        Command::RobotCheck(args) => robot_check::run(args),
         Command::Analyze(args) => analyze::run(args),
         Command::Completions { shell } => {
             use clap::CommandFactory;

@@ -33,7 +33,8 @@ pub struct RobotArgs {
     /// Drive the robot over ROS 2: each query is published as a geometry_msgs/msg/PoseStamped
     /// on /handover/target_pose (and the trial as JSON in a std_msgs/msg/String on
     /// /handover/trial); the robot answers on /handover/robot_status (std_msgs/msg/String:
-    /// moving, at_pose, failed). Domain, topics and frames: --robot-config.
+    /// moving, at_pose, failed). Domain (else ROS_DOMAIN_ID, else 0), topics and frames:
+    /// --robot-config.
     #[arg(long, value_enum, conflicts_with = "robot_command")]
     pub robot: Option<RobotKind>,
     /// Run PROGRAM for each query with the command as one line of JSON on its standard input
@@ -49,8 +50,8 @@ pub struct RobotArgs {
     /// Measure the participant's arm live (a protocol with "observation": "measured"): a
     /// measuring system publishes sensor_msgs/msg/JointState on
     /// /handover/participant/joint_states (--robot-config's ros2.joint_states_topic), named
-    /// as the protocol's learning.measurement.joint_names; each grasp takes the sample nearest
-    /// its time within the protocol's window, else learns from the handle.
+    /// as the protocol's learning.measurement.joint_names; each grasp takes the latest sample
+    /// at or before it within the protocol's window, else learns from the handle.
     #[arg(long, value_enum)]
     pub measure: Option<MeasureKind>,
 }
@@ -76,11 +77,17 @@ impl RobotArgs {
         Ok(Some(robot))
     }
 
-    fn settings(&self) -> Result<RobotSettings> {
-        Ok(match &self.robot_config {
+    /// The lab's settings, with the ROS 2 domain checked when ROS 2 is used (a bad
+    /// `ROS_DOMAIN_ID` is refused before anything starts).
+    pub fn settings(&self) -> Result<RobotSettings> {
+        let settings = match &self.robot_config {
             Some(path) => RobotSettings::from_json(&read_text(path)?, &path.display().to_string()).map_err(bad)?,
             None => RobotSettings::default(),
-        })
+        };
+        if self.robot.is_some() || self.measure.is_some() {
+            settings.ros2.domain().map_err(bad)?;
+        }
+        Ok(settings)
     }
 
     /// The live arm measurement, subscribed; none without --measure.
@@ -108,8 +115,9 @@ impl RobotArgs {
         if let Some(source) = &arm
             && !source.wait_until_heard(ARM_WAIT)
         {
+            let why = source.diagnose().map_or_else(String::new, |why| format!(" ({why})"));
             errln!(
-                "no joint state from {} within {} s: grasps learn from the region until one comes",
+                "no joint state from {} within {} s{why}: grasps learn from the region until one comes",
                 source.describe(),
                 ARM_WAIT.as_secs()
             );

@@ -242,8 +242,8 @@ pub struct MeasurementSpec {
     /// own joint names].
     #[serde(default = "default_joint_names")]
     pub joint_names: Vec<String>,
-    /// A sample counts for a grasp when it lies within this many seconds of it (the nearest
-    /// one is taken) [default: 0.5].
+    /// A sample counts for a grasp when it lies at most this many seconds before it (the
+    /// latest such one is taken) [default: 0.5].
     #[serde(default = "default_window_s")]
     pub window_s: f64,
 }

@@ -1,13 +1,17 @@
 //! The participant's arm measured live (`--measure ros2`): a measuring system (motion capture,
 //! a body tracker) publishes `sensor_msgs/msg/JointState` on a ROS 2 topic; a thread of its
 //! own keeps the last seconds of samples, each mapped to the arm model's joint order by the
-//! protocol's `learning.measurement.joint_names`, and a grasp takes the sample nearest its
-//! time within the protocol's window.
+//! protocol's `learning.measurement.joint_names`, and a grasp takes its sample by
+//! [`ArmMeasurement::pick`]'s rule (the latest at or before the grasp, within the protocol's
+//! window), the rule `analyze --measurements` applies to a file of samples.
 //!
 //! A sample's time is its header stamp (the measuring system's clock, which must be the
-//! console's: one machine, or NTP/PTP), or the time it arrived when the stamp is zero.
-//! Messages that do not name every mapped joint, or whose positions are not finite angles,
-//! are counted and dropped.
+//! console's: one machine, or NTP/PTP), or the time it arrived when the stamp is zero. So
+//! that a sample stamped before the grasp but still on its way counts, a grasp waits for
+//! the first sample stamped after it, at most [`SETTLE`]. The subscription is best effort,
+//! which hears best-effort publishers (the sensor-data QoS measuring systems use) and
+//! reliable ones alike. Messages that do not name every mapped joint, or whose positions are
+//! not finite angles, are counted and dropped.
 
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
@@ -15,8 +19,11 @@ use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
-use super::Ros2Settings;
-use super::ros2::{Header, start_node, topic};
+use ros2_client::dds::rustdds::{DomainParticipant, QosPolicies};
+
+use super::discovery::{Endpoint, Side, diagnose, peers};
+use super::ros2::{Header, Started, sensor_qos, start_node, topic};
+use super::{Domain, Ros2Settings};
 use crate::kinematics::JOINTS;
 use crate::now_ns;
 use crate::session::{ArmMeasurement, MeasurementSource};
@@ -35,6 +42,8 @@ pub struct JointState {
 const KEEP_S: f64 = 10.0;
 /// The most samples kept (1 kHz for the whole of [`KEEP_S`]).
 const MAX_SAMPLES: usize = 10_000;
+/// The longest a grasp waits for a sample stamped after it (a 20 Hz system's period).
+pub const SETTLE: Duration = Duration::from_millis(50);
 
 /// What the thread has seen.
 #[derive(Debug, Default)]
@@ -50,6 +59,9 @@ struct Buffer {
 pub struct JointStateSource {
     buffer: Arc<Mutex<Buffer>>,
     description: String,
+    participant: DomainParticipant,
+    domain: Domain,
+    endpoint: Endpoint,
 }
 
 /// The message's angles in the model's order, or why not.
@@ -90,14 +102,13 @@ impl Buffer {
         }
     }
 
-    fn nearest(&self, time_ns: u64, window_s: f64) -> Option<ArmMeasurement> {
-        let offset = |t: u64| (t as f64 - time_ns as f64) / 1e9;
-        let (t, q) = self.samples.iter().min_by(|a, b| offset(a.0).abs().total_cmp(&offset(b.0).abs()))?;
-        (offset(*t).abs() <= window_s).then(|| ArmMeasurement {
-            q_rad: q.to_vec(),
-            source: MeasurementSource::Ros2,
-            offset_s: offset(*t),
-        })
+    fn pick(&self, time_ns: u64, window_s: f64) -> Option<ArmMeasurement> {
+        ArmMeasurement::pick(&self.samples, time_ns, window_s, MeasurementSource::Ros2)
+    }
+
+    /// Whether a sample stamped after `time_ns` has arrived.
+    fn settled(&self, time_ns: u64) -> bool {
+        self.samples.iter().rev().any(|(t, _)| *t > time_ns)
     }
 }
 
@@ -109,22 +120,22 @@ impl JointStateSource {
             return Err(format!("{} joint names, expected {JOINTS}", joint_names.len()));
         }
         let buffer = Arc::new(Mutex::new(Buffer::default()));
-        let (ready_tx, ready) = std::sync::mpsc::channel::<Result<(), String>>();
-        let (settings, names, shared) = (settings.clone(), joint_names.to_vec(), Arc::clone(&buffer));
-        let description =
-            format!("ros2 domain {} ← {} (sensor_msgs/JointState)", settings.domain_id, settings.joint_states_topic);
+        let (ready_tx, ready) = std::sync::mpsc::channel::<Result<(DomainParticipant, Domain), String>>();
+        let (thread_settings, names, shared) = (settings.clone(), joint_names.to_vec(), Arc::clone(&buffer));
         std::thread::spawn(move || {
-            let subscription = start_node(&settings, "handover_arm").and_then(|mut node| {
-                let t = topic(&mut node, &settings.joint_states_topic, "sensor_msgs", "JointState")?;
+            let settings = thread_settings;
+            let subscription = start_node(&settings, "handover_arm").and_then(|started| {
+                let Started { mut node, participant, domain } = started;
+                let t = topic(&mut node, &settings.joint_states_topic, "sensor_msgs", "JointState", &sensor_qos())?;
                 let s = node
                     .create_subscription::<JointState>(&t, None)
                     .map_err(|e| format!("ROS 2 subscription {}: {e}", settings.joint_states_topic))?;
-                Ok((node, s))
+                Ok((node, s, participant, domain))
             });
             let (_node, subscription) = match subscription {
-                Ok(x) => {
-                    let _ = ready_tx.send(Ok(()));
-                    x
+                Ok((node, s, participant, domain)) => {
+                    let _ = ready_tx.send(Ok((participant, domain)));
+                    (node, s)
                 }
                 Err(why) => {
                     let _ = ready_tx.send(Err(why));
@@ -147,17 +158,40 @@ impl JointStateSource {
                 }
             }
         });
-        ready.recv().map_err(|_| "the ROS 2 measurement thread stopped".to_string())??;
-        Ok(Self { buffer, description })
+        let (participant, domain) = ready.recv().map_err(|_| "the ROS 2 measurement thread stopped".to_string())??;
+        let description =
+            format!("ros2 {domain} ← {} (sensor_msgs/JointState, best effort)", settings.joint_states_topic);
+        let endpoint = Endpoint {
+            topic: settings.joint_states_topic.clone(),
+            ros_type: "sensor_msgs/msg/JointState",
+            side: Side::Subscribes,
+            qos: QosPolicies::from(&sensor_qos()),
+        };
+        Ok(Self { buffer, description, participant, domain, endpoint })
     }
 
     pub fn describe(&self) -> String {
         self.description.clone()
     }
 
-    /// The sample nearest `time_ns` within ±`window_s`, if any.
+    /// Why the measuring system cannot be heard, when discovery can tell (nobody publishes,
+    /// another message type, incompatible QoS).
+    pub fn diagnose(&self) -> Option<String> {
+        diagnose(&self.endpoint, &peers(&self.participant, Side::Subscribes), self.domain)
+    }
+
+    /// The grasp at `time_ns`'s sample ([`ArmMeasurement::pick`]), once a sample stamped
+    /// after it has arrived or [`SETTLE`] has passed.
     pub fn at(&self, time_ns: u64, window_s: f64) -> Option<ArmMeasurement> {
-        self.buffer.lock().ok()?.nearest(time_ns, window_s)
+        let end = std::time::Instant::now() + SETTLE;
+        loop {
+            let b = self.buffer.lock().ok()?;
+            if b.settled(time_ns) || std::time::Instant::now() >= end {
+                return b.pick(time_ns, window_s);
+            }
+            drop(b);
+            std::thread::sleep(Duration::from_millis(1));
+        }
     }
 
     /// Waits until a message has been received, at most `timeout`; whether one was.
@@ -196,7 +230,7 @@ mod tests {
     }
 
     #[test]
-    fn samples_are_mapped_by_name_and_the_nearest_in_the_window_is_taken() {
+    fn samples_are_mapped_by_name_and_the_latest_before_the_grasp_is_taken() {
         let names: Vec<String> = (0..7).map(|d| format!("j{d}")).collect();
         let mut b = Buffer::default();
         // Published in another order, with an extra joint.
@@ -205,11 +239,15 @@ mod tests {
             |base: f64| vec![base + 0.6, 9.0, base + 0.5, base + 0.4, base + 0.3, base + 0.2, base + 0.1, base];
         b.take(&msg(100, &order, position(0.0)), &names, 0);
         b.take(&msg(101, &order, position(1.0)), &names, 0);
-        let m = b.nearest(100_400_000_000, 0.5).unwrap();
+        let m = b.pick(100_400_000_000, 0.5).unwrap();
         assert_eq!(m.q_rad, vec![0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6]);
         assert!((m.offset_s + 0.4).abs() < 1e-9 && m.source == MeasurementSource::Ros2);
-        assert_eq!(b.nearest(100_600_000_000, 0.5).unwrap().q_rad[0], 1.0);
-        assert!(b.nearest(102_000_000_001, 1.0).is_none(), "outside the window");
+        // Nearer to the later sample, but that one was not yet taken: the earlier one.
+        assert_eq!(b.pick(100_900_000_000, 1.0).unwrap().q_rad[0], 0.0);
+        assert!(b.settled(100_900_000_000) && !b.settled(101_000_000_000));
+        assert_eq!(b.pick(101_000_000_000, 0.5).unwrap().q_rad[0], 1.0);
+        assert!(b.pick(102_000_000_001, 1.0).is_none(), "outside the window");
+        assert!(b.pick(99_000_000_000, 1.0).is_none(), "every sample after the grasp");
         // A message without a mapped joint, or with a bad angle, is dropped and counted.
         b.take(&msg(102, &["j0"], vec![0.0]), &names, 0);
         b.take(&msg(102, &order, vec![f64::NAN; 8]), &names, 0);

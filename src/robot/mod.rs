@@ -3,10 +3,12 @@
 //! commands, collects what the link reports and times a command out. The session logs both
 //! sides as events (`/robot/command`, `/robot/status`); the operator keeps the last word.
 
+pub mod discovery;
 pub mod hook;
 pub mod joint_states;
 pub mod ros2;
 mod settings;
+pub mod setup_check;
 
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::time::{Duration, Instant};
@@ -14,7 +16,7 @@ use std::time::{Duration, Instant};
 use nalgebra::UnitQuaternion;
 use serde::Serialize;
 
-pub use settings::{BaseFrame, PresentOn, RobotSettings, Ros2Settings, validate_topic};
+pub use settings::{BaseFrame, Domain, MAX_DOMAIN_ID, PresentOn, RobotSettings, Ros2Settings, validate_topic};
 
 use crate::session::{Event, Phase, Prompt, RobotLinkKind, RobotState, SentPose, Session};
 
@@ -126,6 +128,11 @@ pub trait Link: Send {
     fn cancel(&mut self) {}
     /// Where it is connected, for the screen (`ros2 domain 0`, the program's name).
     fn describe(&self) -> String;
+    /// Why the robot cannot be hearing or answering, when the link can tell (nobody
+    /// subscribed, another message type, incompatible QoS).
+    fn diagnose(&self) -> Option<String> {
+        None
+    }
 }
 
 /// A command under way.
@@ -197,11 +204,11 @@ impl Robot {
         }
         match (&self.pending, deadline) {
             (Some(p), Some(d)) if Instant::now() >= d => {
-                let report = Report {
-                    query: p.query.clone(),
-                    state: RobotState::Timeout,
-                    detail: format!("no answer within {} s", self.settings.timeout_s),
-                };
+                let mut detail = format!("no answer within {} s", self.settings.timeout_s);
+                if let Some(why) = self.link.diagnose() {
+                    detail = format!("{why} (no answer within {} s)", self.settings.timeout_s);
+                }
+                let report = Report { query: p.query.clone(), state: RobotState::Timeout, detail };
                 self.last_took = Some(p.sent.elapsed());
                 self.pending = None;
                 self.link.cancel();

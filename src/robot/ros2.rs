@@ -3,22 +3,27 @@
 //! topic and a `geometry_msgs/msg/PoseStamped` on the pose topic; the robot's
 //! `std_msgs/msg/String` statuses (`moving`, `at_pose`, `failed`) come back on the status
 //! topic. QoS is the ROS 2 default (reliable, volatile, keep last 10), which a stock
-//! `rclpy`/`rclcpp` node and `ros2 topic pub` match.
+//! `rclpy`/`rclcpp` node and `ros2 topic pub` match. The domain is the settings' `domain_id`,
+//! else `ROS_DOMAIN_ID`, else 0, as for any ROS 2 node.
 //!
-//! A pose is not lost to DDS discovery: it is published once the robot's subscription is
-//! matched (or after `resend_s` without one), and again every `resend_s` until the robot
-//! answers. Statuses carry no command id: one is taken to answer the command under way.
+//! What the robot is guaranteed: a command's pose (with its trial message) is published when
+//! the command is sent if any subscriber of the pose topic is matched, again as soon as
+//! another subscriber matches (a robot that starts after a recorder is not kept waiting),
+//! and every `resend_s` until the robot answers. A volatile subscription gets nothing
+//! published before it matched. Statuses carry no command id: one is taken to answer the
+//! command under way. When nothing answers, discovery says why ([`super::discovery`]).
 
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, channel};
 use std::time::{Duration, Instant};
 
-use ros2_client::dds::rustdds::DomainParticipantBuilder;
+use ros2_client::dds::rustdds::{DomainParticipant, DomainParticipantBuilder, QosPolicies};
 use ros2_client::dds::{Context, Node, Publisher, Subscription};
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions, QosProfile};
 use serde::{Deserialize, Serialize};
 
-use super::{Link, Report, RobotCommand, RobotSettings, Ros2Settings, parse_status};
+use super::discovery::{Endpoint, Side, diagnose, peers};
+use super::{Domain, Link, Report, RobotCommand, RobotSettings, Ros2Settings, parse_status};
 use crate::session::RobotLinkKind;
 
 /// `builtin_interfaces/msg/Time`.
@@ -88,18 +93,36 @@ enum Job {
     Cancel,
 }
 
-/// The ROS 2 link: a thread that owns the DDS participant.
+/// The ROS 2 link: a thread that owns the DDS node; the participant, to ask discovery why
+/// nothing answers.
 pub struct Ros2Link {
     jobs: Sender<Job>,
     description: String,
+    participant: DomainParticipant,
+    domain: Domain,
+    /// The console's pose publisher and status subscription, as discovery compares them.
+    endpoints: [Endpoint; 2],
 }
 
 /// The ROS 2 default QoS (`rclpy`'s and `ros2 topic pub`'s): reliable, volatile, keep last 10.
-fn default_qos() -> QosProfile {
+pub(super) fn default_qos() -> QosProfile {
     QosProfile::publisher_default()
         .reliability_reliable(WhenFull::DEFAULT)
         .durability(Durability::Volatile)
         .history(History::KeepLast { depth: 10 })
+}
+
+/// The QoS a sensor stream is taken with: best effort, which matches both best-effort
+/// publishers (rclpy's `qos_profile_sensor_data`, what measuring systems use) and reliable ones.
+pub(super) fn sensor_qos() -> QosProfile {
+    default_qos().reliability_best_effort()
+}
+
+/// A started node, its participant and its domain.
+pub(super) struct Started {
+    pub node: Node,
+    pub participant: DomainParticipant,
+    pub domain: Domain,
 }
 
 /// The publishers, the subscription and the node that matches them.
@@ -112,13 +135,14 @@ struct Endpoints {
 
 /// A node of its own DDS participant in the settings' domain, on the settings' networks, its
 /// spinner (discovery, matching) on a thread of its own.
-pub(super) fn start_node(r: &Ros2Settings, node_name: &str) -> Result<Node, String> {
-    let mut builder = DomainParticipantBuilder::new(r.domain_id);
+pub(super) fn start_node(r: &Ros2Settings, node_name: &str) -> Result<Started, String> {
+    let domain = r.domain()?;
+    let mut builder = DomainParticipantBuilder::new(domain.id);
     if !r.networks.is_empty() {
         builder = builder.with_only_networks(r.networks.clone());
     }
     let participant = builder.build().map_err(|e| format!("ROS 2 DDS participant: {e}"))?;
-    let context = Context::from_domain_participant(participant).map_err(|e| format!("ROS 2 context: {e}"))?;
+    let context = Context::from_domain_participant(participant.clone()).map_err(|e| format!("ROS 2 context: {e}"))?;
     let name = NodeName::new("/", node_name).map_err(|e| format!("ROS 2 node name: {e}"))?;
     let mut node =
         context.new_node(name, NodeOptions::new().enable_rosout(false)).map_err(|e| format!("ROS 2 node: {e:?}"))?;
@@ -126,27 +150,40 @@ pub(super) fn start_node(r: &Ros2Settings, node_name: &str) -> Result<Node, Stri
     std::thread::spawn(move || {
         let _ = futures::executor::block_on(spinner.spin());
     });
-    Ok(node)
+    Ok(Started { node, participant, domain })
 }
 
-/// A topic of a ROS 2 message type with the default QoS.
+/// A topic of a ROS 2 message type (`package/msg/ty`) with `qos`.
 pub(super) fn topic(
     node: &mut Node,
     name: &str,
     package: &str,
     ty: &str,
+    qos: &QosProfile,
 ) -> Result<ros2_client::dds::rustdds::Topic, String> {
     let n = Name::parse(name).map_err(|e| format!("ROS 2 topic {name}: {e}"))?;
-    node.create_topic(&n, MessageTypeName::new(package, ty), &default_qos())
-        .map_err(|e| format!("ROS 2 topic {name}: {e}"))
+    node.create_topic(&n, MessageTypeName::new(package, ty), qos).map_err(|e| format!("ROS 2 topic {name}: {e}"))
 }
 
-fn endpoints(settings: &RobotSettings) -> Result<Endpoints, String> {
-    let r = &settings.ros2;
-    let mut node = start_node(r, "handover_console")?;
-    let pose_topic = topic(&mut node, &r.pose_topic, "geometry_msgs", "PoseStamped")?;
-    let trial_topic = topic(&mut node, &r.trial_topic, "std_msgs", "String")?;
-    let status_topic = topic(&mut node, &r.status_topic, "std_msgs", "String")?;
+/// The console's side of the robot topics, as discovery compares them with the robot's.
+fn robot_endpoints(r: &Ros2Settings) -> [Endpoint; 2] {
+    let qos = QosPolicies::from(&default_qos());
+    [
+        Endpoint {
+            topic: r.pose_topic.clone(),
+            ros_type: "geometry_msgs/msg/PoseStamped",
+            side: Side::Publishes,
+            qos: qos.clone(),
+        },
+        Endpoint { topic: r.status_topic.clone(), ros_type: "std_msgs/msg/String", side: Side::Subscribes, qos },
+    ]
+}
+
+fn endpoints(mut node: Node, r: &Ros2Settings) -> Result<Endpoints, String> {
+    let qos = default_qos();
+    let pose_topic = topic(&mut node, &r.pose_topic, "geometry_msgs", "PoseStamped", &qos)?;
+    let trial_topic = topic(&mut node, &r.trial_topic, "std_msgs", "String", &qos)?;
+    let status_topic = topic(&mut node, &r.status_topic, "std_msgs", "String", &qos)?;
     let pose =
         node.create_publisher(&pose_topic, None).map_err(|e| format!("ROS 2 publisher {}: {e}", r.pose_topic))?;
     let trial =
@@ -161,23 +198,26 @@ impl Ros2Link {
     /// Joins the DDS domain (on its own thread) and sets up the topics.
     pub fn new(reports: Sender<Report>, settings: &RobotSettings) -> Result<Self, String> {
         let (jobs, job_rx) = channel::<Job>();
-        let (ready_tx, ready) = channel::<Result<(), String>>();
+        let (ready_tx, ready) = channel::<Result<(DomainParticipant, Domain), String>>();
         let settings = settings.clone();
-        let description = format!(
-            "ros2 domain {} → {} (status {})",
-            settings.ros2.domain_id, settings.ros2.pose_topic, settings.ros2.status_topic
-        );
-        std::thread::spawn(move || match endpoints(&settings) {
-            Ok(e) => {
-                let _ = ready_tx.send(Ok(()));
-                serve(e, &settings, &job_rx, &reports);
-            }
-            Err(why) => {
-                let _ = ready_tx.send(Err(why));
+        let thread_settings = settings.clone();
+        std::thread::spawn(move || {
+            let settings = thread_settings;
+            let started = start_node(&settings.ros2, "handover_console");
+            match started.and_then(|s| Ok((s.participant, s.domain, endpoints(s.node, &settings.ros2)?))) {
+                Ok((participant, domain, e)) => {
+                    let _ = ready_tx.send(Ok((participant, domain)));
+                    serve(e, &settings, &job_rx, &reports);
+                }
+                Err(why) => {
+                    let _ = ready_tx.send(Err(why));
+                }
             }
         });
-        ready.recv().map_err(|_| "the ROS 2 thread stopped".to_string())??;
-        Ok(Self { jobs, description })
+        let (participant, domain) = ready.recv().map_err(|_| "the ROS 2 thread stopped".to_string())??;
+        let r = &settings.ros2;
+        let description = format!("ros2 {domain} → {} (status {})", r.pose_topic, r.status_topic);
+        Ok(Self { jobs, description, participant, domain, endpoints: robot_endpoints(r) })
     }
 }
 
@@ -186,6 +226,8 @@ struct Delivery {
     command: RobotCommand,
     since: Instant,
     last_sent: Option<Instant>,
+    /// Subscribers of the pose topic matched when it was last published.
+    subscribers: usize,
     answered: bool,
 }
 
@@ -198,23 +240,32 @@ fn serve(e: Endpoints, settings: &RobotSettings, jobs: &Receiver<Job>, reports: 
         match jobs.recv_timeout(Duration::from_millis(10)) {
             Ok(Job::Send(command)) => {
                 last_query = Some(command.query.clone());
-                current = Some(Delivery { command: *command, since: Instant::now(), last_sent: None, answered: false });
+                current = Some(Delivery {
+                    command: *command,
+                    since: Instant::now(),
+                    last_sent: None,
+                    subscribers: 0,
+                    answered: false,
+                });
             }
             Ok(Job::Cancel) => current = None,
             Err(RecvTimeoutError::Timeout) => {}
             Err(RecvTimeoutError::Disconnected) => return,
         }
         if let Some(d) = current.as_mut().filter(|d| !d.answered) {
-            let due = match d.last_sent {
-                None => e.pose.get_subscription_count(&e.node) > 0 || d.since.elapsed() >= resend,
-                Some(t) => t.elapsed() >= resend,
-            };
+            let subscribers = e.pose.get_subscription_count(&e.node);
+            let due = subscribers > d.subscribers
+                || match d.last_sent {
+                    None => d.since.elapsed() >= resend,
+                    Some(t) => t.elapsed() >= resend,
+                };
             if due {
                 let json = serde_json::to_string(&d.command).unwrap_or_default();
                 let _ = e.trial.publish(json);
                 let _ = e.pose.publish(PoseStamped::of(&d.command));
                 d.last_sent = Some(Instant::now());
             }
+            d.subscribers = subscribers;
         }
         while let Ok(Some((text, _))) = e.status.take() {
             // A status before any command is about nothing the session knows.
@@ -248,5 +299,14 @@ impl Link for Ros2Link {
 
     fn cancel(&mut self) {
         let _ = self.jobs.send(Job::Cancel);
+    }
+
+    fn diagnose(&self) -> Option<String> {
+        let problems: Vec<String> = self
+            .endpoints
+            .iter()
+            .filter_map(|ours| diagnose(ours, &peers(&self.participant, ours.side), self.domain))
+            .collect();
+        (!problems.is_empty()).then(|| problems.join("; "))
     }
 }

@@ -59,8 +59,8 @@ impl BaseFrame {
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Ros2Settings {
-    /// `ROS_DOMAIN_ID` (0–232).
-    pub domain_id: u16,
+    /// The DDS domain (0–232); when absent, the environment's `ROS_DOMAIN_ID`, else 0.
+    pub domain_id: Option<u16>,
     /// `geometry_msgs/msg/PoseStamped`: the object's pose for the robot.
     pub pose_topic: String,
     /// `std_msgs/msg/String`, JSON: the trial (phase, trial, query, object, grips, attempt).
@@ -77,10 +77,52 @@ pub struct Ros2Settings {
     pub resend_s: f64,
 }
 
+/// The largest DDS domain id ROS 2 accepts (the RTPS port arithmetic's limit).
+pub const MAX_DOMAIN_ID: u16 = 232;
+
+/// The DDS domain the ROS 2 side joins, and what chose it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Domain {
+    pub id: u16,
+    /// `ros2.domain_id`, `ROS_DOMAIN_ID` or `default`.
+    pub from: &'static str,
+}
+
+impl std::fmt::Display for Domain {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "domain {} ({})", self.id, self.from)
+    }
+}
+
+impl Ros2Settings {
+    /// The DDS domain, as ROS 2 nodes choose theirs: the settings' `domain_id` when given,
+    /// else the environment's `ROS_DOMAIN_ID`, else 0.
+    pub fn domain(&self) -> Result<Domain, String> {
+        self.domain_with(std::env::var_os("ROS_DOMAIN_ID"))
+    }
+
+    /// [`Self::domain`] with `env` as `ROS_DOMAIN_ID`'s value. An empty value counts as unset
+    /// (as in rcl).
+    pub fn domain_with(&self, env: Option<std::ffi::OsString>) -> Result<Domain, String> {
+        if let Some(id) = self.domain_id {
+            return Ok(Domain { id, from: "ros2.domain_id" });
+        }
+        let Some(value) = env.filter(|v| !v.is_empty()) else { return Ok(Domain { id: 0, from: "default" }) };
+        let text = value.to_string_lossy();
+        match text.trim().parse::<u16>() {
+            Ok(id) if id <= MAX_DOMAIN_ID => Ok(Domain { id, from: "ROS_DOMAIN_ID" }),
+            _ => Err(format!(
+                "ROS_DOMAIN_ID is '{}', expected a whole number from 0 to {MAX_DOMAIN_ID} (or set ros2.domain_id in the robot settings)",
+                crate::text::printable(&text.chars().take(40).collect::<String>())
+            )),
+        }
+    }
+}
+
 impl Default for Ros2Settings {
     fn default() -> Self {
         Self {
-            domain_id: 0,
+            domain_id: None,
             pose_topic: "/handover/target_pose".into(),
             trial_topic: "/handover/trial".into(),
             status_topic: "/handover/robot_status".into(),
@@ -167,8 +209,8 @@ impl RobotSettings {
             }
         }
         let r = &self.ros2;
-        if r.domain_id > 232 {
-            return Err(format!("ros2.domain_id is {}, expected 0 to 232", r.domain_id));
+        if let Some(id) = r.domain_id.filter(|&id| id > MAX_DOMAIN_ID) {
+            return Err(format!("ros2.domain_id is {id}, expected 0 to {MAX_DOMAIN_ID}"));
         }
         for (field, topic) in [
             ("pose_topic", &r.pose_topic),

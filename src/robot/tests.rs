@@ -18,7 +18,7 @@ fn settings_default_to_the_ros2_conventions_and_check_every_field() {
     assert_eq!(s, RobotSettings::default());
     assert_eq!(s.ros2.pose_topic, "/handover/target_pose");
     assert_eq!(s.ros2.status_topic, "/handover/robot_status");
-    assert_eq!(s.ros2.domain_id, 0);
+    assert_eq!(s.ros2.domain_id, None);
     assert_eq!(s.frame_id(), "shoulder");
     for (text, field) in [
         (r#"{"timeout_s": 0}"#, "timeout_s"),
@@ -46,6 +46,24 @@ fn settings_default_to_the_ros2_conventions_and_check_every_field() {
 }
 
 const MAX_BYTES: usize = 70_000;
+
+#[test]
+fn the_domain_is_the_settings_else_ros_domain_id_else_zero() {
+    let unset = RobotSettings::default().ros2;
+    let env = |v: &str| Some(std::ffi::OsString::from(v));
+    assert_eq!(unset.domain_with(None).unwrap(), Domain { id: 0, from: "default" });
+    assert_eq!(unset.domain_with(env("")).unwrap(), Domain { id: 0, from: "default" });
+    assert_eq!(unset.domain_with(env("7")).unwrap(), Domain { id: 7, from: "ROS_DOMAIN_ID" });
+    assert_eq!(unset.domain_with(env("7")).unwrap().to_string(), "domain 7 (ROS_DOMAIN_ID)");
+    let set = RobotSettings::from_json(r#"{"ros2": {"domain_id": 3}}"#, "lab.json").unwrap().ros2;
+    assert_eq!(set.domain_with(env("7")).unwrap(), Domain { id: 3, from: "ros2.domain_id" });
+    for bad in ["233", "-1", "seven", "7\u{1b}[2J"] {
+        let e = unset.domain_with(env(bad)).unwrap_err();
+        assert!(e.starts_with("ROS_DOMAIN_ID is '") && e.contains("expected a whole number from 0 to 232"), "{e}");
+        assert!(!e.contains('\u{1b}'), "{e}");
+    }
+    assert!(set.domain_with(env("seven")).is_ok(), "the settings file overrides the environment");
+}
 
 #[test]
 fn statuses_are_read_as_the_robot_says_them() {

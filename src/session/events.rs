@@ -189,6 +189,29 @@ pub struct ArmMeasurement {
     pub offset_s: f64,
 }
 
+impl ArmMeasurement {
+    /// The one rule that takes a grasp's sample, live and post hoc alike: the latest sample
+    /// stamped at or before the grasp's time, no more than `window_s` before it (none: the
+    /// grasp learns from the region). Samples are (ns since the Unix epoch, angles), in any
+    /// order; of samples stamped alike, the last.
+    pub fn pick<'a>(
+        samples: impl IntoIterator<Item = &'a (u64, [f64; crate::kinematics::JOINTS])>,
+        time_ns: u64,
+        window_s: f64,
+        source: MeasurementSource,
+    ) -> Option<Self> {
+        let mut best: Option<&(u64, [f64; crate::kinematics::JOINTS])> = None;
+        for s in samples {
+            if s.0 <= time_ns && best.is_none_or(|b| s.0 >= b.0) {
+                best = Some(s);
+            }
+        }
+        let (t, q) = best?;
+        let offset_s = -((time_ns - t) as f64 / 1e9);
+        (-offset_s <= window_s).then(|| Self { q_rad: q.to_vec(), source, offset_s })
+    }
+}
+
 /// One thing that happened, as the operator (or a simulated participant) reports it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "kebab-case")]

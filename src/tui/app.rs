@@ -260,8 +260,8 @@ impl App {
         self.arm.as_ref()
     }
 
-    /// A grasp keyed now, measured by the live source when there is one: the sample nearest
-    /// now within the protocol's window (none: the trial learns from the handle).
+    /// A grasp keyed now, measured by the live source when there is one: the latest sample at
+    /// or before now within the protocol's window (none: the trial learns from the handle).
     pub(super) fn grasp(&mut self, region: String, simulated: Option<ArmMeasurement>) {
         let now = now_ns();
         let window = self.config.study.protocol.learning.measurement.as_ref().map(|m| m.window_s);
@@ -678,7 +678,11 @@ impl App {
                 )
             }
             (None, _) => {
-                format!("No arm sample within ±{} s of the grasp: this trial learned from the handle", m.window_s)
+                let why = self.arm.as_ref().and_then(|a| a.diagnose()).map_or_else(String::new, |w| format!(" ({w})"));
+                format!(
+                    "No arm sample in the {} s before the grasp{why}: this trial learned from the handle",
+                    m.window_s
+                )
             }
             _ => return,
         };
