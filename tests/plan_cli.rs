@@ -1,6 +1,8 @@
 //! `handover plan` as a user runs it: power where there is no effect and where every
 //! participant shares one, a planned study reproduced by `analyze`, shards merged, bad input.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -242,6 +244,8 @@ fn shards_merged_are_byte_for_byte_the_whole_plan() {
             }
         };
         std::fs::write(copy.join(file), text).unwrap();
+        // A hostile shard says its edited file's hash, so that the rows are read.
+        common::rehash(&copy, file);
         let (code, _, err) = run(&["--merge", copy.to_str().unwrap(), &s("shard1"), "--out", &s("hostile-out")]);
         assert_eq!(code, 2, "{name}: {err}");
         assert!(err.contains(says) && err.contains(file), "{name}: {err}");

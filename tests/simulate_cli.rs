@@ -1,5 +1,7 @@
 //! `handover simulate` as a user runs it.
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 
@@ -288,6 +290,34 @@ fn shards_merged_are_byte_for_byte_the_whole_run() {
         );
         assert!(a == b, "{file} differs");
     }
+    // The merged table says what the run cost, not what the merge did.
+    let (code, out, err) = run(&["--merge", &s("shard0"), &s("shard1"), &s("shard2")]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("s of computing in 3 shards, merged in"), "{out}");
+    // A shard edited, of another version, or that never finished is refused, naming it.
+    let edited = dir.join("edited");
+    let version = dir.join("version");
+    let unfinished = dir.join("unfinished");
+    for d in [&edited, &version, &unfinished] {
+        std::fs::create_dir_all(d).unwrap();
+        std::fs::copy(dir.join("shard0/metrics.csv"), d.join("metrics.csv")).unwrap();
+    }
+    let manifest = std::fs::read_to_string(dir.join("shard0/shard.json")).unwrap();
+    std::fs::write(edited.join("shard.json"), &manifest).unwrap();
+    let metrics = std::fs::read_to_string(edited.join("metrics.csv")).unwrap();
+    let last = metrics.trim_end().rfind(',').unwrap();
+    std::fs::write(edited.join("metrics.csv"), format!("{}9{}", &metrics[..=last], &metrics[last + 1..])).unwrap();
+    let this = env!("CARGO_PKG_VERSION");
+    std::fs::write(version.join("shard.json"), manifest.replace(&format!("\"{this}\""), "\"0.0.1\"")).unwrap();
+    for (shard, says) in [
+        (&edited, "metrics.csv is not the file the shard wrote"),
+        (&version, &*format!("computed by handover 0.0.1, this is {this}")),
+        (&unfinished, "no shard.json: the shard did not finish"),
+    ] {
+        let (code, _, err) = run(&["--merge", shard.to_str().unwrap(), &s("shard1"), &s("shard2")]);
+        assert_eq!(code, 2, "{err}");
+        assert!(err.contains(says) && err.contains(shard.to_str().unwrap()), "{says}: {err}");
+    }
     // A shard missing, given twice, or of another run is refused (exit 2).
     for (args, says) in [
         (vec!["--merge", &s("shard0"), &s("shard1")], "shards 2 of 3 are missing"),
@@ -311,6 +341,8 @@ fn shards_merged_are_byte_for_byte_the_whole_run() {
         }
         let text = std::fs::read_to_string(copy.join(file)).unwrap();
         std::fs::write(copy.join(file), edit(text)).unwrap();
+        // A hostile shard says its edited file's hash, so that the rows are read.
+        common::rehash(&copy, file);
         s(name)
     };
     let of = |n: &'static str| move |t: String| t.replace("\"of\": 3", &format!("\"of\": {n}"));
@@ -341,27 +373,48 @@ fn shards_merged_are_byte_for_byte_the_whole_run() {
 }
 
 #[test]
-fn the_slurm_array_example_runs_its_shards_and_merges_them_without_a_cluster() {
-    let dir = tmp("slurm");
+fn the_array_job_example_runs_its_shards_and_merges_them_without_a_cluster() {
+    let dir = tmp("array-job");
     let _ = std::fs::remove_dir_all(&dir);
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/examples/simulate-array.sbatch");
-    let opts = format!("planar2 --seeds 2 --algorithms active,passive {}", SMALL.join(" "));
-    let task = |vars: &[(&str, String)]| {
-        let out = std::process::Command::new("bash")
-            .arg(&script)
-            .env("HANDOVER", env!("CARGO_BIN_EXE_handover"))
-            .env("OPTS", &opts)
-            .env("OUT", &dir)
-            .env("SLURM_ARRAY_TASK_COUNT", "3")
-            .envs(vars.iter().map(|(k, v)| (*k, v.as_str())))
-            .output()
-            .unwrap();
-        assert!(out.status.success(), "{vars:?}: {}", String::from_utf8_lossy(&out.stderr));
+    std::fs::create_dir_all(&dir).unwrap();
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/examples/array-job.sbatch");
+    // A settings file as docs/examples/array-job.env has it, with a comma inside an option.
+    let settings = dir.join("run.env");
+    let args = format!("planar2 --seeds 2 --algorithms active,passive {}", SMALL.join(" "));
+    std::fs::write(
+        &settings,
+        format!(
+            "HANDOVER={}\nCOMMAND=simulate\nARGS=({args})\nOUT={}\nSHARDS=3\n",
+            env!("CARGO_BIN_EXE_handover"),
+            dir.join("run").display()
+        ),
+    )
+    .unwrap();
+    let task = |index: Option<usize>, extra: &[&str]| {
+        let mut cmd = std::process::Command::new("bash");
+        cmd.arg(&script).arg(&settings).args(extra).env_remove("SLURM_ARRAY_TASK_ID");
+        if let Some(k) = index {
+            cmd.env("SLURM_ARRAY_TASK_ID", k.to_string());
+        }
+        let out = cmd.output().unwrap();
+        (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
     };
-    for k in 0..3 {
-        task(&[("SLURM_ARRAY_TASK_ID", k.to_string())]);
+    // Shard 1 is not run: the merge says which is missing, from the shards' own manifests.
+    for k in [0, 2] {
+        let (code, err) = task(Some(k), &[]);
+        assert_eq!(code, Some(0), "{err}");
     }
-    task(&[("MERGE", "1".to_string())]);
+    let (code, err) = task(None, &["merge"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("shards 1 of 3 are missing"), "{err}");
+    // Run again by its index, then merged.
+    let (code, err) = task(Some(1), &[]);
+    assert_eq!(code, Some(0), "{err}");
+    let (code, err) = task(None, &["merge"]);
+    assert_eq!(code, Some(0), "{err}");
+    let (code, err) = task(Some(3), &[]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("array index 3 is not below SHARDS=3"), "{err}");
     let (code, _, err) = handover(
         &[
             &["simulate", "planar2", "--seeds", "2", "--algorithms", "active,passive"][..],
@@ -371,8 +424,25 @@ fn the_slurm_array_example_runs_its_shards_and_merges_them_without_a_cluster() {
         .concat(),
     );
     assert_eq!(code, 0, "{err}");
-    assert!(std::fs::read(dir.join("metrics.csv")).unwrap() == std::fs::read(dir.join("whole/metrics.csv")).unwrap());
+    for file in ["metrics.csv", "summary.csv", "tests.csv"] {
+        let whole = std::fs::read(dir.join("whole").join(file)).unwrap();
+        assert!(std::fs::read(dir.join("run").join(file)).unwrap() == whole, "{file}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_run_without_a_terminal_prints_progress_lines() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_handover"))
+        .args(["simulate", "planar2", "--seeds", "2", "--trials", "6", "--iterations", "5", "--particles", "2000"])
+        .env("HANDOVER_PROGRESS_S", "0.2")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("simulate planar2 q-star: ")).collect();
+    assert!(!lines.is_empty(), "{err}");
+    assert!(lines[0].contains("/12 (") && lines[0].contains("elapsed"), "{err}");
 }
 
 /// A selector named twice runs once, wherever the repetition is.

@@ -67,6 +67,7 @@ mod live;
 mod observations;
 mod participant;
 mod plan;
+mod progress;
 mod protocol;
 mod reference;
 mod resume;

@@ -129,19 +129,24 @@ pub fn run(args: PlanArgs) -> Result<()> {
     if shard.is_some() && args.out.is_none() {
         return Err(bad("--shard needs --out DIR for the shard's files"));
     }
-    let (rows, objects) = if args.merge.is_empty() {
+    let (rows, objects, shards) = if args.merge.is_empty() {
         let indices: Vec<usize> = match shard {
             Some((k, n)) => (0..args.studies).filter(|s| s % n == k).collect(),
             None => (0..args.studies).collect(),
         };
-        run_studies(&pool, &text, &study, &args, &indices, largest)?
+        let (rows, objects) = run_studies(&pool, &text, &study, &args, &indices, largest)?;
+        (rows, objects, None)
     } else {
-        merge_shards(&args, &fingerprint, &study)?
+        let (rows, objects, manifests) = merge_shards(&args, &fingerprint, &study)?;
+        (rows, objects, Some(manifests))
     };
     if let (Some((k, n)), Some(dir)) = (shard, &args.out) {
         write_csv(&dir.join("studies.csv"), &rows)?;
         write_csv(&dir.join("study_objects.csv"), &objects)?;
-        super::shards::write_manifest(dir, &ShardManifest { run: fingerprint, shard: k, of: n, rows: rows.len() })?;
+        let seconds = started.elapsed().as_secs_f64();
+        let files = ["studies.csv", "study_objects.csv"];
+        let manifest = super::shards::manifest(dir, fingerprint, (k, n), rows.len(), &files, seconds, threads)?;
+        super::shards::write_manifest(dir, &manifest)?;
         errln!(
             "shard {k}/{n}: {} rows in {:.1} s; wrote {}/studies.csv, study_objects.csv and shard.json",
             rows.len(),
@@ -151,12 +156,16 @@ pub fn run(args: PlanArgs) -> Result<()> {
         return Ok(());
     }
     let seconds = started.elapsed().as_secs_f64();
+    let timing = match &shards {
+        None => super::timing(seconds, threads),
+        Some(manifests) => super::shards::merged_timing(manifests, seconds),
+    };
     let powers = power(&rows);
     let shares = object_share_rows(&objects);
     // The stated duration of one session, from the first study's first participant.
     let (p_text, fitted, p) = participant(&text, &study, study_seed(args.seed, 0), 0).map_err(anyhow::Error::msg)?;
     let log = session_in_memory(p_text, fitted, &p).map_err(anyhow::Error::msg)?;
-    print_table(&study, &args, &powers, &shares, session_seconds(&log), log.events.len(), seconds, threads)?;
+    print_table(&study, &args, &powers, &shares, session_seconds(&log), log.events.len(), &timing)?;
     if let Some(logs) = &args.keep_logs {
         keep_logs(&text, &study, args.seed, largest, logs)?;
     }
@@ -189,6 +198,7 @@ fn run_studies(
         .map_err(|e| anyhow::anyhow!("{e}"))?
         .progress_chars("=> "),
     );
+    super::progress::lines_when_batch(&bar, "plan");
     let object_ids: Vec<String> = study.protocol.objects.iter().map(|o| o.id.clone()).collect();
     let per_study: Vec<_> = pool.install(|| {
         indices
@@ -206,7 +216,12 @@ fn run_studies(
 }
 
 /// The rows of every shard of this plan, checked and in the whole run's order.
-fn merge_shards(args: &PlanArgs, fingerprint: &str, study: &Study) -> Result<(Vec<StudyRow>, Vec<StudyObjectRow>)> {
+/// The shards' rows in the whole plan's order, and their manifests.
+fn merge_shards(
+    args: &PlanArgs,
+    fingerprint: &str,
+    study: &Study,
+) -> Result<(Vec<StudyRow>, Vec<StudyObjectRow>, Vec<ShardManifest>)> {
     // Budgets: a study has at most one row per size × measure × iteration (iterations are
     // at most the protocol's trials per condition + 1) and per size × condition × object.
     let per_study =
@@ -215,11 +230,13 @@ fn merge_shards(args: &PlanArgs, fingerprint: &str, study: &Study) -> Result<(Ve
     let max_objects = args.studies * args.participants.len() * 2 * handover::protocol::limits::OBJECTS;
     let mut rows: Vec<StudyRow> = Vec::new();
     let mut objects: Vec<StudyObjectRow> = Vec::new();
+    let mut manifests = Vec::new();
     for (dir, m) in super::shards::checked_shards(&args.merge, fingerprint)? {
         let shard_rows: Vec<StudyRow> = read_rows(&dir.join("studies.csv"), max_rows)?;
         super::shards::check_rows(dir, "studies.csv", shard_rows.len(), &m)?;
         rows.extend(shard_rows);
         objects.extend(read_rows::<StudyObjectRow>(&dir.join("study_objects.csv"), max_objects)?);
+        manifests.push(m);
         if rows.len() > max_rows || objects.len() > max_objects {
             return Err(bad(format!("the shards hold more rows than a plan of {} studies has", args.studies)));
         }
@@ -245,7 +262,7 @@ fn merge_shards(args: &PlanArgs, fingerprint: &str, study: &Study) -> Result<(Ve
             object_rank(&b.object),
         ))
     });
-    Ok((rows, objects))
+    Ok((rows, objects, manifests))
 }
 
 /// A shard's CSV, at most `max` rows (the plan's own size is the budget).
@@ -286,8 +303,7 @@ fn print_table(
     shares: &[ObjectShareRow],
     session_s: f64,
     events: usize,
-    seconds: f64,
-    threads: usize,
+    timing: &str,
 ) -> Result<()> {
     let population = if study.protocol.population.is_some() { "the protocol's" } else { "the default" };
     outln!(
@@ -296,7 +312,7 @@ fn print_table(
         args.seed,
         study.population().alpha,
         study.protocol.learning.particles,
-        super::timing(seconds, threads)
+        timing
     );
     outln!(
         "one session: {events} logged events, {:.0} min at the stated times (8 s to present a pose, 4 s to take, 6 s a statement, 10 s the choice, 2 s anything else)",

@@ -222,6 +222,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
             .progress_chars("=> "),
     );
     bar.set_prefix(format!("{} {}", scenario.name(), settings.learn));
+    super::progress::lines_when_batch(&bar, &format!("simulate {} {}", scenario.name(), settings.learn));
     let started = Instant::now();
     let fingerprint = format!("{} {settings:?} seeds {}", scenario.name(), args.seeds);
     if let Some(text) = &args.shard {
@@ -237,7 +238,9 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         }
         bar.finish_and_clear();
         write_csv(&dir.join("metrics.csv"), &rows)?;
-        let manifest = experiment::ShardManifest { run: fingerprint, shard: k, of: n, rows: rows.len() };
+        let seconds = started.elapsed().as_secs_f64();
+        let manifest =
+            super::shards::manifest(dir, fingerprint, (k, n), rows.len(), &["metrics.csv"], seconds, threads)?;
         super::shards::write_manifest(dir, &manifest)?;
         errln!(
             "shard {k}/{n}: {} of {} trials × seeds, {} rows in {:.1} s; wrote {}/metrics.csv and {}",
@@ -250,21 +253,26 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         );
         return Ok(());
     }
-    let rows = if args.merge.is_empty() {
+    let (rows, shards) = if args.merge.is_empty() {
         let mut rows = Vec::new();
         for k in 0..args.seeds {
             let run = Settings { seed: settings.seed + k, ..settings.clone() };
             rows.extend(pool.install(|| experiment::simulate(scenario.as_ref(), &run, &|| bar.inc(1))));
         }
-        rows
+        (rows, None)
     } else {
-        merge_shards(&args.merge, &fingerprint, &settings, args.seeds)?
+        let (rows, manifests) = merge_shards(&args.merge, &fingerprint, &settings, args.seeds)?;
+        (rows, Some(manifests))
     };
     bar.finish_and_clear();
-    let elapsed = started.elapsed();
+    let elapsed = started.elapsed().as_secs_f64();
+    let timing = match &shards {
+        None => super::timing(elapsed, threads),
+        Some(manifests) => super::shards::merged_timing(manifests, elapsed),
+    };
     let summary = summarise(&rows);
     let tests = paired_tests(&rows, "active", settings.iterations, &COMPARED);
-    print_table(scenario.name(), &settings, args.seeds, &summary, &tests, elapsed.as_secs_f64(), threads)?;
+    print_table(scenario.name(), &settings, args.seeds, &summary, &tests, &timing)?;
     if let Some(dir) = &args.out {
         write_csv(&dir.join("metrics.csv"), &rows)?;
         write_csv(&dir.join("summary.csv"), &summary)?;
@@ -310,21 +318,28 @@ pub fn run(args: SimulateArgs) -> Result<()> {
 }
 
 /// The rows of every shard of this run, checked (the same run, each shard once, all there)
-/// and in the whole run's order.
-fn merge_shards(dirs: &[PathBuf], fingerprint: &str, s: &Settings, seeds: u64) -> Result<Vec<experiment::MetricRow>> {
+/// and in the whole run's order, and the shards' manifests.
+fn merge_shards(
+    dirs: &[PathBuf],
+    fingerprint: &str,
+    s: &Settings,
+    seeds: u64,
+) -> Result<(Vec<experiment::MetricRow>, Vec<experiment::ShardManifest>)> {
     let per_unit = s.algorithms.len() * (s.iterations + 1);
     let expected = seeds as usize * s.trials * per_unit;
     let mut rows = Vec::with_capacity(expected);
+    let mut manifests = Vec::new();
     for (dir, m) in super::shards::checked_shards(dirs, fingerprint)? {
         let shard_rows = experiment::read_metrics(&dir.join("metrics.csv"), expected).map_err(bad)?;
         super::shards::check_rows(dir, "metrics.csv", shard_rows.len(), &m)?;
         rows.extend(shard_rows);
+        manifests.push(m);
     }
     if rows.len() != expected {
         return Err(bad(format!("the shards hold {} rows, the run has {expected}", rows.len())));
     }
     experiment::merge_order(&mut rows, &s.algorithms);
-    Ok(rows)
+    Ok((rows, manifests))
 }
 
 pub(super) fn write_csv<T: serde::Serialize>(path: &Path, rows: &[T]) -> Result<()> {
@@ -358,8 +373,7 @@ fn print_table(
     seeds: u64,
     summary: &[SummaryRow],
     tests: &[PairedTest],
-    seconds: f64,
-    threads: usize,
+    timing: &str,
 ) -> Result<()> {
     let seed_text =
         if seeds > 1 { format!("seeds {}–{}", s.seed, s.seed + seeds - 1) } else { format!("seed {}", s.seed) };
@@ -380,7 +394,7 @@ fn print_table(
         s.test_size,
         s.alpha,
         s.estimate.name(),
-        super::timing(seconds, threads),
+        timing,
     );
     let over = if seeds > 1 { "over seeds" } else { "over trials" };
     outln!(

@@ -94,6 +94,7 @@ impl SweepArgs {
             .expect("a valid template with a plain name")
             .progress_chars("=> "),
         );
+        super::progress::lines_when_batch(&bar, name);
         bar
     }
 

@@ -4,9 +4,11 @@
 //! A unit is one trial of one seed; every unit's rows depend only on the run's settings, its
 //! seed and its trial, so a shard computes exactly the rows the whole run has for its units.
 //! Each shard directory holds its `metrics.csv` and a manifest naming the run (its settings,
-//! as the command checked them) and the shard; a merge refuses shards of another run, and a
-//! set of shards with one missing or doubled.
+//! as the command checked them), the version that computed it, the shard, a SHA-256 of every
+//! file it wrote and its own computing time; a merge refuses shards of another run or
+//! version, a file changed since, and a set of shards with one missing or doubled.
 
+use std::collections::BTreeMap;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
@@ -23,11 +25,18 @@ pub const SHARD_MANIFEST: &str = "shard.json";
 pub struct ShardManifest {
     /// The run: scenario, settings and seeds, as one string (equal for every shard of a run).
     pub run: String,
+    /// The handover version that computed it (the package version).
+    pub version: String,
     /// This shard (0-based) and the number of shards.
     pub shard: usize,
     pub of: usize,
     /// Rows in its metrics.csv.
     pub rows: usize,
+    /// The SHA-256 (hex) of each file it wrote, by name.
+    pub files: BTreeMap<String, String>,
+    /// Its own computing time (s) and threads.
+    pub seconds: f64,
+    pub threads: usize,
 }
 
 /// The (seed offset, trial) units of a run of `seeds` seeds × `trials` trials that shard
