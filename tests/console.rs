@@ -161,7 +161,9 @@ fn every_screen_at_three_sizes() {
     assert_full_instruction(&mut a);
     press(&mut a, KeyCode::Enter);
     snap!("trial_grasp", &mut a);
-    assert_full_instruction(&mut a);
+    // Presented, on a short screen: the object and the pose, and the rows to the history.
+    let presented = screen(&mut a, 80, 24);
+    assert!(presented.contains("pose         ") && !presented.contains("orientation"), "{presented}");
     keys(&mut a, "2");
     snap!("trial_after_grasp", &mut a);
     keys(&mut a, "?");
@@ -956,6 +958,18 @@ fn the_history_says_how_many_earlier_trials_it_hides() {
     let title = s.lines().find(|l| l.contains("History of this phase")).expect("the history panel");
     assert!(title.contains("earlier"), "{s}");
     assert!(!screen(&mut a, 160, 45).contains(" earlier "), "all four fit when tall");
+    // Once the object is presented, a short screen keeps the object and the pose and gives
+    // the history the rows: all four trials at 80×24, the full instruction when tall.
+    press(&mut a, KeyCode::Enter);
+    let s = screen(&mut a, 80, 24);
+    let history: Vec<&str> = s.lines().skip_while(|l| !l.contains("History of this phase")).collect();
+    let rows = history
+        .iter()
+        .filter(|l| l.trim_start_matches('"').strip_prefix('│').is_some_and(|r| r.starts_with(char::is_numeric)))
+        .count();
+    assert_eq!(rows, 4, "{s}");
+    assert!(!s.contains(" earlier ") && !s.contains("orientation") && s.contains("pose "), "{s}");
+    assert!(screen(&mut a, 160, 45).contains("orientation"), "the full instruction when tall");
 }
 
 /// The questionnaire handed to the participant: one statement, nothing that un-blinds, only

@@ -130,14 +130,14 @@ fn now(view: &FollowView, session: &Session) -> (String, Vec<Line<'static>>) {
             ],
         ),
         Prompt::Present(v) => {
-            let mut lines = instruction_lines(session, &v, false, robot);
+            let mut lines = instruction_lines(session, &v, false, true, robot);
             // The experimenter confirms it, on the console.
             lines.pop();
             lines.push(Line::from(Span::styled(theme::FOLLOW_PRESENT_DONE, theme::instruction())));
             (super::screens::trial::phase_title(session, &v), lines)
         }
         Prompt::Grasp(v) => {
-            let mut lines = instruction_lines(session, &v, true, robot);
+            let mut lines = instruction_lines(session, &v, true, true, robot);
             lines.push(Line::from(Span::styled("The participant is taking the object.", theme::instruction())));
             (super::screens::trial::phase_title(session, &v), lines)
         }

@@ -44,8 +44,11 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
         _ => return,
     };
     // The instruction has priority: its panel is as wide and tall as its lines, at every size
-    // the console accepts; the grasp, history and belief share what is left.
-    let lines = instruction_lines(session, &view, awaiting_grasp, robot_line(app, session));
+    // the console accepts; the grasp, history and belief share what is left. Once the object
+    // is presented, where the robot holds it matters no more: on a short screen the panel
+    // keeps the object and the pose, and the history gets the rows.
+    let detail = !awaiting_grasp || area.height >= DETAILED_HEIGHT;
+    let lines = instruction_lines(session, &view, awaiting_grasp, detail, robot_line(app, session));
     let instr_w = lines.iter().map(Line::width).max().unwrap_or(0) as u16 + 2;
     let side_by_side = area.width >= instr_w + SIDE_MIN_WIDTH;
     // Stacked, a line longer than the screen (a long label) wraps: the panel grows for it.
@@ -126,13 +129,17 @@ pub fn robot_status(session: &Session, since: Option<std::time::Duration>, unsen
     Line::from(vec![Span::raw("  robot        "), Span::styled(text, style)])
 }
 
-/// The robot operator's instruction, in full: the object, the pose, where (the object's
-/// centre, in the participant's shoulder frame) and how it is turned, whose hand and whose
-/// left. Shared by the console and `handover follow`.
+/// The height from which a presented trial keeps its instruction in full.
+const DETAILED_HEIGHT: u16 = 34;
+
+/// The robot operator's instruction: the object and the pose, and with `detail` where (the
+/// object's centre, in the participant's shoulder frame) and how it is turned, whose hand and
+/// whose left. Shared by the console and `handover follow`.
 pub fn instruction_lines(
     session: &Session,
     v: &TrialView,
     done: bool,
+    detail: bool,
     robot: Option<Line<'static>>,
 ) -> Vec<Line<'static>> {
     let q = session.query(v.query);
@@ -147,12 +154,16 @@ pub fn instruction_lines(
             Span::raw(format!("  (query {})", q.query.id)),
         ]),
         Line::from(format!("  pose         {}", theme::as_experienced(&q.query.label, side))),
-        Line::from(format!("  position     x {x:+.3}  y {y:+.3}  z {z:+.3} m, of the object's centre")),
-        Line::from(format!("  orientation  roll {r:+.1}°  pitch {p:+.1}°  yaw {yaw:+.1}°")),
-        Line::from(format!("  frame        {}", theme::frame_of(side))),
-        Line::from(format!("  hand         {}", theme::hand_sides(side))),
-        Line::from(format!("  left, right  {}", theme::whose_left(side))),
     ];
+    if detail {
+        lines.extend([
+            Line::from(format!("  position     x {x:+.3}  y {y:+.3}  z {z:+.3} m, of the object's centre")),
+            Line::from(format!("  orientation  roll {r:+.1}°  pitch {p:+.1}°  yaw {yaw:+.1}°")),
+            Line::from(format!("  frame        {}", theme::frame_of(side))),
+            Line::from(format!("  hand         {}", theme::hand_sides(side))),
+            Line::from(format!("  left, right  {}", theme::whose_left(side))),
+        ]);
+    }
     lines.extend(robot);
     lines.push(Line::from(Span::styled(
         if done { "Presented." } else { theme::PRESENT_DONE },
