@@ -12,7 +12,7 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use crate::analysis::{Analyser, SeedRun, SessionAnalysis, object_shares, paired_over_seeds};
+use crate::analysis::{Analyser, SeedRun, SessionAnalysis, measure_unit, object_shares, paired_over_seeds};
 use crate::derive_seed;
 use crate::dryrun::{BodyPopulation, DryRunPlan, plan, simulated_seconds};
 use crate::protocol::{Study, for_body};
@@ -199,6 +199,8 @@ pub const SIGNIFICANCE: f64 = 0.05;
 pub struct PowerRow {
     pub participants: usize,
     pub measure: String,
+    /// The measure's unit (`nats`, `deg`): the unit of the effect columns.
+    pub unit: &'static str,
     pub iteration: usize,
     pub first: String,
     pub second: String,
@@ -260,6 +262,7 @@ pub fn power(rows: &[StudyRow]) -> Vec<PowerRow> {
             PowerRow {
                 participants: n,
                 measure: measure.to_string(),
+                unit: measure_unit(measure),
                 iteration,
                 first: group[0].first.clone(),
                 second: group[0].second.clone(),

@@ -150,9 +150,16 @@ fn writes_tidy_csv_plots_and_table_one_keeping_pilots_apart() {
         groups.iter().map(|g| g.2).sum()
     };
     assert_eq!(sessions, 3, "every pilot session in one band and hand: {rows:?}");
+    // The condition is a column: a share's condition, a difference's `<first> minus <second>`.
+    let head = o.headers().unwrap().clone();
+    let col = |name: &str| head.iter().position(|h| h == name).unwrap();
     for r in &rows {
-        let share: f64 = r[5].parse().unwrap();
-        assert!(if r[4].starts_with("share_") { (0.0..=1.0).contains(&share) } else { share.abs() <= 1.0 }, "{r:?}");
+        let mean: f64 = r[col("mean")].parse().unwrap();
+        match &r[col("measure")] {
+            "share" => assert!(["active", "passive"].contains(&&r[col("condition")]) && (0.0..=1.0).contains(&mean)),
+            "difference" => assert!(&r[col("condition")] == "active minus passive" && mean.abs() <= 1.0),
+            other => panic!("measure {other}: {r:?}"),
+        }
     }
     let (code, json, _) = handover(&["analyze", "--alpha-particles", "300", dir.to_str().unwrap(), "--format", "json"]);
     assert_eq!(code, 0);
@@ -330,6 +337,7 @@ fn trials_csv_keeps_undone_and_voided_trials_and_notes_csv_the_notes() {
     let (code, _, err) =
         handover(&["analyze", "--alpha-particles", "300", dir.to_str().unwrap(), "--out", out.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
+    assert!(!out.join("pilot/robot.csv").exists(), "no robot, no robot.csv (not a bare header)");
     let mut r = csv::Reader::from_path(out.join("pilot/trials.csv")).unwrap();
     let head = r.headers().unwrap().clone();
     let col = |name: &str| head.iter().position(|h| h == name).unwrap_or_else(|| panic!("{name}"));

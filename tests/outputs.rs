@@ -86,6 +86,190 @@ fn check_csv(path: &Path, name: &str, dict: &BTreeMap<String, Vec<(String, Strin
     rows
 }
 
+/// The line of docs/outputs.md that says how to read `name` with its documented types, in
+/// pandas and in R: the pandas dtypes an empty field needs (`Int64`, `boolean`), the time
+/// columns parsed, and read.csv's booleans.
+fn read_line(name: &str, columns: &[(String, String)]) -> String {
+    let dtypes: Vec<String> = columns
+        .iter()
+        .filter_map(|(c, k)| match k.as_str() {
+            "integer?" => Some(format!("\"{c}\": \"Int64\"")),
+            "boolean?" => Some(format!("\"{c}\": \"boolean\"")),
+            _ => None,
+        })
+        .collect();
+    let dates: Vec<String> =
+        columns.iter().filter(|(_, k)| k.starts_with("time")).map(|(c, _)| format!("\"{c}\"")).collect();
+    let bools: Vec<String> =
+        columns.iter().filter(|(_, k)| k.starts_with("boolean")).map(|(c, _)| format!("{c} = \"logical\"")).collect();
+    let mut pandas = format!("pd.read_csv(\"{name}\"");
+    if !dtypes.is_empty() {
+        pandas += &format!(", dtype={{{}}}", dtypes.join(", "));
+    }
+    if !dates.is_empty() {
+        pandas += &format!(", parse_dates=[{}]", dates.join(", "));
+    }
+    pandas += ")";
+    let base = if bools.is_empty() {
+        format!("read.csv(\"{name}\")")
+    } else {
+        format!("read.csv(\"{name}\", colClasses = c({}))", bools.join(", "))
+    };
+    format!("Read: `{pandas}`; R: `readr::read_csv(\"{name}\")` or `{base}`.")
+}
+
+#[test]
+fn the_dictionary_says_how_to_read_every_file() {
+    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/outputs.md")).unwrap();
+    let missing: Vec<String> = dictionary()
+        .iter()
+        .map(|(name, columns)| read_line(name, columns))
+        .filter(|line| !text.lines().any(|l| l == line))
+        .collect();
+    assert!(missing.is_empty(), "docs/outputs.md lacks:\n{}", missing.join("\n"));
+}
+
+/// The classes R gives a documented type: (read.csv's, readr's). An optional column that is
+/// empty throughout reads as logical in both.
+fn r_classes(kind: &str) -> (&'static [&'static str], &'static [&'static str]) {
+    match kind.trim_end_matches('?') {
+        "string" => (&["character"], &["character"]),
+        // read.csv gives integer up to 2^31 and numeric beyond; readr reads every number as a double.
+        "integer" => (&["integer", "numeric"], &["numeric"]),
+        // A column of whole numbers (the shoulder at 0 m) reads as integer with read.csv.
+        "number" => (&["numeric", "integer"], &["numeric"]),
+        // read.csv reads true/false as text unless told `colClasses = "logical"`, as the
+        // dictionary's read lines do.
+        "boolean" => (&["logical"], &["logical"]),
+        "time" => (&["character"], &["POSIXct"]),
+        other => panic!("the undocumented type {other}"),
+    }
+}
+
+/// A seed column as a reader read it (`;`-joined decimal text) is the file's text exactly.
+fn assert_seeds_exact(file: &str, column: &str, values: &str, by: &str) {
+    let mut reader = csv::Reader::from_path(file).unwrap();
+    let at = reader.headers().unwrap().iter().position(|h| h == column).unwrap();
+    let written: Vec<String> = reader.records().map(|r| r.unwrap()[at].to_string()).collect();
+    assert_eq!(values.split(';').collect::<Vec<_>>(), written, "{file}: {column} as {by} reads it");
+}
+
+/// Reads every file with R's `read.csv` and readr as the dictionary's read lines do
+/// (`tests/readers/read_csv_types.R`, with the Rscript of HANDOVER_RSCRIPT, which `.ci/run`
+/// sets) and checks each column's class against its documented type, and that seeds read as
+/// their exact decimal text. Without
+/// HANDOVER_RSCRIPT, says so and passes.
+fn read_with_r(paths: &[PathBuf], dict: &BTreeMap<String, Vec<(String, String)>>) {
+    let Ok(rscript) = std::env::var("HANDOVER_RSCRIPT") else {
+        eprintln!("skipped: HANDOVER_RSCRIPT is not set (.ci/run sets it; the CSVs were not read with R)");
+        return;
+    };
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/readers/read_csv_types.R");
+    let mut args = Vec::new();
+    for path in paths {
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        let bools: Vec<&str> =
+            dict[&name].iter().filter(|(_, k)| k.starts_with("boolean")).map(|(c, _)| c.as_str()).collect();
+        args.push(path.display().to_string());
+        args.push(if bools.is_empty() { "-".to_string() } else { bools.join(",") });
+    }
+    let out = Command::new(&rscript).arg(&script).args(&args).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{rscript}: {}", String::from_utf8_lossy(&out.stderr));
+    let mut columns = 0;
+    let mut seeds = 0;
+    for line in text.lines() {
+        let cells: Vec<&str> = line.split('\t').collect();
+        match cells.as_slice() {
+            ["PROBLEM", file, what @ ..] => panic!("readr could not parse {file}: {what:?}"),
+            ["SEED", file, column, values] => {
+                assert_seeds_exact(file, column, values, "R");
+                seeds += 1;
+            }
+            [file, column, base, readr, empty] => {
+                let name = Path::new(file).file_name().unwrap().to_string_lossy().into_owned();
+                let kind = &dict[&name].iter().find(|(c, _)| c == column).unwrap().1;
+                let (bases, readrs) = r_classes(kind);
+                let all_empty = *empty == "TRUE" && kind.ends_with('?');
+                let ok = |classes: &[&str], got: &str| classes.contains(&got) || (all_empty && got == "logical");
+                assert!(ok(bases, base), "{name}: {column} ({kind}) reads as {base} with read.csv");
+                assert!(ok(readrs, readr), "{name}: {column} ({kind}) reads as {readr} with readr");
+                columns += 1;
+            }
+            _ => panic!("unexpected line from R: {line}"),
+        }
+    }
+    let documented: usize =
+        paths.iter().map(|p| dict[&p.file_name().unwrap().to_string_lossy().into_owned()].len()).sum();
+    assert_eq!(columns, documented, "every column of every file read by R");
+    assert!(seeds >= 2, "{seeds} seed columns");
+}
+
+/// Whether pandas reads a documented type as `dtype` (an optional column empty throughout
+/// reads as float64 whatever it holds).
+fn pandas_reads(kind: &str, dtype: &str, all_empty: bool) -> bool {
+    if all_empty && kind.ends_with('?') && dtype == "float64" {
+        return true;
+    }
+    match kind {
+        "string" | "string?" => ["object", "str", "string"].contains(&dtype),
+        "integer" => dtype == "int64",
+        "integer?" => dtype == "Int64",
+        // A column of whole numbers (the shoulder at 0 m) reads as int64.
+        "number" | "number?" => dtype == "float64" || dtype == "int64",
+        "boolean" => dtype == "bool",
+        "boolean?" => dtype == "boolean",
+        "time" | "time?" => dtype.starts_with("datetime64[") && dtype.ends_with(", UTC]"),
+        other => panic!("the undocumented type {other}"),
+    }
+}
+
+/// Reads every file with pandas as the dictionary's read lines do
+/// (`tests/readers/read_csv_pandas.py`, with HANDOVER_PYTHON when it has pandas, as `.ci/run`
+/// makes it) and checks each column's dtype against its documented type, and that seeds read
+/// exactly. Without pandas, says so and passes.
+fn read_with_pandas(paths: &[PathBuf], dict: &BTreeMap<String, Vec<(String, String)>>) {
+    let python = std::env::var("HANDOVER_PYTHON")
+        .ok()
+        .filter(|p| Command::new(p).args(["-c", "import pandas"]).output().is_ok_and(|o| o.status.success()));
+    let Some(python) = python else {
+        eprintln!("skipped: no HANDOVER_PYTHON with pandas (.ci/run makes one; the CSVs were not read with pandas)");
+        return;
+    };
+    let mut args = Vec::new();
+    for path in paths {
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        let line = read_line(&name, &dict[&name]);
+        let expression = line.split('`').nth(1).unwrap().to_string();
+        args.push(path.display().to_string());
+        args.push(expression);
+    }
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/readers/read_csv_pandas.py");
+    let out = Command::new(&python).arg(&script).args(&args).output().unwrap();
+    assert!(out.status.success(), "{python}: {}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    let (mut columns, mut seeds) = (0, 0);
+    for line in text.lines() {
+        match line.split('\t').collect::<Vec<_>>().as_slice() {
+            ["SEED", file, column, values] => {
+                assert_seeds_exact(file, column, values, "pandas");
+                seeds += 1;
+            }
+            [file, column, dtype, empty] => {
+                let name = Path::new(file).file_name().unwrap().to_string_lossy().into_owned();
+                let kind = &dict[&name].iter().find(|(c, _)| c == column).unwrap().1;
+                assert!(pandas_reads(kind, dtype, *empty == "True"), "{name}: {column} ({kind}) reads as {dtype}");
+                columns += 1;
+            }
+            _ => panic!("unexpected line from pandas: {line}"),
+        }
+    }
+    let documented: usize =
+        paths.iter().map(|p| dict[&p.file_name().unwrap().to_string_lossy().into_owned()].len()).sum();
+    assert_eq!(columns, documented, "every column of every file read by pandas");
+    assert!(seeds >= 2, "{seeds} seed columns");
+}
+
 /// Two sessions: one as dry runs are, one with a note, an undo and a void.
 fn logs(dir: &Path) {
     let mut v: serde_json::Value = serde_json::from_str(handover::protocol::DEFAULT_PROTOCOL).unwrap();
@@ -198,14 +382,19 @@ fn every_csv_matches_the_data_dictionary() {
     std::fs::write(dir.join("feasible.csv"), feasible.stdout).unwrap();
 
     let mut checked: BTreeMap<String, usize> = BTreeMap::new();
+    let mut paths = Vec::new();
     for folder in ["analyze/pilot", "sim", "two", "front", "observations", "plan"] {
         for path in csv_files(&dir.join(folder)) {
             let name = path.file_name().unwrap().to_string_lossy().into_owned();
             let rows = check_csv(&path, &name, &dict);
             *checked.entry(name).or_default() += rows;
+            paths.push(path);
         }
     }
     checked.insert("feasible.csv".into(), check_csv(&dir.join("feasible.csv"), "feasible.csv", &dict));
+    paths.push(dir.join("feasible.csv"));
+    read_with_r(&paths, &dict);
+    read_with_pandas(&paths, &dict);
     let undocumented: Vec<_> = dict.keys().filter(|k| !checked.contains_key(*k)).collect();
     assert!(undocumented.is_empty(), "documented but not written: {undocumented:?}");
     for (name, rows) in &checked {

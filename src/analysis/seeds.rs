@@ -69,6 +69,11 @@ fn values(s: &SessionAnalysis, condition: &str, measure: &str, iteration: usize)
 /// Measures reported per iteration.
 pub const SEED_MEASURES: [&str; 2] = ["test_log_likelihood", "distance_to_truth_deg"];
 
+/// The unit of one of [`SEED_MEASURES`].
+pub fn measure_unit(measure: &str) -> &'static str {
+    if measure.ends_with("_deg") { "deg" } else { "nats" }
+}
+
 /// Conditions in the order they first appear.
 fn conditions(runs: &[SeedRun]) -> Vec<String> {
     let mut out: Vec<String> = Vec::new();

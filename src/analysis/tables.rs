@@ -162,7 +162,10 @@ struct ObjectsByBodyRow {
     hand: &'static str,
     sessions: usize,
     object: String,
-    measure: String,
+    /// `share` or `difference`.
+    measure: &'static str,
+    /// A share's condition, or a difference's `<first> minus <second>`.
+    condition: String,
     mean: f64,
     ci_low: Option<f64>,
     ci_high: Option<f64>,
@@ -190,6 +193,8 @@ struct AlphaRow<'a> {
 #[derive(Serialize, Default)]
 struct AlphaCurveRow<'a> {
     participant: &'a str,
+    /// Empty for the pooled curve.
+    session_id: Option<&'a str>,
     alpha: f64,
     log_evidence: f64,
 }
@@ -256,32 +261,35 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
             })
         }),
     )?;
-    write_rows(
-        &dir.join("robot.csv"),
-        group.iter().flat_map(|a| {
-            let (session_id, participant) = ids(a);
-            a.analysis.robot.iter().map(move |r| RobotCsvRow {
-                session_id,
-                participant,
-                event_index: r.event_index,
-                phase: r.phase,
-                condition: r.condition,
-                program: r.program.as_deref(),
-                trial: r.trial,
-                query: &r.query,
-                attempt: r.attempt,
-                link: r.link,
-                frame: &r.frame,
-                commanded_at: rfc3339_ms(r.commanded_ns),
-                moving_at: r.moving_ns.map(rfc3339_ms),
-                outcome: r.outcome.map(|(s, _)| s.name()),
-                outcome_at: r.outcome.map(|(_, t)| rfc3339_ms(t)),
-                seconds_to_outcome: r.seconds(),
-                detail: &r.detail,
-                reports: r.reports,
-            })
-        }),
-    )?;
+    // Only sessions with a robot have commands: without one, no file rather than a header.
+    if group.iter().any(|a| !a.analysis.robot.is_empty()) {
+        write_rows(
+            &dir.join("robot.csv"),
+            group.iter().flat_map(|a| {
+                let (session_id, participant) = ids(a);
+                a.analysis.robot.iter().map(move |r| RobotCsvRow {
+                    session_id,
+                    participant,
+                    event_index: r.event_index,
+                    phase: r.phase,
+                    condition: r.condition,
+                    program: r.program.as_deref(),
+                    trial: r.trial,
+                    query: &r.query,
+                    attempt: r.attempt,
+                    link: r.link,
+                    frame: &r.frame,
+                    commanded_at: rfc3339_ms(r.commanded_ns),
+                    moving_at: r.moving_ns.map(rfc3339_ms),
+                    outcome: r.outcome.map(|(s, _)| s.name()),
+                    outcome_at: r.outcome.map(|(_, t)| rfc3339_ms(t)),
+                    seconds_to_outcome: r.seconds(),
+                    detail: &r.detail,
+                    reports: r.reports,
+                })
+            }),
+        )?;
+    }
     write_rows(
         &dir.join("test_log_likelihood.csv"),
         group.iter().flat_map(|a| {
@@ -381,16 +389,17 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
         &dir.join("objects_by_body.csv"),
         objects_by_body(&sessions).into_iter().flat_map(|r| {
             let rows = [
-                (format!("share_{}", r.first), r.first_share, None),
-                (format!("share_{}", r.second), r.second_share, None),
-                (format!("difference_{}_minus_{}", r.first, r.second), r.difference, r.p_value),
+                ("share", r.first.clone(), r.first_share, None),
+                ("share", r.second.clone(), r.second_share, None),
+                ("difference", format!("{} minus {}", r.first, r.second), r.difference, r.p_value),
             ];
-            rows.map(|(measure, (mean, lo, hi), p_value)| ObjectsByBodyRow {
+            rows.map(|(measure, condition, (mean, lo, hi), p_value)| ObjectsByBodyRow {
                 height_band_m: r.band.clone(),
                 hand: r.hand,
                 sessions: r.sessions,
                 object: r.object.clone(),
                 measure,
+                condition,
                 mean,
                 ci_low: finite(lo),
                 ci_high: finite(hi),
@@ -448,12 +457,17 @@ fn write_alpha_tables(dir: &Path, a: &AlphaSummary) -> Result<(), csv::Error> {
     let curves = a
         .sessions
         .iter()
-        .filter_map(|s| Some((s.participant.as_str(), s.fit.as_ref()?)))
-        .chain(a.pooled.as_ref().map(|f| ("pooled", f)));
+        .filter_map(|s| Some((s.participant.as_str(), Some(s.session_id.as_str()), s.fit.as_ref()?)))
+        .chain(a.pooled.as_ref().map(|f| ("pooled", None, f)));
     write_rows(
         &dir.join("alpha_curve.csv"),
-        curves.flat_map(|(participant, f)| {
-            f.curve.iter().map(move |&(alpha, log_evidence)| AlphaCurveRow { participant, alpha, log_evidence })
+        curves.flat_map(|(participant, session_id, f)| {
+            f.curve.iter().map(move |&(alpha, log_evidence)| AlphaCurveRow {
+                participant,
+                session_id,
+                alpha,
+                log_evidence,
+            })
         }),
     )
 }
