@@ -117,6 +117,9 @@ pub struct LinePlot<'a> {
     pub y_label: &'a str,
     /// What the shaded band is (a legend entry): "± 1 s.e. over sessions".
     pub band: &'a str,
+    /// The measure's least possible value (0 for a distance, a cost or a density): a band
+    /// reaching below it is cut there, and the legend says so.
+    pub floor: Option<f64>,
     pub series: Vec<Series<'a>>,
 }
 
@@ -176,9 +179,11 @@ fn draw_lines<DB: DrawingBackend>(
     let x_min = finite().map(|p| p.0).fold(f64::INFINITY, f64::min);
     let x_max = finite().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
     let (x_min, x_max) = if x_min.is_finite() { (x_min.floor(), x_max.ceil()) } else { (0.0, 1.0) };
+    let low = |p: &(f64, f64, f64)| plot.floor.map_or(p.1 - p.2, |f| (p.1 - p.2).max(f));
+    let cut = plot.floor.is_some_and(|f| finite().any(|p| p.1 - p.2 < f));
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for p in finite() {
-        lo = lo.min(p.1 - p.2);
+        lo = lo.min(low(p));
         hi = hi.max(p.1 + p.2);
     }
     if !lo.is_finite() {
@@ -196,6 +201,7 @@ fn draw_lines<DB: DrawingBackend>(
         .map_err(|e| err(&e))?;
     chart
         .configure_mesh()
+        .light_line_style(TRANSPARENT)
         .x_desc(plot.x_label)
         .y_desc(plot.y_label)
         // At most one label per integer: plotters then steps by 1, 2 or 5, all integers.
@@ -211,11 +217,15 @@ fn draw_lines<DB: DrawingBackend>(
             .points
             .iter()
             .filter(|p| p.1.is_finite() && p.2.is_finite())
-            .map(|p| (p.0, p.1, p.1 - p.2, p.1 + p.2))
+            .map(|p| (p.0, p.1, low(p), p.1 + p.2))
             .collect();
         draw_band_line(&mut chart, s.name, PALETTE[k % PALETTE.len()], &pts)?;
     }
-    draw_legend(&mut chart, plot.band, SeriesLabelPosition::UpperRight)
+    let band = match plot.floor.filter(|_| cut) {
+        Some(f) => format!("{}, cut at {f}, the least value", plot.band),
+        None => plot.band.to_string(),
+    };
+    draw_legend(&mut chart, &band, SeriesLabelPosition::UpperRight)
 }
 
 /// A chart of f64 axes on any backend.
@@ -322,7 +332,13 @@ pub fn power_plot(path: &Path, title: &str, band: &str, series: &[PowerSeries]) 
             ))
             .map_err(|e| err(&e))?
             .label(name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], grey.stroke_width(1)));
+            .legend(move |(x, y)| {
+                // Dashed, as the line it names.
+                let style = grey.stroke_width(1);
+                EmptyElement::at((x, y))
+                    + PathElement::new(vec![(0, 0), (6, 0)], style)
+                    + PathElement::new(vec![(10, 0), (16, 0)], style)
+            });
     }
     for (k, s) in series.iter().enumerate() {
         let pts: Vec<_> = s
@@ -431,6 +447,7 @@ pub fn alpha_plot(
         .map_err(|e| err(&e))?;
     chart
         .configure_mesh()
+        .light_line_style(TRANSPARENT)
         .x_desc("α (log scale)")
         .y_desc("log evidence − its maximum")
         // Above 0 is the legend's room, not a value the curves take.
@@ -449,7 +466,9 @@ pub fn alpha_plot(
             .draw_series(std::iter::once(Rectangle::new([(l, floor), (h, 0.0)], PALETTE[0].mix(0.12).filled())))
             .map_err(|e| err(&e))?;
     }
-    for (k, s) in sessions.iter().enumerate() {
+    // One session: its curve is the bold one, named for what it is.
+    let single = sessions.len() == 1;
+    for (k, s) in sessions.iter().enumerate().filter(|_| !single) {
         let series = chart.draw_series(LineSeries::new(clip(s), grey.mix(0.6).stroke_width(1))).map_err(|e| err(&e))?;
         if k == 0 {
             series
@@ -462,12 +481,16 @@ pub fn alpha_plot(
         .draw_series(dashes.chunks(2).map(|c| PathElement::new(c.to_vec(), BLACK.stroke_width(1))))
         .map_err(|e| err(&e))?
         .label(format!("−{drop:.2}: 95 % support"))
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 6, y), (x + 10, y), (x + 16, y)], BLACK.stroke_width(1)));
+        .legend(|(x, y)| {
+            EmptyElement::at((x, y))
+                + PathElement::new(vec![(0, 0), (6, 0)], BLACK.stroke_width(1))
+                + PathElement::new(vec![(10, 0), (16, 0)], BLACK.stroke_width(1))
+        });
     if let Some(p) = pooled {
         chart
             .draw_series(LineSeries::new(clip(&p.curve), PALETTE[0].stroke_width(3)))
             .map_err(|e| err(&e))?
-            .label(format!("pooled: α = {:.2} (shaded: interval)", p.alpha))
+            .label(format!("{}: α = {:.2} (shaded: interval)", if single { "this session" } else { "pooled" }, p.alpha))
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], PALETTE[0].stroke_width(3)));
     }
     for (k, a) in protocol.iter().enumerate() {

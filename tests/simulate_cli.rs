@@ -465,3 +465,31 @@ fn an_algorithm_named_twice_runs_once() {
     assert_eq!(rows, 1, "{out}");
     assert_eq!(out.lines().filter(|l| l.starts_with("passive ")).count(), 1, "{out}");
 }
+
+/// Five algorithms on one axis are five overlapping bands: each is drawn beside active in a
+/// panel of its own, and a band that would reach below a distance's least value (0) is cut
+/// there, which the legend says.
+#[test]
+fn plots_show_each_algorithm_beside_active_within_the_measures_range() {
+    let dir = tmp("plots");
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut args = vec!["simulate", "planar2", "--seeds", "2", "--out", dir.to_str().unwrap()];
+    args.extend(SMALL);
+    let (code, _, err) = handover(&args);
+    assert_eq!(code, 0, "{err}");
+    let svg = std::fs::read_to_string(dir.join("distance_to_truth.svg")).unwrap();
+    for panel in ["active-paper and active", "passive and active", "random and active", "hybrid and active"] {
+        assert!(svg.contains(panel), "{panel}");
+    }
+    let cut = svg.contains("cut at 0, the least value");
+    // Whether a band was cut depends on the data; the test log-likelihood has no least value.
+    let loglik = std::fs::read_to_string(dir.join("test_log_likelihood.svg")).unwrap();
+    assert!(!loglik.contains("cut at"), "log-likelihoods are not cut");
+    let csv = std::fs::read_to_string(dir.join("summary.csv")).unwrap();
+    let below_zero = csv
+        .lines()
+        .filter(|l| l.contains(",distance_to_truth,"))
+        .any(|l| l.split(',').any(|c| c.parse::<f64>().is_ok_and(|v| v < 0.0)));
+    assert_eq!(cut, below_zero, "the legend says a band was cut exactly when an interval reaches below 0");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -393,14 +393,17 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &Alph
             "test-set log-likelihood of the posterior mean"
         };
         let kind = if group.first().is_some_and(|a| a.log.start.pilot) { "pilot (simulated)" } else { "real" };
-        let measure = if predictive { "posterior-predictive" } else { "posterior mean's" };
-        let title = format!("Fig. 10: {measure} test log-likelihood — {} {kind} sessions", s.sessions);
+        let measure = if predictive { "Posterior-predictive" } else { "Posterior mean's" };
+        // The figure says what it shows; the data it comes from is in the legend.
+        let title = format!("{measure} test log-likelihood by training iteration");
         let y_label = format!("{y} (nats)");
+        let band = format!("± 1 s.e. over {} {kind} session{}", s.sessions, if s.sessions == 1 { "" } else { "s" });
         let plot = LinePlot {
             title: &title,
             x_label: "training iteration (handovers learned from)",
             y_label: &y_label,
-            band: "± 1 s.e. over sessions",
+            band: &band,
+            floor: None,
             series,
         };
         mean_se_plot(&dir.join(file), &plot).map_err(anyhow::Error::msg)?;
@@ -416,7 +419,11 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &Alph
         .map(|c| (c.clone(), objects.iter().map(|o| s.objects[c].get(o).copied().unwrap_or(0) as f64).collect()))
         .collect();
     let kind = if group.first().is_some_and(|a| a.log.start.pilot) { "pilot (simulated)" } else { "real" };
-    let title = format!("Objects offered in training, by condition — {} {kind} sessions", s.sessions);
+    let title = format!(
+        "Objects offered in training, by condition — {} {kind} session{}",
+        s.sessions,
+        if s.sessions == 1 { "" } else { "s" }
+    );
     bar_chart(&dir.join("objects.svg"), &title, "times offered (training trials)", &objects, &groups)
         .map_err(anyhow::Error::msg)?;
     handover::private_files::write_output(
@@ -436,7 +443,8 @@ fn write_alpha_plot(dir: &Path, a: &AlphaSummary, kind: &str) -> Result<()> {
         high: f.high,
     });
     let protocol: Vec<f64> = a.protocol_alphas.iter().map(|(x, _)| *x).collect();
-    let title = format!("α by maximum marginal likelihood — {} {kind} sessions", a.sessions.len());
+    let n = a.sessions.len();
+    let title = format!("α by maximum marginal likelihood — {n} {kind} session{}", if n == 1 { "" } else { "s" });
     alpha_plot(&dir.join("alpha.svg"), &title, &sessions, pooled.as_ref(), &protocol, SUPPORT_DROP)
         .map_err(anyhow::Error::msg)
 }

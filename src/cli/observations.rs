@@ -122,6 +122,7 @@ pub fn run(a: ObservationsArgs) -> Result<()> {
                     x_label: "queries",
                     y_label: y_label(measure),
                     band: "95 % interval over seeds",
+                    floor: (*measure == "distance_to_truth").then_some(0.0),
                     series,
                 }
             })

@@ -10,7 +10,7 @@ use handover::ergo::LearnMask;
 use handover::experiment::{
     self, Arm7, PairedTest, Planar2, Scenario, Settings, SimObservation, SummaryRow, paired_tests, summarise,
 };
-use handover::plot::{LinePlot, Series, mean_se_plot};
+use handover::plot::{LinePlot, Series, line_grid, mean_se_plot};
 use handover::select::{DEFAULT_BUDGET_EPSILON, DEFAULT_HYBRID_BETA, SelectorKind, Tradeoff};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -308,9 +308,36 @@ pub fn run(args: SimulateArgs) -> Result<()> {
                 settings.estimate.name()
             );
             let band = if args.seeds > 1 { "95 % CI over the seeds' means" } else { "95 % CI over trials" };
-            let plot =
-                LinePlot { title: &title, x_label: "iteration (queries answered)", y_label: label, band, series };
-            mean_se_plot(&dir.join(format!("{measure}.svg")), &plot).map_err(anyhow::Error::msg)?;
+            // Distances, costs and densities cannot be negative; log-densities and
+            // log-likelihoods have no least value.
+            let floor = (!measure.contains("log")).then_some(0.0);
+            let path = dir.join(format!("{measure}.svg"));
+            let x_label = "iteration (queries answered)";
+            if series.len() <= 2 {
+                let plot = LinePlot { title: &title, x_label, y_label: label, band, floor, series };
+                mean_se_plot(&path, &plot).map_err(anyhow::Error::msg)?;
+                continue;
+            }
+            // More bands than one axis can show apart: small multiples, each algorithm beside
+            // the first (active, the one the tests compare against), two bands a panel.
+            let titles: Vec<String> =
+                series[1..].iter().map(|s| format!("{} and {}", s.name, series[0].name)).collect();
+            let plots: Vec<LinePlot> = series[1..]
+                .iter()
+                .zip(&titles)
+                .map(|(s, panel)| LinePlot {
+                    title: panel,
+                    x_label,
+                    y_label: label,
+                    band,
+                    floor,
+                    series: vec![
+                        Series { name: series[0].name, points: series[0].points.clone() },
+                        Series { name: s.name, points: s.points.clone() },
+                    ],
+                })
+                .collect();
+            line_grid(&path, &title, &plots, 2).map_err(anyhow::Error::msg)?;
         }
         errln!("wrote {}/{{metrics,summary,tests}}.csv and one SVG per measure", dir.display());
     }
