@@ -7,12 +7,12 @@ use plotters::prelude::*;
 
 /// Region colours, in order.
 pub const PALETTE: [RGBColor; 6] = [
-    RGBColor(31, 119, 180),
-    RGBColor(214, 39, 40),
-    RGBColor(44, 160, 44),
-    RGBColor(255, 127, 14),
-    RGBColor(148, 103, 189),
-    RGBColor(140, 86, 75),
+    RGBColor(0, 114, 178),
+    RGBColor(213, 94, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(230, 159, 0),
+    RGBColor(204, 121, 167),
+    RGBColor(86, 180, 233),
 ];
 
 /// One named group of 2-D points.
@@ -286,17 +286,19 @@ pub struct PowerSeries<'a> {
 /// significance level dashed; ticks at the sizes planned.
 pub fn power_plot(path: &Path, title: &str, band: &str, series: &[PowerSeries]) -> Result<(), String> {
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let root = svg(path, (760, 500))?.into_drawing_area();
+    let root = svg(path, (1000, 500))?.into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
+    let root = root.titled(title, ("sans-serif", 17)).map_err(|e| err(&e))?;
+    // The legend beside the chart, so that the axis ends at 100 %.
+    let (root, beside) = root.split_horizontally(640);
     // The sizes planned, equally spaced (they usually double), labelled with their values.
     let mut sizes: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).collect();
     sizes.sort_by(f64::total_cmp);
     sizes.dedup();
     let at = |n: f64| sizes.iter().position(|&s| s == n).unwrap_or(0) as f64;
     let last = sizes.len().saturating_sub(1) as f64;
-    let top = 1.0 + legend_headroom(series.len() + 3) * 0.8;
+    let top = 1.0;
     let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 17))
         .margin(12)
         .x_label_area_size(42)
         .y_label_area_size(60)
@@ -316,10 +318,11 @@ pub fn power_plot(path: &Path, title: &str, band: &str, series: &[PowerSeries]) 
                 String::new()
             }
         })
-        .y_labels(12)
-        .y_label_formatter(&|y| if *y <= 1.0 + 1e-9 { format!("{:.0} %", y * 100.0) } else { String::new() })
+        .y_labels(11)
+        .y_label_formatter(&|y| format!("{:.0} %", y * 100.0))
         .draw()
         .map_err(|e| err(&e))?;
+    let mut entries = Vec::new();
     let (x_min, x_max, pad) = (0.0, last, 0.4);
     let grey = RGBColor(120, 120, 120);
     for (level, name) in [(0.8, "80 % (a common target)"), (0.05, "5 % (the significance level)")] {
@@ -330,15 +333,8 @@ pub fn power_plot(path: &Path, title: &str, band: &str, series: &[PowerSeries]) 
                 4,
                 grey.stroke_width(1),
             ))
-            .map_err(|e| err(&e))?
-            .label(name)
-            .legend(move |(x, y)| {
-                // Dashed, as the line it names.
-                let style = grey.stroke_width(1);
-                EmptyElement::at((x, y))
-                    + PathElement::new(vec![(0, 0), (6, 0)], style)
-                    + PathElement::new(vec![(10, 0), (16, 0)], style)
-            });
+            .map_err(|e| err(&e))?;
+        entries.push((Mark::Dashed(grey), name.to_string()));
     }
     for (k, s) in series.iter().enumerate() {
         let pts: Vec<_> = s
@@ -348,9 +344,58 @@ pub fn power_plot(path: &Path, title: &str, band: &str, series: &[PowerSeries]) 
             .map(|p| (at(p.0), p.1, p.2, p.3))
             .collect();
         draw_band_line(&mut chart, s.name, PALETTE[k % PALETTE.len()], &pts).map_err(|e| err(&e))?;
+        entries.push((Mark::Line(PALETTE[k % PALETTE.len()]), s.name.to_string()));
     }
-    draw_legend(&mut chart, band, SeriesLabelPosition::UpperLeft).map_err(|e| err(&e))?;
+    entries.push((Mark::Band(RGBColor(120, 120, 120)), format!("shaded: {band}")));
+    side_legend(&beside, &entries).map_err(|e| err(&e))?;
     root.present().map_err(|e| err(&e))?;
+    Ok(())
+}
+
+/// A legend entry's mark.
+enum Mark {
+    Line(RGBColor),
+    Dashed(RGBColor),
+    Band(RGBColor),
+}
+
+/// A legend in an area of its own beside a chart: one entry per line, its mark and its text
+/// (long texts wrap at the area's width).
+fn side_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    entries: &[(Mark, String)],
+) -> Result<(), String> {
+    let err = |e: &dyn std::fmt::Display| e.to_string();
+    let font = ("sans-serif", 13).into_font().color(&BLACK);
+    let width = area.dim_in_pixel().0 as usize;
+    // About 7 pixels a character at 13 px.
+    let per_line = width.saturating_sub(50) / 7;
+    let mut y = 40;
+    for (mark, text) in entries {
+        let (x0, x1) = (8, 32);
+        match mark {
+            Mark::Line(c) => area.draw(&PathElement::new(vec![(x0, y), (x1, y)], c.stroke_width(2))),
+            Mark::Dashed(c) => area
+                .draw(&PathElement::new(vec![(x0, y), (x0 + 9, y)], c.stroke_width(1)))
+                .and_then(|_| area.draw(&PathElement::new(vec![(x0 + 15, y), (x1, y)], c.stroke_width(1)))),
+            Mark::Band(c) => area.draw(&Rectangle::new([(x0, y - 5), (x1, y + 5)], c.mix(0.3).filled())),
+        }
+        .map_err(|e| err(&e))?;
+        let mut line = String::new();
+        for word in text.split(' ') {
+            if !line.is_empty() && line.chars().count() + 1 + word.chars().count() > per_line {
+                area.draw(&Text::new(line.clone(), (x1 + 8, y - 7), font.clone())).map_err(|e| err(&e))?;
+                line.clear();
+                y += 17;
+            }
+            if !line.is_empty() {
+                line.push(' ');
+            }
+            line += word;
+        }
+        area.draw(&Text::new(line, (x1 + 8, y - 7), font.clone())).map_err(|e| err(&e))?;
+        y += 24;
+    }
     Ok(())
 }
 
