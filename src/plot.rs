@@ -470,8 +470,12 @@ pub fn alpha_plot(
     drop: f64,
 ) -> Result<(), String> {
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let root = svg(path, (720, 480))?.into_drawing_area();
+    let root = svg(path, (960, 480))?.into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
+    let root = root.titled(title, ("sans-serif", 17)).map_err(|e| err(&e))?;
+    // The legend beside the chart, so that the axis ends at the curves' maximum.
+    let (root, beside) = root.split_horizontally(700);
+    let mut entries = Vec::new();
     let xs: Vec<f64> =
         sessions.iter().flatten().chain(pooled.iter().flat_map(|p| &p.curve)).map(|p| p.0.log2()).collect();
     let (x0, x1) =
@@ -481,10 +485,8 @@ pub fn alpha_plot(
     let clip = |pts: &[(f64, f64)]| -> Vec<(f64, f64)> {
         pts.iter().filter(|(_, y)| *y >= floor).map(|(x, y)| (x.log2(), *y)).collect()
     };
-    // Room above the curves (their maximum is 0) for the legend's four lines.
-    let top = 0.5 + (0.5 - floor) * legend_headroom(4);
+    let top = 0.5;
     let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 17))
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(70)
@@ -495,8 +497,7 @@ pub fn alpha_plot(
         .light_line_style(TRANSPARENT)
         .x_desc("α (log scale)")
         .y_desc("log evidence − its maximum")
-        // Above 0 is the legend's room, not a value the curves take.
-        .y_label_formatter(&|y| if *y > 1e-9 { String::new() } else { tick_label(*y, 0.5 - floor) })
+        .y_label_formatter(&|y| tick_label(*y, 0.5 - floor))
         .x_labels((x1 - x0).round() as usize + 1)
         .x_label_formatter(&|x| {
             let a = 2f64.powf(*x);
@@ -513,43 +514,32 @@ pub fn alpha_plot(
     }
     // One session: its curve is the bold one, named for what it is.
     let single = sessions.len() == 1;
-    for (k, s) in sessions.iter().enumerate().filter(|_| !single) {
-        let series = chart.draw_series(LineSeries::new(clip(s), grey.mix(0.6).stroke_width(1))).map_err(|e| err(&e))?;
-        if k == 0 {
-            series
-                .label("one session")
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], grey.stroke_width(1)));
-        }
+    for s in sessions.iter().filter(|_| !single) {
+        chart.draw_series(LineSeries::new(clip(s), grey.mix(0.6).stroke_width(1))).map_err(|e| err(&e))?;
+    }
+    if !single && !sessions.is_empty() {
+        entries.push((Mark::Line(grey), "one session".to_string()));
     }
     let dashes: Vec<(f64, f64)> = (0..=60).map(|k| x0 + (x1 - x0) * k as f64 / 60.0).map(|x| (x, -drop)).collect();
     chart
         .draw_series(dashes.chunks(2).map(|c| PathElement::new(c.to_vec(), BLACK.stroke_width(1))))
-        .map_err(|e| err(&e))?
-        .label(format!("−{drop:.2}: 95 % support"))
-        .legend(|(x, y)| {
-            EmptyElement::at((x, y))
-                + PathElement::new(vec![(0, 0), (6, 0)], BLACK.stroke_width(1))
-                + PathElement::new(vec![(10, 0), (16, 0)], BLACK.stroke_width(1))
-        });
+        .map_err(|e| err(&e))?;
+    entries.push((Mark::Dashed(BLACK), format!("−{drop:.2}: 95 % support")));
     if let Some(p) = pooled {
-        chart
-            .draw_series(LineSeries::new(clip(&p.curve), PALETTE[0].stroke_width(3)))
-            .map_err(|e| err(&e))?
-            .label(format!("{}: α = {:.2} (shaded: interval)", if single { "this session" } else { "pooled" }, p.alpha))
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], PALETTE[0].stroke_width(3)));
+        chart.draw_series(LineSeries::new(clip(&p.curve), PALETTE[0].stroke_width(3))).map_err(|e| err(&e))?;
+        let name = if single { "this session" } else { "pooled" };
+        entries.push((Mark::Line(PALETTE[0]), format!("{name}: α = {:.2} (shaded: interval)", p.alpha)));
     }
     for (k, a) in protocol.iter().enumerate() {
         let x = a.log2();
-        let series = chart
+        chart
             .draw_series(std::iter::once(PathElement::new(vec![(x, floor), (x, 0.3)], PALETTE[1].stroke_width(2))))
             .map_err(|e| err(&e))?;
         if k == 0 {
-            series
-                .label(format!("protocol α = {a}"))
-                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], PALETTE[1].stroke_width(2)));
+            entries.push((Mark::Line(PALETTE[1]), format!("protocol α = {a}")));
         }
     }
-    legend(&mut chart, SeriesLabelPosition::UpperRight).map_err(|e| err(&e))?;
+    side_legend(&beside, &entries).map_err(|e| err(&e))?;
     root.present().map_err(|e| err(&e))?;
     Ok(())
 }

@@ -452,3 +452,25 @@ fn the_study_dir_alone_names_the_logs() {
     assert_eq!(code, 2, "{err}");
     std::fs::remove_dir_all(&study).unwrap();
 }
+
+/// One session's α plot names its one curve for what it is, lists nothing it does not draw,
+/// and its title counts one session.
+#[test]
+fn a_single_sessions_alpha_plot_says_this_session() {
+    let dir = std::env::temp_dir().join(format!("handover-alpha-one-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let logs = dir.join("logs");
+    let (code, _, err) = handover(&["dry-run", "--participants", "1", "--logs", logs.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let out = dir.join("out");
+    let (code, _, err) =
+        handover(&["analyze", "--alpha-particles", "200", logs.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let svg = std::fs::read_to_string(out.join("pilot/alpha.svg")).unwrap();
+    assert!(svg.contains("this session: α = "), "the curve is named");
+    assert!(!svg.contains("one session") && !svg.contains("pooled"), "nothing listed that is not drawn");
+    assert!(svg.contains("1 pilot (simulated) session") && !svg.contains("1 pilot (simulated) sessions"));
+    let fig10 = std::fs::read_to_string(out.join("pilot/fig10.svg")).unwrap();
+    assert!(fig10.contains("over 1 pilot (simulated) session") && !fig10.contains("Fig. 10:"), "data in the legend");
+    let _ = std::fs::remove_dir_all(&dir);
+}
