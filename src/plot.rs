@@ -357,6 +357,7 @@ enum Mark {
     Line(RGBColor),
     Dashed(RGBColor),
     Band(RGBColor),
+    Bar(RGBColor),
 }
 
 /// A legend in an area of its own beside a chart: one entry per line, its mark and its text
@@ -379,6 +380,7 @@ fn side_legend<DB: DrawingBackend>(
                 .draw(&PathElement::new(vec![(x0, y), (x0 + 9, y)], c.stroke_width(1)))
                 .and_then(|_| area.draw(&PathElement::new(vec![(x0 + 15, y), (x1, y)], c.stroke_width(1)))),
             Mark::Band(c) => area.draw(&Rectangle::new([(x0, y - 5), (x1, y + 5)], c.mix(0.3).filled())),
+            Mark::Bar(c) => area.draw(&Rectangle::new([(x0 + 6, y - 6), (x1 - 6, y + 6)], c.filled())),
         }
         .map_err(|e| err(&e))?;
         let mut line = String::new();
@@ -408,13 +410,15 @@ pub fn bar_chart(
     groups: &[(String, Vec<f64>)],
 ) -> Result<(), String> {
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let root = svg(path, (720, 480))?.into_drawing_area();
+    let root = svg(path, (860, 480))?.into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
+    let root = root.titled(title, ("sans-serif", 20)).map_err(|e| err(&e))?;
+    // The legend beside the chart: the axis ends at the data's range (1 for shares).
+    let (root, beside) = root.split_horizontally(700);
     let max = groups.iter().flat_map(|g| g.1.iter().copied()).fold(1.0f64, f64::max);
     let n = categories.len().max(1);
-    let top = max * (1.05 + legend_headroom(groups.len()));
+    let top = if max <= 1.0 { 1.0 } else { max * 1.05 };
     let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 20))
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(60)
@@ -424,6 +428,7 @@ pub fn bar_chart(
     chart
         .configure_mesh()
         .disable_x_mesh()
+        .light_line_style(TRANSPARENT)
         .x_labels(n * 2 + 1)
         .x_label_formatter(&|x| {
             let k = x.floor() as usize;
@@ -434,6 +439,7 @@ pub fn bar_chart(
         .draw()
         .map_err(|e| err(&e))?;
     let width = 0.8 / groups.len().max(1) as f64;
+    let mut entries = Vec::new();
     for (gi, (name, values)) in groups.iter().enumerate() {
         let colour = PALETTE[gi % PALETTE.len()];
         chart
@@ -441,11 +447,10 @@ pub fn bar_chart(
                 let x0 = k as f64 + 0.1 + gi as f64 * width;
                 Rectangle::new([(x0, 0.0), (x0 + width * 0.95, v)], colour.filled())
             }))
-            .map_err(|e| err(&e))?
-            .label(name.as_str())
-            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], colour.filled()));
+            .map_err(|e| err(&e))?;
+        entries.push((Mark::Bar(colour), name.clone()));
     }
-    legend(&mut chart, SeriesLabelPosition::UpperRight).map_err(|e| err(&e))?;
+    side_legend(&beside, &entries).map_err(|e| err(&e))?;
     root.present().map_err(|e| err(&e))?;
     Ok(())
 }

@@ -414,9 +414,14 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &Alph
         v.dedup();
         v
     };
+    // Shares, not counts: every session offers each condition's training trials, so the
+    // share over all offers is the mean of the participants' shares.
     let groups: Vec<(String, Vec<f64>)> = conditions
         .iter()
-        .map(|c| (c.clone(), objects.iter().map(|o| s.objects[c].get(o).copied().unwrap_or(0) as f64).collect()))
+        .map(|c| {
+            let total = s.objects[c].values().sum::<usize>().max(1) as f64;
+            (c.clone(), objects.iter().map(|o| s.objects[c].get(o).copied().unwrap_or(0) as f64 / total).collect())
+        })
         .collect();
     let kind = if group.first().is_some_and(|a| a.log.start.pilot) { "pilot (simulated)" } else { "real" };
     let title = format!(
@@ -424,8 +429,8 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &Alph
         s.sessions,
         if s.sessions == 1 { "" } else { "s" }
     );
-    bar_chart(&dir.join("objects.svg"), &title, "times offered (training trials)", &objects, &groups)
-        .map_err(anyhow::Error::msg)?;
+    let y_label = "share of the condition's training offers";
+    bar_chart(&dir.join("objects.svg"), &title, y_label, &objects, &groups).map_err(anyhow::Error::msg)?;
     handover::private_files::write_output(
         &dir.join("table1.md"),
         format!("# Table I — {} sessions\n\n{}", s.sessions, table1_markdown(s)).as_bytes(),
