@@ -89,9 +89,9 @@ fn writes_tidy_csv_plots_and_table_one_keeping_pilots_apart() {
     let tests: Vec<_> = f.records().map(|r| r.unwrap()).collect();
     assert_eq!(tests.len(), 6, "one paired test per iteration 0..=5");
     assert_eq!(tests[0][4].parse::<f64>().unwrap(), 0.0, "iteration 0: the same prior");
-    assert_eq!(&tests[0][7], "", "iteration 0: no test");
+    assert_eq!(&tests[0][9], "", "iteration 0: no test");
     assert!(tests[1..].iter().all(|t| &t[3] == "3"), "3 pairs per iteration");
-    assert!(stdout.contains("active − passive (p)"), "{stdout}");
+    assert!(stdout.contains("active − passive: mean [CI], median, share higher (p)"), "{stdout}");
     // beliefs.csv is long: session × condition × iteration × parameter × joint × estimate.
     let mut b = csv::Reader::from_path(out.join("pilot/beliefs.csv")).unwrap();
     let head: Vec<String> = b.headers().unwrap().iter().map(String::from).collect();

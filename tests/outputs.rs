@@ -400,6 +400,34 @@ fn every_csv_matches_the_data_dictionary() {
     for (name, rows) in &checked {
         assert!(*rows > 0, "{name} has no rows");
     }
+    // Fig. 10's paired differences: the median and the share of participants with the first
+    // condition higher, recomputed from the per-session test log-likelihoods.
+    let read = |file: &str| {
+        let mut r = csv::Reader::from_path(dir.join("analyze/pilot").join(file)).unwrap();
+        let head: Vec<String> = r.headers().unwrap().iter().map(String::from).collect();
+        let rows: Vec<BTreeMap<String, String>> =
+            r.records().map(|x| head.iter().cloned().zip(x.unwrap().iter().map(String::from)).collect()).collect();
+        rows
+    };
+    let lls = read("test_log_likelihood.csv");
+    for t in read("fig10_tests.csv") {
+        let at = |session: &str, condition: &str| -> f64 {
+            lls.iter()
+                .find(|r| r["session_id"] == session && r["condition"] == condition && r["iteration"] == t["iteration"])
+                .unwrap()["log_likelihood_mean"]
+                .parse()
+                .unwrap()
+        };
+        let mut sessions: Vec<&str> = lls.iter().map(|r| r["session_id"].as_str()).collect();
+        sessions.dedup();
+        let mut d: Vec<f64> = sessions.iter().map(|s| at(s, &t["first"]) - at(s, &t["second"])).collect();
+        d.sort_by(f64::total_cmp);
+        let median = if d.len() % 2 == 1 { d[d.len() / 2] } else { (d[d.len() / 2 - 1] + d[d.len() / 2]) / 2.0 };
+        let share = d.iter().filter(|x| **x > 0.0).count() as f64 / d.len() as f64;
+        let got = |c: &str| t[c].parse::<f64>().unwrap();
+        assert!((got("median_difference") - median).abs() < 1e-9, "{t:?} vs {d:?}");
+        assert_eq!(got("share_first_higher"), share, "{t:?}");
+    }
     // The trial that was voided after an undo, and the note, are in the tables.
     let trials = std::fs::read_to_string(dir.join("analyze/pilot/trials.csv")).unwrap();
     assert!(trials.contains(",undone,") && trials.contains(",voided,"), "{trials}");

@@ -59,6 +59,10 @@ pub struct IterationTest {
     /// 95 % t-interval of the mean difference over participants (NaN below 2 pairs).
     pub ci_low: f64,
     pub ci_high: f64,
+    /// The median difference, and the share of participants whose difference is positive
+    /// (first higher): beside the mean, they say whether an effect is everyone's or a few's.
+    pub median_difference: f64,
+    pub share_first_higher: f64,
     /// Two-sided Wilcoxon signed-rank test (None when every difference is zero).
     pub test: Option<Wilcoxon>,
 }
@@ -169,6 +173,8 @@ pub fn summarise(sessions: &[SessionAnalysis], conditions: &[String], items: &[(
                 mean_difference: m,
                 ci_low: lo,
                 ci_high: hi,
+                median_difference: crate::stats::median(&d),
+                share_first_higher: d.iter().filter(|x| **x > 0.0).count() as f64 / d.len() as f64,
                 test: wilcoxon_signed_rank(&d),
             });
         }

@@ -113,6 +113,8 @@ struct Fig10TestRow<'a> {
     mean_difference: f64,
     ci_low: Option<f64>,
     ci_high: Option<f64>,
+    median_difference: f64,
+    share_first_higher: f64,
     p_value: Option<f64>,
 }
 
@@ -319,6 +321,8 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
             mean_difference: t.mean_difference,
             ci_low: finite(t.ci_low),
             ci_high: finite(t.ci_high),
+            median_difference: t.median_difference,
+            share_first_higher: t.share_first_higher,
             p_value: t.test.as_ref().map(|w| w.p_value),
         }),
     )?;

@@ -115,7 +115,7 @@ pub(super) fn table(label: &str, group: &[&Analysed], s: &StudySummary, alpha: &
         "  (objects: {}; LL: test log-likelihood of the posterior mean after the last iteration;\n   aborted: ended for good; stopped: quit or a signal, resumable; partial: cut short by a crash, resumable)\n",
         legend.join(", ")
     );
-    o += "\nFig. 10 — test-set log-likelihood of the posterior-mean estimate (mean ± s.e.) by iteration, and the paired difference per participant (mean [95 % CI], two-sided Wilcoxon):\n";
+    o += "\nFig. 10 — test-set log-likelihood of the posterior-mean estimate (mean ± s.e.) by iteration, and the paired difference per participant (mean [95 % CI], median, share of participants with first higher; two-sided Wilcoxon):\n";
     let conditions: Vec<String> = s.distinct_q_star.keys().cloned().collect();
     let iterations = s.fig10.iter().map(|p| p.iteration).max().map_or(0, |m| m + 1);
     o += &format!("  {:>9}", "iteration");
@@ -123,7 +123,7 @@ pub(super) fn table(label: &str, group: &[&Analysed], s: &StudySummary, alpha: &
         o += &format!(" {:>22}", c);
     }
     if let Some(t) = s.fig10_tests.first() {
-        o += &format!(" {:>36}", format!("{} − {} (p)", t.first, t.second));
+        o += &format!("  {} − {}: mean [CI], median, share higher (p)", t.first, t.second);
     }
     o += "\n";
     for it in 0..iterations {
@@ -140,7 +140,13 @@ pub(super) fn table(label: &str, group: &[&Analysed], s: &StudySummary, alpha: &
             });
             let ci =
                 if t.ci_low.is_finite() { format!(" [{:+.1}, {:+.1}]", t.ci_low, t.ci_high) } else { String::new() };
-            o += &format!(" {:>36}", format!("{:+.1}{ci} ({p}, n={})", t.mean_difference, t.pairs));
+            o += &format!(
+                "  {:+.1}{ci}, median {:+.1}, {:.0} % higher ({p}, n={})",
+                t.mean_difference,
+                t.median_difference,
+                100.0 * t.share_first_higher,
+                t.pairs
+            );
         }
         o += "\n";
     }
