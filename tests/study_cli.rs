@@ -290,6 +290,11 @@ fn a_dry_run_over_seeds_reports_intervals_and_paired_differences() {
     assert!(row0.contains("no difference"), "{row0}");
     assert!(out.contains("paired difference") && out.contains("p="), "{out}");
     assert!(out.contains("distance of the posterior mean to the true q* (degrees)"), "{out}");
+    // Beside the mean: the median and the share of participants with the first higher.
+    let spread: Vec<&str> =
+        out.lines().filter(|l| l.contains("(active − passive at the last iteration: median ")).collect();
+    assert_eq!(spread.len(), 2, "one per measure: {out}");
+    assert!(spread.iter().all(|l| l.contains(" % of 6 participants with the first higher)")), "{spread:?}");
 }
 
 #[test]

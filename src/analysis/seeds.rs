@@ -43,6 +43,10 @@ pub struct Paired {
     /// 95 % confidence interval of the mean difference over the seeds' means.
     pub ci_low: f64,
     pub ci_high: f64,
+    /// The median difference over every participant of every seed, and the share of them
+    /// with the first higher: whether an effect is everyone's or a few's.
+    pub median_difference: f64,
+    pub share_first_higher: f64,
     /// Two-sided Wilcoxon signed-rank p over every participant of every seed (none when
     /// every difference is zero: the test is not defined).
     pub p_value: Option<f64>,
@@ -130,6 +134,7 @@ fn paired(
     groups: &[Vec<f64>],
 ) -> Option<Paired> {
     let g = grouped_differences(groups)?;
+    let all: Vec<f64> = groups.iter().flatten().copied().collect();
     Some(Paired {
         measure,
         iteration,
@@ -139,6 +144,8 @@ fn paired(
         mean_difference: g.mean,
         ci_low: g.ci_low,
         ci_high: g.ci_high,
+        median_difference: crate::stats::median(&all),
+        share_first_higher: all.iter().filter(|x| **x > 0.0).count() as f64 / all.len().max(1) as f64,
         p_value: g.p_value,
         seeds: g.groups,
         seeds_first_higher: g.significant_positive,

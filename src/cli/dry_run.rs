@@ -280,6 +280,9 @@ fn print_across(a: &[SeedRun], b: &[SeedRun], same_observation: bool, seeds: u64
             outln!("{line}");
         }
         for c in &conditions {
+            if let Some(last) = tests.iter().rfind(|t| t.first == format!("A {c}")) {
+                outln!("  ({c}: at the last iteration A − B {})", spread(last));
+            }
             if let Some(last) = tests.iter().rfind(|t| t.first == format!("A {c}"))
                 && seeds > 1
             {
@@ -296,6 +299,17 @@ fn print_across(a: &[SeedRun], b: &[SeedRun], same_observation: bool, seeds: u64
         outln!("  (the test log-likelihoods are of different observations under the two models and are not compared)");
     }
     Ok(())
+}
+
+/// Beside a paired difference's mean: its median and the share of participants with the
+/// first higher.
+fn spread(t: &handover::analysis::Paired) -> String {
+    format!(
+        "median {:+.2}, {:.0} % of {} participants with the first higher",
+        t.median_difference,
+        100.0 * t.share_first_higher,
+        t.n
+    )
 }
 
 /// "mean [low, high] (p)" of a paired difference.
@@ -379,6 +393,7 @@ fn print_over_seeds(runs: &[SeedRun], seed: u64, seeds: u64, participants: usize
         }
         if let Some(first) = tests.iter().find(|t| t.measure == measure) {
             let last = tests.iter().rfind(|t| t.measure == measure).unwrap_or(first);
+            outln!("  ({} − {} at the last iteration: {})", first.first, first.second, spread(last));
             if seeds > 1 {
                 outln!(
                     "  ({} − {}; at the last iteration the difference alone is significant in {} seed(s) with {} higher, {} with it lower, of {})",
