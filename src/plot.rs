@@ -123,6 +123,18 @@ pub struct LinePlot<'a> {
     pub series: Vec<Series<'a>>,
 }
 
+impl LinePlot<'_> {
+    /// The lowest band end (cut at the floor) and the highest, over every series; none
+    /// without a finite point.
+    pub fn data_range(&self) -> Option<(f64, f64)> {
+        let points = self.series.iter().flat_map(|s| &s.points).filter(|p| p.1.is_finite() && p.2.is_finite());
+        let low = |p: &(f64, f64, f64)| self.floor.map_or(p.1 - p.2, |f| (p.1 - p.2).max(f));
+        let lo = points.clone().map(low).fold(f64::INFINITY, f64::min);
+        let hi = points.map(|p| p.1 + p.2).fold(f64::NEG_INFINITY, f64::max);
+        lo.is_finite().then_some((lo, hi))
+    }
+}
+
 /// Tick labels with as many decimals as the ticks' spacing (about a tenth of the axis'
 /// span) needs: no "-14000.0", no "2.0" where "2" is meant.
 fn tick_label(v: f64, span: f64) -> String {
@@ -149,30 +161,35 @@ pub fn mean_se_plot(path: &Path, plot: &LinePlot) -> Result<(), String> {
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     let root = svg(path, (760, 500))?.into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
-    draw_lines(&root, plot, 17).map_err(|e| err(&e))?;
+    draw_lines(&root, plot, 17, None).map_err(|e| err(&e))?;
     root.present().map_err(|e| err(&e))?;
     Ok(())
 }
 
 /// Line plots of means with bands (as [`mean_se_plot`]) in a grid of `cols` columns under a
-/// title.
-pub fn line_grid(path: &Path, title: &str, plots: &[LinePlot], cols: usize) -> Result<(), String> {
+/// title; with `shared_y` (panels of one measure) every panel's y axis spans all their data,
+/// so that panels compare at a glance.
+pub fn line_grid(path: &Path, title: &str, plots: &[LinePlot], cols: usize, shared_y: bool) -> Result<(), String> {
     let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
     let rows = plots.len().div_ceil(cols);
     let root = svg(path, (560 * cols as u32, 400 * rows as u32 + 40))?.into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let root = root.titled(title, ("sans-serif", 22)).map_err(|e| err(&e))?;
+    let ranges = plots.iter().filter_map(LinePlot::data_range);
+    let shared = ranges.reduce(|a, b| (a.0.min(b.0), a.1.max(b.1))).filter(|_| shared_y);
     for (plot, area) in plots.iter().zip(root.split_evenly((rows, cols))) {
-        draw_lines(&area, plot, 15).map_err(|e| err(&e))?;
+        draw_lines(&area, plot, 15, shared).map_err(|e| err(&e))?;
     }
     root.present().map_err(|e| err(&e))?;
     Ok(())
 }
 
+/// One line plot in `area`; its y axis spans `y_range` (the data's own when none).
 fn draw_lines<DB: DrawingBackend>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
     plot: &LinePlot,
     caption: u32,
+    y_range: Option<(f64, f64)>,
 ) -> Result<(), String> {
     let err = |e: &dyn std::fmt::Display| e.to_string();
     let finite = || plot.series.iter().flat_map(|s| &s.points).filter(|p| p.1.is_finite() && p.2.is_finite());
@@ -181,14 +198,7 @@ fn draw_lines<DB: DrawingBackend>(
     let (x_min, x_max) = if x_min.is_finite() { (x_min.floor(), x_max.ceil()) } else { (0.0, 1.0) };
     let low = |p: &(f64, f64, f64)| plot.floor.map_or(p.1 - p.2, |f| (p.1 - p.2).max(f));
     let cut = plot.floor.is_some_and(|f| finite().any(|p| p.1 - p.2 < f));
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for p in finite() {
-        lo = lo.min(low(p));
-        hi = hi.max(p.1 + p.2);
-    }
-    if !lo.is_finite() {
-        (lo, hi) = (0.0, 1.0);
-    }
+    let (lo, hi) = y_range.or_else(|| plot.data_range()).unwrap_or((0.0, 1.0));
     let span = (hi - lo).max(1e-9);
     let top = hi + span * legend_headroom(plot.series.len() + 1);
     let bottom = lo - span * 0.05;

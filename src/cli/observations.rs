@@ -131,7 +131,9 @@ pub fn run(a: ObservationsArgs) -> Result<()> {
             "Learning from the region, the configuration, or the arm measured with noise σ: {} seeds × {} trials, learning {}",
             sw.seeds, sw.trials, a.learn
         );
-        line_grid(&dir.join("observations.svg"), &title, &plots, algorithms.len()).map_err(anyhow::Error::msg)?;
+        // Its panels hold two measures: each keeps its own y axis.
+        line_grid(&dir.join("observations.svg"), &title, &plots, algorithms.len(), false)
+            .map_err(anyhow::Error::msg)?;
         errln!("wrote {}/observations.csv and observations.svg", dir.display());
     }
     Ok(())

@@ -337,7 +337,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
                     ],
                 })
                 .collect();
-            line_grid(&path, &title, &plots, 2).map_err(anyhow::Error::msg)?;
+            line_grid(&path, &title, &plots, 2, true).map_err(anyhow::Error::msg)?;
         }
         errln!("wrote {}/{{metrics,summary,tests}}.csv and one SVG per measure", dir.display());
     }
