@@ -19,10 +19,10 @@ use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
-use ros2_client::dds::rustdds::{DomainParticipant, QosPolicies};
+use ros2_client::dds::rustdds::DomainParticipant;
 
 use super::discovery::{Endpoint, Side, diagnose, peers};
-use super::ros2::{Header, Started, sensor_qos, start_node, topic};
+use super::ros2::{ConsoleEndpoints, Header, Started, sensor_qos, start_node, topic};
 use super::{Domain, Ros2Settings};
 use crate::kinematics::JOINTS;
 use crate::now_ns;
@@ -161,12 +161,7 @@ impl JointStateSource {
         let (participant, domain) = ready.recv().map_err(|_| "the ROS 2 measurement thread stopped".to_string())??;
         let description =
             format!("ros2 {domain} ← {} (sensor_msgs/JointState, best effort)", settings.joint_states_topic);
-        let endpoint = Endpoint {
-            topic: settings.joint_states_topic.clone(),
-            ros_type: "sensor_msgs/msg/JointState",
-            side: Side::Subscribes,
-            qos: QosPolicies::from(&sensor_qos()),
-        };
+        let endpoint = ConsoleEndpoints::of(settings).joint_states;
         Ok(Self { buffer, description, participant, domain, endpoint })
     }
 

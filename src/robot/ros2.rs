@@ -165,18 +165,37 @@ pub(super) fn topic(
     node.create_topic(&n, MessageTypeName::new(package, ty), qos).map_err(|e| format!("ROS 2 topic {name}: {e}"))
 }
 
-/// The console's side of the robot topics, as discovery compares them with the robot's.
-fn robot_endpoints(r: &Ros2Settings) -> [Endpoint; 2] {
-    let qos = QosPolicies::from(&default_qos());
-    [
-        Endpoint {
-            topic: r.pose_topic.clone(),
-            ros_type: "geometry_msgs/msg/PoseStamped",
-            side: Side::Publishes,
+/// The console's side of every topic it uses, as discovery compares it with the other side:
+/// the pose, trial and status topics (the ROS 2 default QoS) and the arm's joint states
+/// (taken best effort). The one list the link, the arm's source and `robot-check` share.
+pub(super) struct ConsoleEndpoints {
+    pub pose: Endpoint,
+    pub trial: Endpoint,
+    pub status: Endpoint,
+    pub joint_states: Endpoint,
+}
+
+impl ConsoleEndpoints {
+    pub fn of(r: &Ros2Settings) -> Self {
+        let reliable = QosPolicies::from(&default_qos());
+        let endpoint = |topic: &str, ros_type, side, qos: &QosPolicies| Endpoint {
+            topic: topic.to_string(),
+            ros_type,
+            side,
             qos: qos.clone(),
-        },
-        Endpoint { topic: r.status_topic.clone(), ros_type: "std_msgs/msg/String", side: Side::Subscribes, qos },
-    ]
+        };
+        Self {
+            pose: endpoint(&r.pose_topic, "geometry_msgs/msg/PoseStamped", Side::Publishes, &reliable),
+            trial: endpoint(&r.trial_topic, "std_msgs/msg/String", Side::Publishes, &reliable),
+            status: endpoint(&r.status_topic, "std_msgs/msg/String", Side::Subscribes, &reliable),
+            joint_states: endpoint(
+                &r.joint_states_topic,
+                "sensor_msgs/msg/JointState",
+                Side::Subscribes,
+                &QosPolicies::from(&sensor_qos()),
+            ),
+        }
+    }
 }
 
 fn endpoints(mut node: Node, r: &Ros2Settings) -> Result<Endpoints, String> {
@@ -217,7 +236,8 @@ impl Ros2Link {
         let (participant, domain) = ready.recv().map_err(|_| "the ROS 2 thread stopped".to_string())??;
         let r = &settings.ros2;
         let description = format!("ros2 {domain} → {} (status {})", r.pose_topic, r.status_topic);
-        Ok(Self { jobs, description, participant, domain, endpoints: robot_endpoints(r) })
+        let ConsoleEndpoints { pose, status, .. } = ConsoleEndpoints::of(r);
+        Ok(Self { jobs, description, participant, domain, endpoints: [pose, status] })
     }
 }
 

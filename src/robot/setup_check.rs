@@ -5,10 +5,8 @@
 
 use std::time::Duration;
 
-use ros2_client::dds::rustdds::QosPolicies;
-
 use super::discovery::{Endpoint, Side, diagnose, matching, peers};
-use super::ros2::{default_qos, sensor_qos, start_node};
+use super::ros2::{ConsoleEndpoints, start_node};
 use super::{Domain, RobotSettings};
 
 /// One topic of the console's, as discovery found its other side.
@@ -25,24 +23,13 @@ pub struct TopicCheck {
     pub required: bool,
 }
 
-/// The console's endpoints: the robot's topics, and the arm's with `measure`.
+/// The console's endpoints, each with whether a session needs it: the robot's topics, and
+/// the arm's with `measure`.
 fn console_endpoints(settings: &RobotSettings, measure: bool) -> Vec<(Endpoint, bool)> {
-    let r = &settings.ros2;
-    let reliable = QosPolicies::from(&default_qos());
-    let endpoint = |topic: &str, ros_type, side, qos: &QosPolicies| Endpoint {
-        topic: topic.to_string(),
-        ros_type,
-        side,
-        qos: qos.clone(),
-    };
-    let mut all = vec![
-        (endpoint(&r.pose_topic, "geometry_msgs/msg/PoseStamped", Side::Publishes, &reliable), true),
-        (endpoint(&r.trial_topic, "std_msgs/msg/String", Side::Publishes, &reliable), false),
-        (endpoint(&r.status_topic, "std_msgs/msg/String", Side::Subscribes, &reliable), true),
-    ];
+    let e = ConsoleEndpoints::of(&settings.ros2);
+    let mut all = vec![(e.pose, true), (e.trial, false), (e.status, true)];
     if measure {
-        let sensor = QosPolicies::from(&sensor_qos());
-        all.push((endpoint(&r.joint_states_topic, "sensor_msgs/msg/JointState", Side::Subscribes, &sensor), true));
+        all.push((e.joint_states, true));
     }
     all
 }
