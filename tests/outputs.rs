@@ -225,17 +225,16 @@ fn pandas_reads(kind: &str, dtype: &str, all_empty: bool) -> bool {
 }
 
 /// Reads every file with pandas as the dictionary's read lines do
-/// (`tests/readers/read_csv_pandas.py`, with HANDOVER_PYTHON when it has pandas, as `.ci/run`
-/// makes it) and checks each column's dtype against its documented type, and that seeds read
-/// exactly. Without pandas, says so and passes.
+/// (`tests/readers/read_csv_pandas.py`, with HANDOVER_PYTHON, into which `.ci/run` installs
+/// pandas) and checks each column's dtype against its documented type, and that seeds read
+/// exactly. Without HANDOVER_PYTHON, says so and passes; one without pandas fails.
 fn read_with_pandas(paths: &[PathBuf], dict: &BTreeMap<String, Vec<(String, String)>>) {
-    let python = std::env::var("HANDOVER_PYTHON")
-        .ok()
-        .filter(|p| Command::new(p).args(["-c", "import pandas"]).output().is_ok_and(|o| o.status.success()));
-    let Some(python) = python else {
-        eprintln!("skipped: no HANDOVER_PYTHON with pandas (.ci/run makes one; the CSVs were not read with pandas)");
+    let Ok(python) = std::env::var("HANDOVER_PYTHON") else {
+        eprintln!("skipped: HANDOVER_PYTHON is not set (.ci/run sets it; the CSVs were not read with pandas)");
         return;
     };
+    let has_pandas = Command::new(&python).args(["-c", "import pandas"]).output().is_ok_and(|o| o.status.success());
+    assert!(has_pandas, "HANDOVER_PYTHON ({python}) has no pandas: install it there, as .ci/run does");
     let mut args = Vec::new();
     for path in paths {
         let name = path.file_name().unwrap().to_string_lossy().into_owned();
