@@ -1,11 +1,14 @@
-//! SVG plots (plotters' SVG backend), shared by the commands that draw.
+//! Figures: drawn as SVG (plotters' SVG backend) in a journal's column width, and written as
+//! SVG, PDF (fonts embedded) and PNG (300 dpi) as asked.
 
 use std::path::Path;
+use std::sync::{Arc, OnceLock};
 
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-/// Region colours, in order.
+/// Region colours, in order: Okabe and Ito's colour-blind-safe palette.
 pub const PALETTE: [RGBColor; 6] = [
     RGBColor(0, 114, 178),
     RGBColor(213, 94, 0),
@@ -14,6 +17,293 @@ pub const PALETTE: [RGBColor; 6] = [
     RGBColor(204, 121, 167),
     RGBColor(86, 180, 233),
 ];
+
+/// A figure's width: one journal column (3.5 in) or a page's two (7.17 in), at the SVG's 96
+/// pixels an inch; fonts keep their size (7–10.5 pt) and the layout follows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FigureWidth {
+    OneColumn,
+    #[default]
+    TwoColumn,
+}
+
+/// A file format a figure is written in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FigureFormat {
+    Svg,
+    /// Vector, its fonts embedded (subset).
+    Pdf,
+    /// 300 dots an inch, the resolution stored in the file.
+    Png,
+}
+
+impl FigureFormat {
+    pub fn extension(self) -> &'static str {
+        match self {
+            FigureFormat::Svg => "svg",
+            FigureFormat::Pdf => "pdf",
+            FigureFormat::Png => "png",
+        }
+    }
+}
+
+/// How the figures of a command are drawn and written.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FigureStyle {
+    pub width: FigureWidth,
+    /// Every figure is written once per format, the path's extension replaced.
+    pub formats: Vec<FigureFormat>,
+}
+
+impl Default for FigureStyle {
+    fn default() -> Self {
+        FigureStyle { width: FigureWidth::TwoColumn, formats: vec![FigureFormat::Svg] }
+    }
+}
+
+/// PNG resolution.
+pub const PNG_DPI: f32 = 300.0;
+/// The SVG's pixels an inch (CSS's, which viewers and converters assume).
+const SVG_DPI: f32 = 96.0;
+
+impl FigureStyle {
+    /// Writes the drawing `svg` at `path` in each format (owner-only files).
+    fn write(&self, path: &Path, svg: &str) -> Result<(), String> {
+        for format in &self.formats {
+            let out = path.with_extension(format.extension());
+            let bytes = match format {
+                FigureFormat::Svg => svg.as_bytes().to_vec(),
+                FigureFormat::Pdf => pdf(svg)?,
+                FigureFormat::Png => png(svg, PNG_DPI)?.0,
+            };
+            crate::private_files::write_output(&out, &bytes).map_err(|e| format!("{}: {e}", out.display()))?;
+        }
+        Ok(())
+    }
+
+    /// The files a figure named `stem` is written as: "power.svg", "power.{svg,pdf}".
+    pub fn file_names(&self, stem: &str) -> String {
+        let ext: Vec<&str> = self.formats.iter().map(|f| f.extension()).collect();
+        if ext.len() == 1 { format!("{stem}.{}", ext[0]) } else { format!("{stem}.{{{}}}", ext.join(",")) }
+    }
+
+    fn layout(&self) -> Layout {
+        match self.width {
+            FigureWidth::TwoColumn => Layout {
+                width: 688,
+                title: pt(10.0),
+                caption: pt(9.0),
+                label: pt(9.0),
+                tick: pt(8.0),
+                legend: pt(8.0),
+                y_area: 68,
+                max_cols: 2,
+                narrow: false,
+            },
+            FigureWidth::OneColumn => Layout {
+                width: 336,
+                title: pt(8.5),
+                caption: pt(8.0),
+                label: pt(8.0),
+                tick: pt(7.0),
+                legend: pt(7.0),
+                y_area: 60,
+                max_cols: 1,
+                narrow: true,
+            },
+        }
+    }
+}
+
+/// Sizes (pixels at 96 an inch) a figure is laid out with.
+#[derive(Clone, Copy, Debug)]
+struct Layout {
+    width: u32,
+    /// Font sizes, in pixels.
+    title: f64,
+    caption: f64,
+    label: f64,
+    tick: f64,
+    legend: f64,
+    /// Room left of a chart for its tick labels and y description.
+    y_area: u32,
+    /// Panels side by side at most.
+    max_cols: usize,
+    /// Legends that would sit beside a chart go under it.
+    narrow: bool,
+}
+
+impl Layout {
+    /// Room under a chart for its tick labels and x description.
+    fn x_area(&self) -> u32 {
+        (self.tick + self.label + 14.0).ceil() as u32
+    }
+
+    /// The lines `text` takes at `font` pixels in `width` pixels (a sans-serif character is
+    /// about 0.56 of its size wide).
+    fn wrap(text: &str, width: u32, font: f64) -> Vec<String> {
+        let per_line = ((width as f64 / (font * 0.56)) as usize).max(8);
+        let mut lines = vec![String::new()];
+        for word in text.split(' ') {
+            let line = lines.last_mut().expect("one line");
+            if !line.is_empty() && line.chars().count() + 1 + word.chars().count() > per_line {
+                lines.push(word.to_string());
+            } else {
+                if !line.is_empty() {
+                    line.push(' ');
+                }
+                line.push_str(word);
+            }
+        }
+        lines
+    }
+
+    /// A grid of `n` panels in at most `cols` columns (and the layout's most): its columns,
+    /// rows and each panel's height, `aspect` × its width within `heights`.
+    fn grid(&self, n: usize, cols: usize, aspect: f64, heights: std::ops::RangeInclusive<f64>) -> (usize, usize, u32) {
+        let cols = cols.clamp(1, self.max_cols);
+        let height = (self.width as f64 / cols as f64 * aspect).clamp(*heights.start(), *heights.end());
+        (cols, n.div_ceil(cols).max(1), height as u32)
+    }
+
+    /// The height of a title block of `lines`.
+    fn title_height(&self, lines: usize) -> u32 {
+        (lines as f64 * self.title * 1.3).ceil() as u32 + 10
+    }
+
+    /// The height of an in-chart legend of `entries` one-line entries.
+    fn legend_height(&self, entries: usize) -> u32 {
+        (entries as f64 * self.legend * 1.3).ceil() as u32 + 14
+    }
+}
+
+/// `points` (1/72 in) in the SVG's pixels (1/96 in).
+fn pt(points: f64) -> f64 {
+    points * SVG_DPI as f64 / 72.0
+}
+
+/// A sans-serif font `px` pixels high. (plotters writes an SVG font size of its size / 1.24.)
+fn sans(px: f64) -> (&'static str, f64) {
+    ("sans-serif", (px * 1.24).ceil())
+}
+
+/// A rectangle in the figure's pixels: (left, top, right, bottom).
+pub type PixelRect = (i32, i32, i32, i32);
+
+/// Where a figure's parts are, in its pixels (what a test checks the drawing against).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Drawn {
+    /// Each chart's plotting area, inside its axes.
+    pub axes: Vec<PixelRect>,
+    /// A legend drawn outside the charts (beside or under them).
+    pub legend: Option<PixelRect>,
+}
+
+fn pixel_rect<DB: DrawingBackend, CT: CoordTranslate>(area: &DrawingArea<DB, CT>) -> PixelRect {
+    let (x, y) = area.get_base_pixel();
+    let (w, h) = area.dim_in_pixel();
+    (x, y, x + w as i32, y + h as i32)
+}
+
+/// Fonts for PDF and PNG: the system's, with a common sans-serif face for "sans-serif".
+fn fonts() -> Result<Arc<resvg::usvg::fontdb::Database>, String> {
+    static FONTS: OnceLock<Result<Arc<resvg::usvg::fontdb::Database>, String>> = OnceLock::new();
+    FONTS
+        .get_or_init(|| {
+            let mut db = resvg::usvg::fontdb::Database::new();
+            db.load_system_fonts();
+            let families: Vec<String> =
+                db.faces().flat_map(|f| f.families.iter().map(|(name, _)| name.clone())).collect();
+            let sans = ["DejaVu Sans", "Liberation Sans", "Arial", "Helvetica", "Noto Sans", "FreeSans"]
+                .into_iter()
+                .find(|want| families.iter().any(|f| f == want))
+                .ok_or_else(|| {
+                    "no sans-serif font found to draw text in PDF or PNG (DejaVu Sans, Liberation Sans, Arial, \
+                     Helvetica, Noto Sans or FreeSans; on Debian: apt install fonts-dejavu-core)"
+                        .to_string()
+                })?;
+            db.set_sans_serif_family(sans);
+            Ok(Arc::new(db))
+        })
+        .clone()
+}
+
+fn tree(svg: &str) -> Result<resvg::usvg::Tree, String> {
+    let options = resvg::usvg::Options { fontdb: fonts()?, ..Default::default() };
+    resvg::usvg::Tree::from_str(svg, &options).map_err(|e| format!("cannot read the drawing: {e}"))
+}
+
+/// The drawing as a PDF page of its size (96 SVG pixels an inch), fonts embedded.
+pub fn pdf(svg: &str) -> Result<Vec<u8>, String> {
+    let page = svg2pdf::PageOptions { dpi: SVG_DPI };
+    svg2pdf::to_pdf(&tree(svg)?, svg2pdf::ConversionOptions::default(), page)
+        .map_err(|e| format!("cannot make a PDF: {e}"))
+}
+
+/// The drawing as a PNG at `dpi` (its resolution stored in a pHYs chunk), and the pixels.
+pub fn png(svg: &str, dpi: f32) -> Result<(Vec<u8>, resvg::tiny_skia::Pixmap), String> {
+    let tree = tree(svg)?;
+    let scale = dpi / SVG_DPI;
+    let size = tree.size().to_int_size().scale_by(scale).ok_or("empty drawing")?;
+    let mut pixmap = resvg::tiny_skia::Pixmap::new(size.width(), size.height()).ok_or("empty drawing")?;
+    pixmap.fill(resvg::tiny_skia::Color::WHITE);
+    resvg::render(&tree, resvg::tiny_skia::Transform::from_scale(scale, scale), &mut pixmap.as_mut());
+    let bytes = pixmap.encode_png().map_err(|e| format!("cannot encode the PNG: {e}"))?;
+    Ok((with_resolution(bytes, dpi), pixmap))
+}
+
+/// `png` with a pHYs chunk (pixels a metre) after its header, so that a journal's checker
+/// reads the resolution.
+fn with_resolution(png: Vec<u8>, dpi: f32) -> Vec<u8> {
+    // The 8-byte signature, then IHDR: 4 length, 4 type, 13 data, 4 CRC.
+    let after_header = 8 + 4 + 4 + 13 + 4;
+    let per_metre = (dpi as f64 / 0.0254).round() as u32;
+    let mut body = b"pHYs".to_vec();
+    body.extend(per_metre.to_be_bytes());
+    body.extend(per_metre.to_be_bytes());
+    body.push(1);
+    let mut chunk = 9u32.to_be_bytes().to_vec();
+    chunk.extend(&body);
+    chunk.extend(crc32fast::hash(&body).to_be_bytes());
+    let mut out = png[..after_header].to_vec();
+    out.extend(chunk);
+    out.extend(&png[after_header..]);
+    out
+}
+
+/// Draws a figure of `size` with `draw` and writes it as `style` says.
+fn figure(
+    path: &Path,
+    style: &FigureStyle,
+    size: (u32, u32),
+    draw: impl FnOnce(&DrawingArea<SVGBackend, plotters::coord::Shift>) -> Result<Drawn, String>,
+) -> Result<Drawn, String> {
+    let mut svg = String::new();
+    let drawn = {
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let drawn = draw(&root)?;
+        root.present().map_err(|e| e.to_string())?;
+        drawn
+    };
+    style.write(path, &svg).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(drawn)
+}
+
+/// Draws `lines` centred at the top of `area` and returns the area under them.
+fn title_block<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    lines: &[String],
+    l: &Layout,
+) -> Result<DrawingArea<DB, plotters::coord::Shift>, String> {
+    let font = sans(l.title).into_font().color(&BLACK).pos(Pos::new(HPos::Center, VPos::Top));
+    let centre = area.dim_in_pixel().0 as i32 / 2;
+    for (k, line) in lines.iter().enumerate() {
+        let y = 5 + (k as f64 * l.title * 1.3) as i32;
+        area.draw(&Text::new(line.clone(), (centre, y), font.clone())).map_err(|e| e.to_string())?;
+    }
+    Ok(area.split_vertically(l.title_height(lines.len())).1)
+}
 
 /// One named group of 2-D points.
 pub struct PointGroup<'a> {
@@ -28,6 +318,7 @@ pub struct ScatterPanel<'a> {
     pub groups: Vec<PointGroup<'a>>,
 }
 
+/// The data's range with 5 % (at least 1) on each side.
 fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for v in values {
@@ -41,61 +332,119 @@ fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     (lo - pad)..(hi + pad)
 }
 
-/// An SVG drawing written to `path`, owner-only whatever the umask (the file is made 0600
-/// before the backend truncates and fills it, which keeps its mode).
-fn svg(path: &Path, size: (u32, u32)) -> Result<SVGBackend<'_>, String> {
-    crate::private_files::create_output(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    Ok(SVGBackend::new(path, size))
+/// The y axis' ends for data from `lo` to `hi` in a plotting area `plot_px` high with a
+/// legend `legend_px` high at its top: the legend above the data, 5 % of the area under it.
+fn y_ends(lo: f64, hi: f64, plot_px: f64, legend_px: f64) -> (f64, f64) {
+    let span = (hi - lo).max(1e-9);
+    // The legend starts a few pixels under the area's top.
+    let legend_px = legend_px + 8.0;
+    let data_px = (plot_px * 0.95 - legend_px).max(plot_px * 0.3);
+    let per_px = span / data_px;
+    (lo - 0.05 * plot_px * per_px, hi + legend_px * per_px)
 }
 
-/// A figure of scatter panels side by side in a grid of `cols` columns.
-pub fn scatter_grid(path: &Path, title: &str, panels: &[ScatterPanel], cols: usize) -> Result<(), String> {
-    let rows = panels.len().div_ceil(cols);
-    let root = svg(path, (420 * cols as u32, 380 * rows as u32 + 40))?.into_drawing_area();
-    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let root = root.titled(title, ("sans-serif", 22)).map_err(|e| err(&e))?;
-    let areas = root.split_evenly((rows, cols));
-    for (panel, area) in panels.iter().zip(areas) {
-        let xs = range(panel.groups.iter().flat_map(|g| g.points.iter().map(|p| p.0)));
-        let ys = range(panel.groups.iter().flat_map(|g| g.points.iter().map(|p| p.1)));
-        let ys = ys.start..ys.end + (ys.end - ys.start) * legend_headroom(panel.groups.len());
-        let (x_span, y_span) = (xs.end - xs.start, ys.end - ys.start);
-        let mut chart = ChartBuilder::on(&area)
-            .margin(10)
-            .x_label_area_size(40)
-            .y_label_area_size(50)
-            .build_cartesian_2d(xs, ys)
-            .map_err(|e| err(&e))?;
-        chart
-            .configure_mesh()
-            .x_desc(panel.x_label)
-            .y_desc(panel.y_label)
-            .x_label_formatter(&|x| tick_label(*x, x_span))
-            .y_label_formatter(&|y| tick_label(*y, y_span))
-            .draw()
-            .map_err(|e| err(&e))?;
-        for (k, g) in panel.groups.iter().enumerate() {
-            let colour = PALETTE[k % PALETTE.len()];
-            chart
-                .draw_series(g.points.iter().map(|&p| Circle::new(p, 2, colour.mix(0.6).filled())))
-                .map_err(|e| err(&e))?
-                .label(g.name)
-                .legend(move |(x, y)| Circle::new((x + 5, y), 4, colour.filled()));
+/// The plotting area's height in a chart area `height` high (margins, x labels, caption).
+fn plot_height(height: u32, l: &Layout, caption: bool) -> f64 {
+    // plotters gives a caption its size (× 1.24) and a margin.
+    let caption = if caption { l.caption * 2.1 } else { 0.0 };
+    height as f64 - 2.0 * MARGIN as f64 - l.x_area() as f64 - caption
+}
+
+/// A chart's margin.
+const MARGIN: u32 = 8;
+
+/// A figure of scatter panels in a grid of at most `cols` columns.
+pub fn scatter_grid(
+    path: &Path,
+    style: &FigureStyle,
+    title: &str,
+    panels: &[ScatterPanel],
+    cols: usize,
+) -> Result<Drawn, String> {
+    let l = style.layout();
+    let (cols, rows, ph) = l.grid(panels.len(), cols, 0.85, 250.0..=f64::INFINITY);
+    let lines = Layout::wrap(title, l.width, l.title);
+    figure(path, style, (l.width, l.title_height(lines.len()) + ph * rows as u32), |root| {
+        let body = title_block(root, &lines, &l)?;
+        let err = |e: &dyn std::fmt::Display| e.to_string();
+        let mut drawn = Drawn::default();
+        for (panel, area) in panels.iter().zip(body.split_evenly((rows, cols))) {
+            let xs = range(panel.groups.iter().flat_map(|g| g.points.iter().map(|p| p.0)));
+            let ys = range(panel.groups.iter().flat_map(|g| g.points.iter().map(|p| p.1)));
+            let legend_px = l.legend_height(panel.groups.len()) as f64;
+            let (bottom, top) = y_ends(ys.start, ys.end, plot_height(ph, &l, false), legend_px);
+            let (x_span, y_span) = (xs.end - xs.start, top - bottom);
+            let mut chart = chart_on(&area, &l, None, xs, bottom..top)?;
+            mesh(&mut chart, &l, panel.x_label, panel.y_label)
+                .x_label_formatter(&|x| tick_label(*x, x_span))
+                .y_label_formatter(&|y| tick_label(*y, y_span))
+                .draw()
+                .map_err(|e| err(&e))?;
+            for (k, g) in panel.groups.iter().enumerate() {
+                let colour = PALETTE[k % PALETTE.len()];
+                chart
+                    .draw_series(g.points.iter().map(|&p| Circle::new(p, 2, colour.mix(0.6).filled())))
+                    .map_err(|e| err(&e))?
+                    .label(g.name)
+                    .legend(move |(x, y)| Circle::new((x + 8, y), 3, colour.filled()));
+            }
+            legend(&mut chart, &l)?;
+            drawn.axes.push(pixel_rect(chart.plotting_area()));
         }
-        legend(&mut chart, SeriesLabelPosition::UpperRight).map_err(|e| err(&e))?;
-    }
-    root.present().map_err(|e| err(&e))?;
-    Ok(())
+        Ok(drawn)
+    })
 }
 
-type Chart<'a, 'b> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+/// A chart of f64 axes on any backend.
+type AnyChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
-/// The legend every plot draws: framed, on a translucent white background.
-fn legend<'a, 'b: 'a>(chart: &mut Chart<'a, 'b>, position: SeriesLabelPosition) -> Result<(), String> {
+/// A chart in `area` with the layout's margin and label areas, its caption above it.
+fn chart_on<'a, DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    l: &Layout,
+    caption: Option<&str>,
+    x: std::ops::Range<f64>,
+    y: std::ops::Range<f64>,
+) -> Result<AnyChart<'a, DB>, String> {
+    let mut builder = ChartBuilder::on(area);
+    if let Some(caption) = caption {
+        builder.caption(caption, sans(l.caption));
+    }
+    builder
+        .margin(MARGIN)
+        .x_label_area_size(l.x_area())
+        .y_label_area_size(l.y_area)
+        .build_cartesian_2d(x, y)
+        .map_err(|e| e.to_string())
+}
+
+/// The axes' style every chart shares: faint major grid lines, no minor ones, the
+/// layout's fonts, and the axes' descriptions.
+fn mesh<'a, 'b, DB: DrawingBackend>(
+    chart: &'b mut AnyChart<'a, DB>,
+    l: &Layout,
+    x_desc: &str,
+    y_desc: &str,
+) -> plotters::chart::MeshStyle<'a, 'b, RangedCoordf64, RangedCoordf64, DB> {
+    let mut style = chart.configure_mesh();
+    style
+        .light_line_style(TRANSPARENT)
+        .bold_line_style(BLACK.mix(0.08))
+        .label_style(sans(l.tick))
+        .axis_desc_style(sans(l.label))
+        .x_desc(x_desc)
+        .y_desc(y_desc);
+    style
+}
+
+/// The legend inside a chart, at its top right: framed, on a translucent white background.
+fn legend<'a, DB: DrawingBackend + 'a>(chart: &mut AnyChart<'a, DB>, l: &Layout) -> Result<(), String> {
     chart
         .configure_series_labels()
-        .position(position)
+        .position(SeriesLabelPosition::UpperRight)
+        .margin(6)
+        .legend_area_size(24)
+        .label_font(sans(l.legend))
         .background_style(WHITE.mix(0.8))
         .border_style(BLACK)
         .draw()
@@ -149,48 +498,58 @@ fn tick_label(v: f64, span: f64) -> String {
     }
 }
 
-/// Room above the data for a legend of `entries` lines (a fraction of the data's span), so
-/// that the legend never covers a point.
-fn legend_headroom(entries: usize) -> f64 {
-    0.09 * (entries as f64 + 1.0)
-}
-
 /// Means with shaded bands against integer x, one line per series (as the paper's Fig. 2, 8
 /// and 10): ticks at the integers, the legend above the data, the band named in it.
-pub fn mean_se_plot(path: &Path, plot: &LinePlot) -> Result<(), String> {
-    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let root = svg(path, (760, 500))?.into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    draw_lines(&root, plot, 17, None).map_err(|e| err(&e))?;
-    root.present().map_err(|e| err(&e))?;
-    Ok(())
+pub fn mean_se_plot(path: &Path, style: &FigureStyle, plot: &LinePlot) -> Result<Drawn, String> {
+    let l = style.layout();
+    let lines = Layout::wrap(plot.title, l.width, l.title);
+    let height = (l.width as f64 * 0.6).max(260.0) as u32;
+    figure(path, style, (l.width, l.title_height(lines.len()) + height), |root| {
+        let body = title_block(root, &lines, &l)?;
+        let axes = draw_lines(&body, plot, false, None, &l)?;
+        Ok(Drawn { axes: vec![axes], legend: None })
+    })
 }
 
-/// Line plots of means with bands (as [`mean_se_plot`]) in a grid of `cols` columns under a
-/// title; with `shared_y` (panels of one measure) every panel's y axis spans all their data,
-/// so that panels compare at a glance.
-pub fn line_grid(path: &Path, title: &str, plots: &[LinePlot], cols: usize, shared_y: bool) -> Result<(), String> {
-    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let rows = plots.len().div_ceil(cols);
-    let root = svg(path, (560 * cols as u32, 400 * rows as u32 + 40))?.into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let root = root.titled(title, ("sans-serif", 22)).map_err(|e| err(&e))?;
-    let ranges = plots.iter().filter_map(LinePlot::data_range);
-    let shared = ranges.reduce(|a, b| (a.0.min(b.0), a.1.max(b.1))).filter(|_| shared_y);
-    for (plot, area) in plots.iter().zip(root.split_evenly((rows, cols))) {
-        draw_lines(&area, plot, 15, shared).map_err(|e| err(&e))?;
-    }
-    root.present().map_err(|e| err(&e))?;
-    Ok(())
+/// Line plots of means with bands (as [`mean_se_plot`]) in a grid of at most `cols` columns
+/// under a title. Panels with the same `y_groups` entry share one y axis spanning all their
+/// data (panels of one measure compare at a glance); without groups each has its own.
+pub fn line_grid(
+    path: &Path,
+    style: &FigureStyle,
+    title: &str,
+    plots: &[LinePlot],
+    cols: usize,
+    y_groups: Option<&[usize]>,
+) -> Result<Drawn, String> {
+    let l = style.layout();
+    let (cols, rows, ph) = l.grid(plots.len(), cols, 0.8, 260.0..=f64::INFINITY);
+    let lines = Layout::wrap(title, l.width, l.title);
+    let group = |k: usize| y_groups.and_then(|g| g.get(k).copied());
+    let shared = |k: usize| {
+        let g = group(k)?;
+        let ranges = plots.iter().enumerate().filter(|(j, _)| group(*j) == Some(g)).filter_map(|(_, p)| p.data_range());
+        ranges.reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
+    };
+    figure(path, style, (l.width, l.title_height(lines.len()) + ph * rows as u32), |root| {
+        let body = title_block(root, &lines, &l)?;
+        let mut drawn = Drawn::default();
+        for (k, (plot, area)) in plots.iter().zip(body.split_evenly((rows, cols))).enumerate() {
+            drawn.axes.push(draw_lines(&area, plot, true, shared(k), &l)?);
+        }
+        Ok(drawn)
+    })
 }
 
-/// One line plot in `area`; its y axis spans `y_range` (the data's own when none).
+/// One line plot in `area` (its title as a caption when `caption`); its y axis spans
+/// `y_range` (the data's own when none). Returns its plotting area.
 fn draw_lines<DB: DrawingBackend>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
     plot: &LinePlot,
-    caption: u32,
+    caption: bool,
     y_range: Option<(f64, f64)>,
-) -> Result<(), String> {
+    l: &Layout,
+) -> Result<PixelRect, String> {
     let err = |e: &dyn std::fmt::Display| e.to_string();
     let finite = || plot.series.iter().flat_map(|s| &s.points).filter(|p| p.1.is_finite() && p.2.is_finite());
     let x_min = finite().map(|p| p.0).fold(f64::INFINITY, f64::min);
@@ -199,26 +558,24 @@ fn draw_lines<DB: DrawingBackend>(
     let low = |p: &(f64, f64, f64)| plot.floor.map_or(p.1 - p.2, |f| (p.1 - p.2).max(f));
     let cut = plot.floor.is_some_and(|f| finite().any(|p| p.1 - p.2 < f));
     let (lo, hi) = y_range.or_else(|| plot.data_range()).unwrap_or((0.0, 1.0));
-    let span = (hi - lo).max(1e-9);
-    let top = hi + span * legend_headroom(plot.series.len() + 1);
-    let bottom = lo - span * 0.05;
-    let mut chart = ChartBuilder::on(area)
-        .caption(plot.title, ("sans-serif", caption))
-        .margin(12)
-        .x_label_area_size(42)
-        .y_label_area_size(72)
-        .build_cartesian_2d(x_min - 0.3..x_max + 0.3, bottom..top)
-        .map_err(|e| err(&e))?;
-    chart
-        .configure_mesh()
-        .light_line_style(TRANSPARENT)
-        .x_desc(plot.x_label)
-        .y_desc(plot.y_label)
+    let band = match plot.floor.filter(|_| cut) {
+        Some(f) => format!("shaded: {}, cut at {f}, the least value", plot.band),
+        None => format!("shaded: {}", plot.band),
+    };
+    // The legend's width is what the chart leaves: the band's entry wraps onto more lines.
+    let band = Layout::wrap(&band, area.dim_in_pixel().0.saturating_sub(l.y_area + 60), l.legend);
+    let entries = plot.series.len() + band.len();
+    let plot_px = plot_height(area.dim_in_pixel().1, l, caption);
+    let (bottom, top) = y_ends(lo, hi, plot_px, l.legend_height(entries) as f64);
+    let caption = caption.then_some(plot.title);
+    let mut chart = chart_on(area, l, caption, x_min - 0.3..x_max + 0.3, bottom..top)?;
+    mesh(&mut chart, l, plot.x_label, plot.y_label)
         // At most one label per integer: plotters then steps by 1, 2 or 5, all integers.
-        .x_labels(((x_max - x_min) as usize + 1).min(13))
+        .x_labels(((x_max - x_min) as usize + 1).min(if l.narrow { 7 } else { 11 }))
         .x_label_formatter(&|x| {
             if (x - x.round()).abs() < 1e-6 { format!("{}", x.round() as i64) } else { String::new() }
         })
+        .y_labels(if l.narrow { 6 } else { 9 })
         .y_label_formatter(&|y| tick_label(*y, top - bottom))
         .draw()
         .map_err(|e| err(&e))?;
@@ -231,15 +588,17 @@ fn draw_lines<DB: DrawingBackend>(
             .collect();
         draw_band_line(&mut chart, s.name, PALETTE[k % PALETTE.len()], &pts)?;
     }
-    let band = match plot.floor.filter(|_| cut) {
-        Some(f) => format!("{}, cut at {f}, the least value", plot.band),
-        None => plot.band.to_string(),
-    };
-    draw_legend(&mut chart, &band, SeriesLabelPosition::UpperRight)
+    let grey = RGBColor(120, 120, 120);
+    // One legend entry a line (plotters draws an entry on one line), the mark on the first.
+    for (k, line) in band.into_iter().enumerate() {
+        let entry = chart.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>()).map_err(|e| err(&e))?.label(line);
+        if k == 0 {
+            entry.legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], grey.mix(0.3).filled()));
+        }
+    }
+    legend(&mut chart, l)?;
+    Ok(pixel_rect(chart.plotting_area()))
 }
-
-/// A chart of f64 axes on any backend.
-type AnyChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
 /// One series as a shaded band from low to high, a line and its points, named in the
 /// legend; `pts` are (x, y, low, high).
@@ -262,104 +621,10 @@ fn draw_band_line<DB: DrawingBackend>(
     Ok(())
 }
 
-/// The legend, with an entry saying what the shaded bands are.
-fn draw_legend<'a, DB: DrawingBackend + 'a>(
-    chart: &mut AnyChart<'a, DB>,
-    band: &str,
-    position: SeriesLabelPosition,
-) -> Result<(), String> {
-    let err = |e: &dyn std::fmt::Display| e.to_string();
-    let grey = RGBColor(120, 120, 120);
-    chart
-        .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
-        .map_err(|e| err(&e))?
-        .label(format!("shaded: {band}"))
-        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], grey.mix(0.3).filled()));
-    chart
-        .configure_series_labels()
-        .position(position)
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| err(&e))?;
-    Ok(())
-}
-
 /// One line of a power curve: (participants, power, interval low, interval high) points.
 pub struct PowerSeries<'a> {
     pub name: &'a str,
     pub points: Vec<(f64, f64, f64, f64)>,
-}
-
-/// Power (a share of studies, 0–1) against the number of participants, one line per series
-/// with its interval shaded (`band` names it), the conventional 80 % target and the 5 %
-/// significance level dashed; ticks at the sizes planned.
-pub fn power_plot(path: &Path, title: &str, band: &str, series: &[PowerSeries]) -> Result<(), String> {
-    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let root = svg(path, (1000, 500))?.into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let root = root.titled(title, ("sans-serif", 17)).map_err(|e| err(&e))?;
-    // The legend beside the chart, so that the axis ends at 100 %.
-    let (root, beside) = root.split_horizontally(640);
-    // The sizes planned, equally spaced (they usually double), labelled with their values.
-    let mut sizes: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).collect();
-    sizes.sort_by(f64::total_cmp);
-    sizes.dedup();
-    let at = |n: f64| sizes.iter().position(|&s| s == n).unwrap_or(0) as f64;
-    let last = sizes.len().saturating_sub(1) as f64;
-    let top = 1.0;
-    let mut chart = ChartBuilder::on(&root)
-        .margin(12)
-        .x_label_area_size(42)
-        .y_label_area_size(60)
-        .build_cartesian_2d(-0.4..last + 0.4, 0.0..top)
-        .map_err(|e| err(&e))?;
-    chart
-        .configure_mesh()
-        .light_line_style(TRANSPARENT)
-        .x_desc("participants in the study")
-        .y_desc("power (share of studies with p < .05)")
-        .x_labels(sizes.len().clamp(2, 13))
-        .x_label_formatter(&|x| {
-            let i = x.round();
-            if (x - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < sizes.len() {
-                format!("{}", sizes[i as usize])
-            } else {
-                String::new()
-            }
-        })
-        .y_labels(11)
-        .y_label_formatter(&|y| format!("{:.0} %", y * 100.0))
-        .draw()
-        .map_err(|e| err(&e))?;
-    let mut entries = Vec::new();
-    let (x_min, x_max, pad) = (0.0, last, 0.4);
-    let grey = RGBColor(120, 120, 120);
-    for (level, name) in [(0.8, "80 % (a common target)"), (0.05, "5 % (the significance level)")] {
-        chart
-            .draw_series(DashedLineSeries::new(
-                [(x_min - pad, level), (x_max + pad, level)],
-                6,
-                4,
-                grey.stroke_width(1),
-            ))
-            .map_err(|e| err(&e))?;
-        entries.push((Mark::Dashed(grey), name.to_string()));
-    }
-    for (k, s) in series.iter().enumerate() {
-        let pts: Vec<_> = s
-            .points
-            .iter()
-            .filter(|p| p.1.is_finite() && p.2.is_finite() && p.3.is_finite())
-            .map(|p| (at(p.0), p.1, p.2, p.3))
-            .collect();
-        draw_band_line(&mut chart, s.name, PALETTE[k % PALETTE.len()], &pts).map_err(|e| err(&e))?;
-        entries.push((Mark::Line(PALETTE[k % PALETTE.len()]), s.name.to_string()));
-    }
-    entries.push((Mark::Band(RGBColor(120, 120, 120)), format!("shaded: {band}")));
-    side_legend(&beside, &entries).map_err(|e| err(&e))?;
-    root.present().map_err(|e| err(&e))?;
-    Ok(())
 }
 
 /// A legend entry's mark.
@@ -368,22 +633,59 @@ enum Mark {
     Dashed(RGBColor),
     Band(RGBColor),
     Bar(RGBColor),
+    Triangle(RGBColor),
 }
 
-/// A legend in an area of its own beside a chart: one entry per line, its mark and its text
-/// (long texts wrap at the area's width).
-fn side_legend<DB: DrawingBackend>(
+/// The width of a legend beside a chart.
+const SIDE_LEGEND: u32 = 200;
+
+/// A figure of one chart under `title`, its legend `entries` beside it (two columns) or
+/// under it (one column); `draw` draws the chart in its area and returns its plotting area.
+fn chart_with_legend(
+    path: &Path,
+    style: &FigureStyle,
+    title: &str,
+    entries: &[(Mark, String)],
+    draw: impl FnOnce(&DrawingArea<SVGBackend, plotters::coord::Shift>, &Layout) -> Result<PixelRect, String>,
+) -> Result<Drawn, String> {
+    let l = style.layout();
+    let lines = Layout::wrap(title, l.width, l.title);
+    let chart_height = if l.narrow { 260 } else { 370 };
+    let under = if l.narrow { legend_block_height(entries, l.width, &l) } else { 0 };
+    figure(path, style, (l.width, l.title_height(lines.len()) + chart_height + under), |root| {
+        let body = title_block(root, &lines, &l)?;
+        let (area, legend) =
+            if l.narrow { body.split_vertically(chart_height) } else { body.split_horizontally(l.width - SIDE_LEGEND) };
+        let axes = draw(&area, &l)?;
+        Ok(Drawn { axes: vec![axes], legend: Some(legend_block(&legend, entries, &l)?) })
+    })
+}
+
+/// The height of a legend block of `entries` in `width` pixels.
+fn legend_block_height(entries: &[(Mark, String)], width: u32, l: &Layout) -> u32 {
+    let lines: usize = entries.iter().map(|(_, t)| legend_lines(t, width, l).len()).sum();
+    let line = l.legend * 1.45;
+    (lines as f64 * line + entries.len() as f64 * l.legend * 0.6 + 16.0).ceil() as u32
+}
+
+fn legend_lines(text: &str, width: u32, l: &Layout) -> Vec<String> {
+    Layout::wrap(text, width.saturating_sub(48), l.legend)
+}
+
+/// A legend in an area of its own beside or under a chart: one entry per line, its mark and
+/// its text (long texts wrap at the area's width). Returns where it is.
+fn legend_block<DB: DrawingBackend>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
     entries: &[(Mark, String)],
-) -> Result<(), String> {
+    l: &Layout,
+) -> Result<PixelRect, String> {
     let err = |e: &dyn std::fmt::Display| e.to_string();
-    let font = ("sans-serif", 13).into_font().color(&BLACK);
-    let width = area.dim_in_pixel().0 as usize;
-    // About 7 pixels a character at 13 px.
-    let per_line = width.saturating_sub(50) / 7;
-    let mut y = 40;
+    let font = sans(l.legend).into_font().color(&BLACK).pos(Pos::new(HPos::Left, VPos::Center));
+    let width = area.dim_in_pixel().0;
+    let line = (l.legend * 1.45) as i32;
+    let mut y = if l.narrow { 8 + (l.legend / 2.0) as i32 } else { 30 };
+    let (x0, x1) = (8, 32);
     for (mark, text) in entries {
-        let (x0, x1) = (8, 32);
         match mark {
             Mark::Line(c) => area.draw(&PathElement::new(vec![(x0, y), (x1, y)], c.stroke_width(2))),
             Mark::Dashed(c) => area
@@ -391,78 +693,120 @@ fn side_legend<DB: DrawingBackend>(
                 .and_then(|_| area.draw(&PathElement::new(vec![(x0 + 15, y), (x1, y)], c.stroke_width(1)))),
             Mark::Band(c) => area.draw(&Rectangle::new([(x0, y - 5), (x1, y + 5)], c.mix(0.3).filled())),
             Mark::Bar(c) => area.draw(&Rectangle::new([(x0 + 6, y - 6), (x1 - 6, y + 6)], c.filled())),
+            Mark::Triangle(c) => area.draw(&TriangleMarker::new(((x0 + x1) / 2, y), 6, c.filled())),
         }
         .map_err(|e| err(&e))?;
-        let mut line = String::new();
-        for word in text.split(' ') {
-            if !line.is_empty() && line.chars().count() + 1 + word.chars().count() > per_line {
-                area.draw(&Text::new(line.clone(), (x1 + 8, y - 7), font.clone())).map_err(|e| err(&e))?;
-                line.clear();
-                y += 17;
-            }
-            if !line.is_empty() {
-                line.push(' ');
-            }
-            line += word;
+        for text in legend_lines(text, width, l) {
+            area.draw(&Text::new(text, (x1 + 8, y), font.clone())).map_err(|e| err(&e))?;
+            y += line;
         }
-        area.draw(&Text::new(line, (x1 + 8, y - 7), font.clone())).map_err(|e| err(&e))?;
-        y += 24;
+        y += (l.legend * 0.6) as i32;
     }
-    Ok(())
+    Ok(pixel_rect(area))
+}
+
+/// Power (a share of studies, 0–1) against the number of participants, one line per series
+/// with its interval shaded (`band` names it), the conventional 80 % target and the 5 %
+/// significance level dashed; ticks at the sizes planned.
+pub fn power_plot(
+    path: &Path,
+    style: &FigureStyle,
+    title: &str,
+    band: &str,
+    series: &[PowerSeries],
+) -> Result<Drawn, String> {
+    let grey = RGBColor(120, 120, 120);
+    let mut entries = vec![
+        (Mark::Dashed(grey), "80 % (a common target)".into()),
+        (Mark::Dashed(grey), "5 % (the significance level)".into()),
+    ];
+    for (k, s) in series.iter().enumerate() {
+        entries.push((Mark::Line(PALETTE[k % PALETTE.len()]), s.name.to_string()));
+    }
+    entries.push((Mark::Band(grey), format!("shaded: {band}")));
+    chart_with_legend(path, style, title, &entries, |area, l| {
+        let err = |e: &dyn std::fmt::Display| e.to_string();
+        // The sizes planned, equally spaced (they usually double), labelled with their values.
+        let mut sizes: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).collect();
+        sizes.sort_by(f64::total_cmp);
+        sizes.dedup();
+        let at = |n: f64| sizes.iter().position(|&s| s == n).unwrap_or(0) as f64;
+        let last = sizes.len().saturating_sub(1) as f64;
+        // A little room past 0 and 100 % (no tick there) so that points on them show whole.
+        let mut chart = chart_on(area, l, None, -0.4..last + 0.4, -0.03..1.03)?;
+        mesh(&mut chart, l, "participants in the study", "power (share of studies with p < .05)")
+            .x_labels(sizes.len().clamp(2, 13))
+            .x_label_formatter(&|x| {
+                let i = x.round();
+                if (x - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < sizes.len() {
+                    format!("{}", sizes[i as usize])
+                } else {
+                    String::new()
+                }
+            })
+            .y_labels(if l.narrow { 6 } else { 11 })
+            .y_label_formatter(&|y| format!("{:.0} %", y * 100.0))
+            .draw()
+            .map_err(|e| err(&e))?;
+        for level in [0.8, 0.05] {
+            chart
+                .draw_series(DashedLineSeries::new([(-0.4, level), (last + 0.4, level)], 6, 4, grey.stroke_width(1)))
+                .map_err(|e| err(&e))?;
+        }
+        for (k, s) in series.iter().enumerate() {
+            let pts: Vec<_> = s
+                .points
+                .iter()
+                .filter(|p| p.1.is_finite() && p.2.is_finite() && p.3.is_finite())
+                .map(|p| (at(p.0), p.1, p.2, p.3))
+                .collect();
+            draw_band_line(&mut chart, s.name, PALETTE[k % PALETTE.len()], &pts)?;
+        }
+        Ok(pixel_rect(chart.plotting_area()))
+    })
 }
 
 /// Grouped bars: for each group (a legend entry), one bar per category.
 pub fn bar_chart(
     path: &Path,
+    style: &FigureStyle,
     title: &str,
     y_label: &str,
     categories: &[String],
     groups: &[(String, Vec<f64>)],
-) -> Result<(), String> {
-    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let root = svg(path, (860, 480))?.into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let root = root.titled(title, ("sans-serif", 20)).map_err(|e| err(&e))?;
-    // The legend beside the chart: the axis ends at the data's range (1 for shares).
-    let (root, beside) = root.split_horizontally(700);
-    let max = groups.iter().flat_map(|g| g.1.iter().copied()).fold(1.0f64, f64::max);
-    let n = categories.len().max(1);
-    let top = if max <= 1.0 { 1.0 } else { max * 1.05 };
-    let mut chart = ChartBuilder::on(&root)
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d(0.0..n as f64, 0.0..top)
-        .map_err(|e| err(&e))?;
-    let cats = categories.to_vec();
-    chart
-        .configure_mesh()
-        .disable_x_mesh()
-        .light_line_style(TRANSPARENT)
-        .x_labels(n * 2 + 1)
-        .x_label_formatter(&|x| {
-            let k = x.floor() as usize;
-            if (x - k as f64 - 0.5).abs() < 0.01 { cats.get(k).cloned().unwrap_or_default() } else { String::new() }
-        })
-        .y_desc(y_label)
-        .y_label_formatter(&|y| tick_label(*y, top))
-        .draw()
-        .map_err(|e| err(&e))?;
-    let width = 0.8 / groups.len().max(1) as f64;
-    let mut entries = Vec::new();
-    for (gi, (name, values)) in groups.iter().enumerate() {
-        let colour = PALETTE[gi % PALETTE.len()];
-        chart
-            .draw_series(values.iter().enumerate().map(|(k, &v)| {
-                let x0 = k as f64 + 0.1 + gi as f64 * width;
-                Rectangle::new([(x0, 0.0), (x0 + width * 0.95, v)], colour.filled())
-            }))
+) -> Result<Drawn, String> {
+    let entries: Vec<(Mark, String)> =
+        groups.iter().enumerate().map(|(k, (name, _))| (Mark::Bar(PALETTE[k % PALETTE.len()]), name.clone())).collect();
+    chart_with_legend(path, style, title, &entries, |area, l| {
+        let err = |e: &dyn std::fmt::Display| e.to_string();
+        // The axis ends at the data's range (1 for shares).
+        let max = groups.iter().flat_map(|g| g.1.iter().copied()).fold(1.0f64, f64::max);
+        let n = categories.len().max(1);
+        let top = if max <= 1.0 { 1.0 } else { max * 1.05 };
+        let mut chart = chart_on(area, l, None, 0.0..n as f64, 0.0..top)?;
+        let cats = categories.to_vec();
+        mesh(&mut chart, l, "", y_label)
+            .disable_x_mesh()
+            .x_labels(n * 2 + 1)
+            .x_label_formatter(&|x| {
+                let k = x.floor() as usize;
+                if (x - k as f64 - 0.5).abs() < 0.01 { cats.get(k).cloned().unwrap_or_default() } else { String::new() }
+            })
+            .y_label_formatter(&|y| tick_label(*y, top))
+            .draw()
             .map_err(|e| err(&e))?;
-        entries.push((Mark::Bar(colour), name.clone()));
-    }
-    side_legend(&beside, &entries).map_err(|e| err(&e))?;
-    root.present().map_err(|e| err(&e))?;
-    Ok(())
+        let width = 0.8 / groups.len().max(1) as f64;
+        for (gi, (_, values)) in groups.iter().enumerate() {
+            let colour = PALETTE[gi % PALETTE.len()];
+            chart
+                .draw_series(values.iter().enumerate().map(|(k, &v)| {
+                    let x0 = k as f64 + 0.1 + gi as f64 * width;
+                    Rectangle::new([(x0, 0.0), (x0 + width * 0.95, v)], colour.filled())
+                }))
+                .map_err(|e| err(&e))?;
+        }
+        Ok(pixel_rect(chart.plotting_area()))
+    })
 }
 
 /// The pooled α evidence curve (relative to its maximum), the estimate and its interval.
@@ -478,85 +822,74 @@ pub struct PooledEvidence {
 /// the support threshold −`drop` dashed, and each protocol α as a vertical line.
 pub fn alpha_plot(
     path: &Path,
+    style: &FigureStyle,
     title: &str,
     sessions: &[Vec<(f64, f64)>],
     pooled: Option<&PooledEvidence>,
     protocol: &[f64],
     drop: f64,
-) -> Result<(), String> {
-    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    let root = svg(path, (960, 480))?.into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let root = root.titled(title, ("sans-serif", 17)).map_err(|e| err(&e))?;
-    // The legend beside the chart, so that the axis ends at the curves' maximum.
-    let (root, beside) = root.split_horizontally(700);
-    let mut entries = Vec::new();
-    let xs: Vec<f64> =
-        sessions.iter().flatten().chain(pooled.iter().flat_map(|p| &p.curve)).map(|p| p.0.log2()).collect();
-    let (x0, x1) =
-        (xs.iter().copied().fold(f64::INFINITY, f64::min), xs.iter().copied().fold(f64::NEG_INFINITY, f64::max));
-    let (x0, x1) = if x0 < x1 { (x0, x1) } else { (-2.0, 8.0) };
-    let floor = -4.0 * drop.max(1.0) - 2.0;
-    let clip = |pts: &[(f64, f64)]| -> Vec<(f64, f64)> {
-        pts.iter().filter(|(_, y)| *y >= floor).map(|(x, y)| (x.log2(), *y)).collect()
-    };
-    let top = 0.5;
-    let mut chart = ChartBuilder::on(&root)
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(70)
-        .build_cartesian_2d(x0..x1, floor..top)
-        .map_err(|e| err(&e))?;
-    chart
-        .configure_mesh()
-        .light_line_style(TRANSPARENT)
-        .x_desc("α (log scale)")
-        .y_desc("log evidence − its maximum")
-        .y_label_formatter(&|y| tick_label(*y, 0.5 - floor))
-        .x_labels((x1 - x0).round() as usize + 1)
-        .x_label_formatter(&|x| {
-            let a = 2f64.powf(*x);
-            if a < 1.0 { format!("{a:.2}") } else { format!("{a:.0}") }
-        })
-        .draw()
-        .map_err(|e| err(&e))?;
+) -> Result<Drawn, String> {
     let grey = RGBColor(150, 150, 150);
-    if let Some(p) = pooled {
-        let (l, h) = (p.low.log2(), p.high.log2());
-        chart
-            .draw_series(std::iter::once(Rectangle::new([(l, floor), (h, 0.0)], PALETTE[0].mix(0.12).filled())))
-            .map_err(|e| err(&e))?;
-    }
     // One session: its curve is the bold one, named for what it is.
     let single = sessions.len() == 1;
-    for s in sessions.iter().filter(|_| !single) {
-        chart.draw_series(LineSeries::new(clip(s), grey.mix(0.6).stroke_width(1))).map_err(|e| err(&e))?;
-    }
+    let mut entries = Vec::new();
     if !single && !sessions.is_empty() {
         entries.push((Mark::Line(grey), "one session".to_string()));
     }
-    let dashes: Vec<(f64, f64)> = (0..=60).map(|k| x0 + (x1 - x0) * k as f64 / 60.0).map(|x| (x, -drop)).collect();
-    chart
-        .draw_series(dashes.chunks(2).map(|c| PathElement::new(c.to_vec(), BLACK.stroke_width(1))))
-        .map_err(|e| err(&e))?;
     entries.push((Mark::Dashed(BLACK), format!("−{drop:.2}: 95 % support")));
     if let Some(p) = pooled {
-        chart.draw_series(LineSeries::new(clip(&p.curve), PALETTE[0].stroke_width(3))).map_err(|e| err(&e))?;
         let name = if single { "this session" } else { "pooled" };
         entries.push((Mark::Line(PALETTE[0]), format!("{name}: α = {:.2} (shaded: interval)", p.alpha)));
     }
-    for (k, a) in protocol.iter().enumerate() {
-        let x = a.log2();
-        chart
-            .draw_series(std::iter::once(PathElement::new(vec![(x, floor), (x, 0.3)], PALETTE[1].stroke_width(2))))
-            .map_err(|e| err(&e))?;
-        if k == 0 {
-            entries.push((Mark::Line(PALETTE[1]), format!("protocol α = {a}")));
-        }
+    if let Some(a) = protocol.first() {
+        entries.push((Mark::Line(PALETTE[1]), format!("protocol α = {a}")));
     }
-    side_legend(&beside, &entries).map_err(|e| err(&e))?;
-    root.present().map_err(|e| err(&e))?;
-    Ok(())
+    chart_with_legend(path, style, title, &entries, |area, l| {
+        let err = |e: &dyn std::fmt::Display| e.to_string();
+        let xs: Vec<f64> =
+            sessions.iter().flatten().chain(pooled.iter().flat_map(|p| &p.curve)).map(|p| p.0.log2()).collect();
+        let (x0, x1) =
+            (xs.iter().copied().fold(f64::INFINITY, f64::min), xs.iter().copied().fold(f64::NEG_INFINITY, f64::max));
+        let (x0, x1) = if x0 < x1 { (x0, x1) } else { (-2.0, 8.0) };
+        let floor = -4.0 * drop.max(1.0) - 2.0;
+        // A curve is drawn where it is above the axis' floor.
+        let clip = |pts: &[(f64, f64)]| -> Vec<(f64, f64)> {
+            pts.iter().filter(|(_, y)| *y >= floor).map(|(x, y)| (x.log2(), *y)).collect()
+        };
+        let top = 0.5;
+        let mut chart = chart_on(area, l, None, x0..x1, floor..top)?;
+        mesh(&mut chart, l, "α (log scale)", "log evidence − its maximum")
+            .y_label_formatter(&|y| tick_label(*y, 0.5 - floor))
+            .x_labels(((x1 - x0).round() as usize + 1).min(if l.narrow { 6 } else { 12 }))
+            .x_label_formatter(&|x| {
+                let a = 2f64.powf(*x);
+                if a < 1.0 { format!("{a:.2}") } else { format!("{a:.0}") }
+            })
+            .draw()
+            .map_err(|e| err(&e))?;
+        if let Some(p) = pooled {
+            let (lo, hi) = (p.low.log2().max(x0), p.high.log2().min(x1));
+            chart
+                .draw_series(std::iter::once(Rectangle::new([(lo, floor), (hi, 0.0)], PALETTE[0].mix(0.12).filled())))
+                .map_err(|e| err(&e))?;
+        }
+        for s in sessions.iter().filter(|_| !single) {
+            chart.draw_series(LineSeries::new(clip(s), grey.mix(0.6).stroke_width(1))).map_err(|e| err(&e))?;
+        }
+        let dashes: Vec<(f64, f64)> = (0..=60).map(|k| x0 + (x1 - x0) * k as f64 / 60.0).map(|x| (x, -drop)).collect();
+        chart
+            .draw_series(dashes.chunks(2).map(|c| PathElement::new(c.to_vec(), BLACK.stroke_width(1))))
+            .map_err(|e| err(&e))?;
+        if let Some(p) = pooled {
+            chart.draw_series(LineSeries::new(clip(&p.curve), PALETTE[0].stroke_width(3))).map_err(|e| err(&e))?;
+        }
+        for a in protocol.iter().map(|a| a.log2()).filter(|x| (x0..=x1).contains(x)) {
+            chart
+                .draw_series(std::iter::once(PathElement::new(vec![(a, floor), (a, 0.3)], PALETTE[1].stroke_width(2))))
+                .map_err(|e| err(&e))?;
+        }
+        Ok(pixel_rect(chart.plotting_area()))
+    })
 }
 
 /// (x, y, label) points of one line.
@@ -574,84 +907,92 @@ pub struct FrontPanel {
 }
 
 /// The comfort–accuracy front: per panel, gain against cost ratio for each line, active
-/// and passive marked, the random mix of the two as a dashed line, the target shaded.
-pub fn front_plot(path: &Path, title: &str, panels: &[FrontPanel]) -> Result<(), String> {
-    let cols = panels.len().clamp(1, 2);
-    let rows = panels.len().div_ceil(cols).max(1);
-    let root = svg(path, (520 * cols as u32, 420 * rows as u32 + 40))?.into_drawing_area();
-    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let root = root.titled(title, ("sans-serif", 20)).map_err(|e| err(&e))?;
-    for (panel, area) in panels.iter().zip(root.split_evenly((rows, cols))) {
-        let xs = panel.lines.iter().flat_map(|l| l.1.iter().map(|p| p.0)).chain(panel.active.map(|a| a.0));
-        let x_max = xs.fold(1.5f64, f64::max) * 1.08;
-        let ys: Vec<f64> = panel.lines.iter().flat_map(|l| l.1.iter().map(|p| p.1)).collect();
-        let y_min = ys.iter().copied().fold(-0.1f64, f64::min) - 0.05;
-        let y_max = ys.iter().copied().fold(1.1f64, f64::max) + 0.05;
-        // Room above the points for the legend (the lines, the target, the mix, active, passive).
-        let y_max = y_max + (y_max - y_min) * legend_headroom(panel.lines.len() + 4);
-        let mut chart = ChartBuilder::on(&area)
-            .caption(&panel.title, ("sans-serif", 15))
-            .margin(10)
-            .x_label_area_size(40)
-            .y_label_area_size(55)
-            .build_cartesian_2d(0.8..x_max, y_min..y_max)
-            .map_err(|e| err(&e))?;
-        chart
-            .configure_mesh()
-            .x_desc("true cost / passive's")
-            .y_desc("fraction of active's gain")
-            .y_label_formatter(&|y| format!("{:.0} %", 100.0 * y))
-            .draw()
-            .map_err(|e| err(&e))?;
-        let (tx, ty) = panel.target;
-        chart
-            .draw_series(std::iter::once(Rectangle::new([(0.8, ty), (tx, y_max)], PALETTE[2].mix(0.15).filled())))
-            .map_err(|e| err(&e))?
-            .label(format!("target: ≥ {:.0} % at ≤ {tx} ×", 100.0 * ty))
-            .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], PALETTE[2].mix(0.3).filled()));
-        if let (Some(a), Some(p)) = (panel.active, panel.passive) {
-            let dashes: Vec<(f64, f64)> =
-                (0..=40).map(|k| k as f64 / 40.0).map(|t| (p.0 + t * (a.0 - p.0), p.1 + t * (a.1 - p.1))).collect();
-            chart
-                .draw_series(dashes.chunks(2).map(|c| PathElement::new(c.to_vec(), BLACK.stroke_width(1))))
-                .map_err(|e| err(&e))?
-                .label("random mix of passive and active")
-                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 6, y)], BLACK.stroke_width(1)));
+/// and passive marked, the random mix of the two as a dashed line, the target shaded. The
+/// panels share their axes and one legend, under them.
+pub fn front_plot(path: &Path, style: &FigureStyle, title: &str, panels: &[FrontPanel]) -> Result<Drawn, String> {
+    let l = style.layout();
+    let (cols, rows, ph) = l.grid(panels.len(), panels.len(), 0.75, 240.0..=420.0);
+    let lines = Layout::wrap(title, l.width, l.title);
+    // One x and one y range over every panel.
+    let xs =
+        panels.iter().flat_map(|p| p.lines.iter().flat_map(|l| l.1.iter().map(|p| p.0)).chain(p.active.map(|a| a.0)));
+    let x_max = xs.fold(1.5f64, f64::max) * 1.08;
+    let ys: Vec<f64> = panels.iter().flat_map(|p| p.lines.iter().flat_map(|l| l.1.iter().map(|p| p.1))).collect();
+    let y_min = ys.iter().copied().fold(-0.1f64, f64::min) - 0.05;
+    let y_max = ys.iter().copied().fold(1.1f64, f64::max) + 0.05;
+    let (active, passive) = (PALETTE[3], PALETTE[4]);
+    let mut entries = Vec::new();
+    if let Some(p) = panels.first() {
+        let (tx, ty) = p.target;
+        entries.push((
+            Mark::Band(PALETTE[2]),
+            format!("target: ≥ {:.0} % of active's gain at ≤ {tx} × passive's cost", 100.0 * ty),
+        ));
+        entries.push((Mark::Dashed(BLACK), "random mix of passive and active".to_string()));
+        for (k, (name, _)) in p.lines.iter().enumerate() {
+            entries.push((Mark::Line(PALETTE[k % 2]), format!("{name}, each point labelled with its value")));
         }
-        for (k, (name, pts)) in panel.lines.iter().enumerate() {
-            let colour = PALETTE[k % 2];
-            chart
-                .draw_series(LineSeries::new(pts.iter().map(|p| (p.0, p.1)), colour.stroke_width(2)))
-                .map_err(|e| err(&e))?
-                .label(name.as_str())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2)));
-            chart.draw_series(pts.iter().map(|p| Circle::new((p.0, p.1), 3, colour.filled()))).map_err(|e| err(&e))?;
-            chart
-                .draw_series(
-                    pts.iter()
-                        .map(|p| Text::new(p.2.clone(), (p.0, p.1), ("sans-serif", 11).into_font().color(&colour))),
-                )
-                .map_err(|e| err(&e))?;
-        }
-        for (name, point, colour) in [("active", panel.active, PALETTE[3]), ("passive", panel.passive, PALETTE[4])] {
-            if let Some(pt) = point {
-                chart
-                    .draw_series(std::iter::once(TriangleMarker::new(pt, 7, colour.filled())))
-                    .map_err(|e| err(&e))?
-                    .label(name)
-                    .legend(move |(x, y)| TriangleMarker::new((x + 6, y), 5, colour.filled()));
-            }
-        }
-        legend(&mut chart, SeriesLabelPosition::UpperRight).map_err(|e| err(&e))?;
+        entries.push((Mark::Triangle(active), "active".to_string()));
+        entries.push((Mark::Triangle(passive), "passive".to_string()));
     }
-    root.present().map_err(|e| err(&e))?;
-    Ok(())
+    let legend_h = legend_block_height(&entries, l.width, &l);
+    figure(path, style, (l.width, l.title_height(lines.len()) + ph * rows as u32 + legend_h), |root| {
+        let err = |e: &dyn std::fmt::Display| e.to_string();
+        let body = title_block(root, &lines, &l)?;
+        let (charts, under) = body.split_vertically(ph * rows as u32);
+        let mut drawn = Drawn::default();
+        for (panel, area) in panels.iter().zip(charts.split_evenly((rows, cols))) {
+            let mut chart = chart_on(&area, &l, Some(&panel.title), 0.8..x_max, y_min..y_max)?;
+            mesh(&mut chart, &l, "true cost / passive's", "fraction of active's gain")
+                .y_labels(if l.narrow { 6 } else { 8 })
+                .y_label_formatter(&|y| format!("{:.0} %", 100.0 * y))
+                .draw()
+                .map_err(|e| err(&e))?;
+            let (tx, ty) = panel.target;
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(0.8, ty.clamp(y_min, y_max)), (tx.min(x_max), y_max)],
+                    PALETTE[2].mix(0.15).filled(),
+                )))
+                .map_err(|e| err(&e))?;
+            if let (Some(a), Some(p)) = (panel.active, panel.passive) {
+                let dashes: Vec<(f64, f64)> =
+                    (0..=40).map(|k| k as f64 / 40.0).map(|t| (p.0 + t * (a.0 - p.0), p.1 + t * (a.1 - p.1))).collect();
+                chart
+                    .draw_series(dashes.chunks(2).map(|c| PathElement::new(c.to_vec(), BLACK.stroke_width(1))))
+                    .map_err(|e| err(&e))?;
+            }
+            for (k, (_, pts)) in panel.lines.iter().enumerate() {
+                let colour = PALETTE[k % 2];
+                chart
+                    .draw_series(LineSeries::new(pts.iter().map(|p| (p.0, p.1)), colour.stroke_width(2)))
+                    .map_err(|e| err(&e))?;
+                chart
+                    .draw_series(pts.iter().map(|p| Circle::new((p.0, p.1), 3, colour.filled())))
+                    .map_err(|e| err(&e))?;
+                chart
+                    .draw_series(
+                        pts.iter().map(|p| Text::new(p.2.clone(), (p.0, p.1), sans(l.tick).into_font().color(&colour))),
+                    )
+                    .map_err(|e| err(&e))?;
+            }
+            for (point, colour) in [(panel.active, active), (panel.passive, passive)] {
+                if let Some(pt) = point {
+                    chart
+                        .draw_series(std::iter::once(TriangleMarker::new(pt, 7, colour.filled())))
+                        .map_err(|e| err(&e))?;
+                }
+            }
+            drawn.axes.push(pixel_rect(chart.plotting_area()));
+        }
+        drawn.legend = Some(legend_block(&under, &entries, &Layout { narrow: true, ..l })?);
+        Ok(drawn)
+    })
 }
 
 #[cfg(test)]
 mod tests {
-    use super::tick_label;
+    use super::{tick_label, with_resolution};
 
     #[test]
     fn tick_labels_carry_the_decimals_their_spacing_needs() {
@@ -660,5 +1001,19 @@ mod tests {
         assert_eq!(tick_label(1.5, 5.0), "1.5");
         assert_eq!(tick_label(0.25, 0.5), "0.25");
         assert_eq!(tick_label(-0.0001, 10.0), "0");
+    }
+
+    #[test]
+    fn the_png_resolution_chunk_follows_the_header() {
+        let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+        png.extend([0u8; 25]);
+        png.extend(b"rest");
+        let out = with_resolution(png, 300.0);
+        assert_eq!(&out[33..37], &9u32.to_be_bytes());
+        assert_eq!(&out[37..41], b"pHYs");
+        // 300 dpi is 11811 pixels a metre.
+        assert_eq!(&out[41..45], &11811u32.to_be_bytes());
+        assert_eq!(out[49], 1);
+        assert!(out.ends_with(b"rest"));
     }
 }

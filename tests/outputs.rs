@@ -358,7 +358,22 @@ fn every_csv_matches_the_data_dictionary() {
         ]
         .concat(),
     );
-    handover(&["plan", "--participants", "2,3", "--studies", "2", "--out", &s(&dir.join("plan"))]);
+    handover(&[
+        "plan",
+        "--participants",
+        "2,3",
+        "--studies",
+        "2",
+        "--out",
+        &s(&dir.join("plan")),
+        "--figure-formats",
+        "svg,pdf,png",
+        "--figure-width",
+        "one-column",
+    ]);
+    for format in ["svg", "pdf", "png"] {
+        assert!(dir.join("plan").join(format!("power.{format}")).is_file(), "power.{format}");
+    }
     handover(&["feasible", "--query", "lock-low-upright", "--plot", &s(&dir.join("feasible"))]);
     // Under umask 000, every file written is still 0600 and every folder 0700.
     let mut modes = 0;

@@ -9,7 +9,7 @@ use handover::analysis::{
     StudySummary, alpha_summary, analyse_and_verify, most_complete, summarise, write_tables,
 };
 use handover::participant::has_withdrawn;
-use handover::plot::{LinePlot, PooledEvidence, Series, alpha_plot, bar_chart, mean_se_plot};
+use handover::plot::{FigureStyle, LinePlot, PooledEvidence, Series, alpha_plot, bar_chart, mean_se_plot};
 use handover::record::{LOG_FORMAT, LogContents, Topic, mcap_files, read_log, study_of};
 use handover::session::program_letter;
 use handover::study_dir::StudyDirs;
@@ -17,6 +17,7 @@ use serde::Serialize;
 
 use super::analyze_measured::{MeasuredArgs, RefitReport};
 use super::analyze_report::{table, table1_markdown};
+use super::figures::FigureArgs;
 use super::input::bad;
 
 /// Analyse session logs: per session the order, the queries each condition chose, the
@@ -59,6 +60,8 @@ pub struct AnalyzeArgs {
     participants: Option<PathBuf>,
     #[command(flatten)]
     measured: MeasuredArgs,
+    #[command(flatten)]
+    figures: FigureArgs,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum, PartialEq)]
@@ -270,7 +273,8 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
             let (Some(summary), Some(alpha)) = (summary, alpha) else { continue };
             let d = if is_pilot { dir.join("pilot") } else { dir.clone() };
             let group: Vec<&Analysed> = analysed.iter().filter(|a| a.log.start.pilot == is_pilot).collect();
-            write_outputs(&d, &group, summary, alpha).with_context(|| format!("cannot write into {}", d.display()))?;
+            write_outputs(&d, &args.figures.style(), &group, summary, alpha)
+                .with_context(|| format!("cannot write into {}", d.display()))?;
             errln!("wrote {}", d.display());
         }
     }
@@ -364,7 +368,13 @@ fn json_session(a: &Analysed) -> JsonSession<'_> {
 }
 
 /// "4.7 [3.2, 6.9]", with open ends as "≤ 0.25" / "≥ 256".
-fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &AlphaSummary) -> Result<()> {
+fn write_outputs(
+    dir: &Path,
+    style: &FigureStyle,
+    group: &[&Analysed],
+    s: &StudySummary,
+    alpha: &AlphaSummary,
+) -> Result<()> {
     handover::private_files::create_dir(dir)?;
     write_tables(dir, group, s, alpha)?;
     let conditions: Vec<String> = s.distinct_q_star.keys().cloned().collect();
@@ -406,7 +416,7 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &Alph
             floor: None,
             series,
         };
-        mean_se_plot(&dir.join(file), &plot).map_err(anyhow::Error::msg)?;
+        mean_se_plot(&dir.join(file), style, &plot).map_err(anyhow::Error::msg)?;
     }
     let objects: Vec<String> = {
         let mut v: Vec<String> = s.objects.values().flat_map(|m| m.keys().cloned()).collect();
@@ -430,16 +440,16 @@ fn write_outputs(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &Alph
         if s.sessions == 1 { "" } else { "s" }
     );
     let y_label = "share of the condition's training offers";
-    bar_chart(&dir.join("objects.svg"), &title, y_label, &objects, &groups).map_err(anyhow::Error::msg)?;
+    bar_chart(&dir.join("objects.svg"), style, &title, y_label, &objects, &groups).map_err(anyhow::Error::msg)?;
     handover::private_files::write_output(
         &dir.join("table1.md"),
         format!("# Table I — {} sessions\n\n{}", s.sessions, table1_markdown(s)).as_bytes(),
     )?;
-    write_alpha_plot(dir, alpha, kind)
+    write_alpha_plot(dir, style, alpha, kind)
 }
 
 /// alpha.svg.
-fn write_alpha_plot(dir: &Path, a: &AlphaSummary, kind: &str) -> Result<()> {
+fn write_alpha_plot(dir: &Path, style: &FigureStyle, a: &AlphaSummary, kind: &str) -> Result<()> {
     let sessions: Vec<Vec<(f64, f64)>> = a.sessions.iter().filter_map(|s| s.fit.as_ref()).map(relative_curve).collect();
     let pooled = a.pooled.as_ref().map(|f| PooledEvidence {
         curve: relative_curve(f),
@@ -450,8 +460,9 @@ fn write_alpha_plot(dir: &Path, a: &AlphaSummary, kind: &str) -> Result<()> {
     let protocol: Vec<f64> = a.protocol_alphas.iter().map(|(x, _)| *x).collect();
     let n = a.sessions.len();
     let title = format!("α by maximum marginal likelihood — {n} {kind} session{}", if n == 1 { "" } else { "s" });
-    alpha_plot(&dir.join("alpha.svg"), &title, &sessions, pooled.as_ref(), &protocol, SUPPORT_DROP)
-        .map_err(anyhow::Error::msg)
+    alpha_plot(&dir.join("alpha.svg"), style, &title, &sessions, pooled.as_ref(), &protocol, SUPPORT_DROP)
+        .map_err(anyhow::Error::msg)?;
+    Ok(())
 }
 
 /// A fit's curve relative to its maximum.

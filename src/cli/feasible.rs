@@ -1,12 +1,13 @@
 //! `handover feasible`: the feasible sets of a protocol's queries, as JSON, CSV or plots.
 
+use super::figures::FigureArgs;
 use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use handover::kinematics::{HumanArm, JOINT_NAMES};
-use handover::plot::{PointGroup, ScatterPanel, scatter_grid};
+use handover::plot::{FigureStyle, PointGroup, ScatterPanel, scatter_grid};
 use handover::protocol::{ResolvedQuery, Study};
 use serde::Serialize;
 
@@ -31,6 +32,8 @@ pub struct FeasibleArgs {
     /// configuration space, coloured by region (as the paper's Fig. 5, 6 and 9).
     #[arg(long, value_name = "DIR")]
     plot: Option<PathBuf>,
+    #[command(flatten)]
+    figures: FigureArgs,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -157,8 +160,9 @@ pub fn run(args: FeasibleArgs) -> Result<()> {
         handover::private_files::create_dir(dir).with_context(|| format!("cannot create {}", dir.display()))?;
         for q in &queries {
             let path = dir.join(format!("{}.svg", q.query.id));
-            plot_query(&study, q, &path).map_err(anyhow::Error::msg)?;
-            errln!("wrote {}", path.display());
+            let style = args.figures.style();
+            plot_query(&study, q, &path, &style).map_err(anyhow::Error::msg)?;
+            errln!("wrote {}", dir.join(style.file_names(&q.query.id)).display());
         }
     }
     Ok(())
@@ -167,7 +171,7 @@ pub fn run(args: FeasibleArgs) -> Result<()> {
 /// Joint pairs drawn for each query (indices into the joint order).
 const PROJECTIONS: [(usize, usize); 4] = [(0, 1), (0, 2), (3, 4), (5, 6)];
 
-fn plot_query(study: &Study, q: &ResolvedQuery, path: &std::path::Path) -> Result<(), String> {
+fn plot_query(study: &Study, q: &ResolvedQuery, path: &std::path::Path, style: &FigureStyle) -> Result<(), String> {
     let object = study.object(q);
     let labels: Vec<String> = q.regions.iter().map(|&r| object.regions[r].label.clone()).collect();
     let axis: Vec<String> = JOINT_NAMES.iter().map(|n| format!("{} (deg)", n.replace('_', " "))).collect();
@@ -193,5 +197,5 @@ fn plot_query(study: &Study, q: &ResolvedQuery, path: &std::path::Path) -> Resul
         })
         .collect();
     let title = format!("{}: {} ({} configurations)", q.query.id, object.label, q.feasible.configs.len());
-    scatter_grid(path, &title, &panels, 2)
+    scatter_grid(path, style, &title, &panels, 2).map(drop)
 }

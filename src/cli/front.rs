@@ -1,5 +1,6 @@
 //! `handover front`: the comfort–accuracy front of the comfort-aware selectors.
 
+use super::figures::FigureArgs;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -37,6 +38,8 @@ pub struct FrontArgs {
     /// Output directory for front.csv and front.svg.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    #[command(flatten)]
+    figures: FigureArgs,
 }
 
 /// The cost ratio and gain the front is judged against (the target for q*).
@@ -113,8 +116,8 @@ pub fn run(a: FrontArgs) -> Result<()> {
             .collect();
         let title =
             format!("Comfort–accuracy front: {} seeds × {} trials, mean over seeds", a.sweep.seeds, a.sweep.trials);
-        front_plot(&dir.join("front.svg"), &title, &panels).map_err(anyhow::Error::msg)?;
-        errln!("wrote {}/front.csv and front.svg", dir.display());
+        front_plot(&dir.join("front.svg"), &a.figures.style(), &title, &panels).map_err(anyhow::Error::msg)?;
+        errln!("wrote {}/front.csv and {}", dir.display(), a.figures.style().file_names("front"));
     }
     Ok(())
 }

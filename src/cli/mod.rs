@@ -60,6 +60,7 @@ mod by_body;
 mod console;
 mod dry_run;
 mod feasible;
+mod figures;
 mod follow;
 mod front;
 mod input;

@@ -1,5 +1,6 @@
 //! `handover observations`: what measuring the arm buys over the region taken.
 
+use super::figures::FigureArgs;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -41,6 +42,8 @@ pub struct ObservationsArgs {
     /// Output directory for observations.csv and observations.svg.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    #[command(flatten)]
+    figures: FigureArgs,
 }
 
 pub fn run(a: ObservationsArgs) -> Result<()> {
@@ -131,10 +134,12 @@ pub fn run(a: ObservationsArgs) -> Result<()> {
             "Learning from the region, the configuration, or the arm measured with noise σ: {} seeds × {} trials, learning {}",
             sw.seeds, sw.trials, a.learn
         );
-        // Its panels hold two measures: each keeps its own y axis.
-        line_grid(&dir.join("observations.svg"), &title, &plots, algorithms.len(), false)
+        // The panels of one scenario and measure (a row: one per algorithm) share a y axis.
+        let groups: Vec<usize> = (0..plots.len()).map(|k| k / algorithms.len()).collect();
+        let style = a.figures.style();
+        line_grid(&dir.join("observations.svg"), &style, &title, &plots, algorithms.len(), Some(&groups))
             .map_err(anyhow::Error::msg)?;
-        errln!("wrote {}/observations.csv and observations.svg", dir.display());
+        errln!("wrote {}/observations.csv and {}", dir.display(), style.file_names("observations"));
     }
     Ok(())
 }

@@ -1,6 +1,7 @@
 //! `handover plan`: the power of a protocol's study at several sizes, from whole simulated
 //! studies (`src/plan.rs`).
 
+use super::figures::FigureArgs;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -76,6 +77,8 @@ pub struct PlanArgs {
     /// --shard) into exactly what the whole run writes to --out, without running anything.
     #[arg(long, value_name = "DIR", num_args = 1.., conflicts_with = "shard")]
     merge: Vec<PathBuf>,
+    #[command(flatten)]
+    figures: FigureArgs,
 }
 
 /// The checked sizes (each 2 to [`MAX_PARTICIPANTS`], no repeats, the work within budget):
@@ -175,7 +178,11 @@ pub fn run(args: PlanArgs) -> Result<()> {
         write_csv(&dir.join("power.csv"), &powers)?;
         write_csv(&dir.join("objects.csv"), &shares)?;
         plot(&dir.join("power.svg"), &study, &args, &powers)?;
-        errln!("wrote {}/{{studies,study_objects,power,objects}}.csv and power.svg", dir.display());
+        errln!(
+            "wrote {}/{{studies,study_objects,power,objects}}.csv and {}",
+            dir.display(),
+            args.figures.style().file_names("power")
+        );
     }
     Ok(())
 }
@@ -389,5 +396,6 @@ fn plot(path: &Path, study: &Study, args: &PlanArgs, powers: &[PowerRow]) -> Res
         "Power of {} over {} simulated studies per size (two-sided Wilcoxon, p < {SIGNIFICANCE})",
         study.protocol.name, args.studies
     );
-    power_plot(path, &title, "95 % Wilson interval", &series).map_err(anyhow::Error::msg)
+    power_plot(path, &args.figures.style(), &title, "95 % Wilson interval", &series).map_err(anyhow::Error::msg)?;
+    Ok(())
 }

@@ -1,5 +1,6 @@
 //! `handover simulate`: the paper's simulation studies (sections V and VI, Fig. 2–4 and 8).
 
+use super::figures::FigureArgs;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -101,6 +102,8 @@ pub struct SimulateArgs {
     /// --shard) into exactly what the whole run writes to --out, without running anything.
     #[arg(long, value_name = "DIR", num_args = 1.., conflicts_with = "shard")]
     merge: Vec<PathBuf>,
+    #[command(flatten)]
+    figures: FigureArgs,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum, PartialEq)]
@@ -315,7 +318,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
             let x_label = "iteration (queries answered)";
             if series.len() <= 2 {
                 let plot = LinePlot { title: &title, x_label, y_label: label, band, floor, series };
-                mean_se_plot(&path, &plot).map_err(anyhow::Error::msg)?;
+                mean_se_plot(&path, &args.figures.style(), &plot).map_err(anyhow::Error::msg)?;
                 continue;
             }
             // More bands than one axis can show apart: small multiples, each algorithm beside
@@ -337,9 +340,14 @@ pub fn run(args: SimulateArgs) -> Result<()> {
                     ],
                 })
                 .collect();
-            line_grid(&path, &title, &plots, 2, true).map_err(anyhow::Error::msg)?;
+            line_grid(&path, &args.figures.style(), &title, &plots, 2, Some(&vec![0; plots.len()]))
+                .map_err(anyhow::Error::msg)?;
         }
-        errln!("wrote {}/{{metrics,summary,tests}}.csv and one SVG per measure", dir.display());
+        errln!(
+            "wrote {}/{{metrics,summary,tests}}.csv and {} per measure",
+            dir.display(),
+            args.figures.style().file_names("MEASURE")
+        );
     }
     Ok(())
 }

@@ -1,0 +1,360 @@
+//! Every kind of figure, drawn at both widths from data that tempts it out of its axes
+//! (bands below the least value, curves far under the support threshold, an interval wider
+//! than the α grid), read back from its SVG and rendered to pixels: the axes where the
+//! drawing says, the labels and legend entries present, every data mark inside the axes, the
+//! plotting areas not empty in the PNG, and a PDF with its fonts embedded.
+
+use std::path::{Path, PathBuf};
+
+use handover::plot::{
+    Drawn, FigureFormat, FigureStyle, FigureWidth, FrontPanel, LinePlot, PALETTE, PixelRect, PointGroup,
+    PooledEvidence, PowerSeries, ScatterPanel, Series, alpha_plot, bar_chart, front_plot, line_grid, mean_se_plot, png,
+    power_plot, scatter_grid,
+};
+
+/// One element of the SVG: its name and attributes, and its text for `<text>`.
+struct Element {
+    name: String,
+    attrs: Vec<(String, String)>,
+    text: String,
+}
+
+impl Element {
+    fn attr(&self, key: &str) -> Option<&str> {
+        self.attrs.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str())
+    }
+
+    fn num(&self, key: &str) -> f64 {
+        self.attr(key).and_then(|v| v.parse().ok()).unwrap_or_else(|| panic!("<{}> without {key}", self.name))
+    }
+
+    /// Its colour (fill, else stroke) when it is one of the palette's.
+    fn palette_colour(&self) -> Option<String> {
+        let colours: Vec<String> = PALETTE.iter().map(|c| format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2)).collect();
+        [self.attr("fill"), self.attr("stroke")]
+            .into_iter()
+            .flatten()
+            .find(|c| colours.iter().any(|p| p == c))
+            .map(String::from)
+    }
+
+    /// The points it covers (a circle's extreme points).
+    fn points(&self) -> Vec<(f64, f64)> {
+        match self.name.as_str() {
+            "circle" => {
+                let (x, y, r) = (self.num("cx"), self.num("cy"), self.num("r"));
+                vec![(x - r, y - r), (x + r, y + r)]
+            }
+            "rect" => {
+                let (x, y) = (self.num("x"), self.num("y"));
+                vec![(x, y), (x + self.num("width"), y + self.num("height"))]
+            }
+            "polyline" | "polygon" => self
+                .attr("points")
+                .unwrap_or_default()
+                .split_whitespace()
+                .map(|p| {
+                    let (x, y) = p.split_once(',').unwrap();
+                    (x.parse().unwrap(), y.parse().unwrap())
+                })
+                .collect(),
+            _ => Vec::new(),
+        }
+    }
+}
+
+/// The elements of an SVG as plotters writes it (one element a line, a text's content on
+/// the lines up to its end tag).
+fn elements(svg: &str) -> Vec<Element> {
+    let mut out = Vec::new();
+    let mut lines = svg.lines();
+    while let Some(line) = lines.next() {
+        let Some(rest) = line.trim().strip_prefix('<') else { continue };
+        if rest.starts_with('/') || rest.starts_with('?') {
+            continue;
+        }
+        let name: String = rest.chars().take_while(|c| c.is_ascii_alphabetic()).collect();
+        let mut attrs = Vec::new();
+        let mut s = &rest[name.len()..];
+        while let Some(eq) = s.find("=\"") {
+            let key = s[..eq].trim().to_string();
+            let end = s[eq + 2..].find('"').unwrap() + eq + 2;
+            attrs.push((key, s[eq + 2..end].to_string()));
+            s = &s[end + 1..];
+        }
+        let mut text = String::new();
+        if name == "text" {
+            for l in lines.by_ref() {
+                if l.trim() == "</text>" {
+                    break;
+                }
+                text.push_str(l.trim());
+                text.push(' ');
+            }
+        }
+        out.push(Element { name, attrs, text: text.trim().replace("&apos;", "'").replace("&amp;", "&") });
+    }
+    out
+}
+
+fn inside(p: (f64, f64), r: PixelRect, slack: f64) -> bool {
+    p.0 >= r.0 as f64 - slack && p.0 <= r.2 as f64 + slack && p.1 >= r.1 as f64 - slack && p.1 <= r.3 as f64 + slack
+}
+
+/// Checks one drawn figure: axes, words, marks inside, pixels, formats.
+fn check(kind: &str, path: &Path, drawn: &Drawn, words: &[&str]) {
+    let svg = std::fs::read_to_string(path).unwrap();
+    let els = elements(&svg);
+    assert!(!drawn.axes.is_empty(), "{kind}: no axes");
+    // The axes plotters drew (black lines along the plotting area's left and bottom edges)
+    // are where the drawing says.
+    let black: Vec<Vec<(f64, f64)>> = els
+        .iter()
+        .filter(|e| e.name == "polyline" && e.attr("stroke") == Some("#000000"))
+        .map(Element::points)
+        .collect();
+    for r in &drawn.axes {
+        let near = |a: f64, b: i32| (a - b as f64).abs() <= 2.0;
+        let y_axis = black
+            .iter()
+            .any(|p| p.len() == 2 && near(p[0].0, r.0) && near(p[1].0, r.0) && near(p[0].1, r.1) && near(p[1].1, r.3));
+        let x_axis = black
+            .iter()
+            .any(|p| p.len() == 2 && near(p[0].1, r.3) && near(p[1].1, r.3) && near(p[0].0, r.0) && near(p[1].0, r.2));
+        assert!(y_axis && x_axis, "{kind}: no axis lines along {r:?}");
+        assert!(r.2 - r.0 > 100 && r.3 - r.1 > 80, "{kind}: a plotting area of {r:?}");
+    }
+    // Every label and legend entry asked for is written.
+    let text: String = els.iter().filter(|e| e.name == "text").map(|e| e.text.as_str()).collect::<Vec<_>>().join(" ");
+    for w in words {
+        assert!(text.contains(w), "{kind}: no {w:?} in {text:?}");
+    }
+    // Every mark in a data colour lies inside a plotting area or in the legend.
+    let mut marks = 0;
+    for e in els.iter().filter(|e| e.palette_colour().is_some()) {
+        let pts = e.points();
+        let ok = drawn.axes.iter().any(|r| pts.iter().all(|p| inside(*p, *r, 1.5)))
+            || drawn.legend.is_some_and(|r| pts.iter().all(|p| inside(*p, r, 1.5)));
+        assert!(
+            ok,
+            "{kind}: a <{}> at {pts:?} outside the axes {:?} and the legend {:?}",
+            e.name, drawn.axes, drawn.legend
+        );
+        marks += 1;
+    }
+    assert!(marks >= 3, "{kind}: {marks} data marks");
+    // Rendered (the PNG's pixels at 96 dpi, one a pixel): each plotting area shows data
+    // colours, and the tick labels left of it are drawn (fonts found).
+    let (bytes, pixmap) = png(&svg, 96.0).unwrap();
+    assert!(bytes.starts_with(b"\x89PNG"));
+    let pixel = |x: i32, y: i32| pixmap.pixel(x as u32, y as u32).map(|p| (p.red(), p.green(), p.blue()));
+    for r in &drawn.axes {
+        let coloured = (r.0..r.2)
+            .flat_map(|x| (r.1..r.3).map(move |y| (x, y)))
+            .filter_map(|(x, y)| pixel(x, y))
+            .filter(|&(r, g, b)| r.max(g).max(b) - r.min(g).min(b) > 40)
+            .count();
+        assert!(coloured > 50, "{kind}: {coloured} coloured pixels in {r:?}");
+        let dark = ((r.0 - 40).max(0)..r.0 - 6)
+            .flat_map(|x| (r.1..r.3).map(move |y| (x, y)))
+            .filter_map(|(x, y)| pixel(x, y))
+            .filter(|&(r, g, b)| r.max(g).max(b) < 100)
+            .count();
+        assert!(dark > 30, "{kind}: no tick labels drawn left of {r:?} ({dark} dark pixels)");
+    }
+}
+
+fn dir() -> PathBuf {
+    let d = std::env::temp_dir().join(format!("handover-figures-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn styles() -> [(FigureStyle, &'static str); 2] {
+    let svg = vec![FigureFormat::Svg];
+    [
+        (FigureStyle { width: FigureWidth::TwoColumn, formats: svg.clone() }, "two"),
+        (FigureStyle { width: FigureWidth::OneColumn, formats: svg }, "one"),
+    ]
+}
+
+/// Means near zero with wide bands: cut at the floor.
+fn series(name: &str, shift: f64) -> Series<'_> {
+    Series { name, points: (0..8).map(|i| (i as f64, shift + 2.0 / (1.0 + i as f64), 1.5)).collect() }
+}
+
+#[test]
+fn line_plots_keep_their_bands_and_legends_inside_the_axes() {
+    let d = dir();
+    for (style, w) in styles() {
+        let plot = LinePlot {
+            title: "distance to truth — a title long enough to wrap onto a second line at one column",
+            x_label: "iteration",
+            y_label: "distance (rad)",
+            band: "95 % CI over seeds",
+            floor: Some(0.0),
+            series: vec![series("active", 0.0), series("passive", 0.3)],
+        };
+        let path = d.join(format!("line-{w}.svg"));
+        let drawn = mean_se_plot(&path, &style, &plot).unwrap();
+        check(
+            "mean_se_plot",
+            &path,
+            &drawn,
+            &["iteration", "distance (rad)", "active", "passive", "cut at 0", "title long"],
+        );
+        assert_eq!(drawn.axes.len(), 1);
+        let plots: Vec<LinePlot> = (0..3)
+            .map(|k| LinePlot {
+                title: ["first panel", "second panel", "third panel"][k],
+                x_label: "queries",
+                y_label: "log-likelihood",
+                band: "95 % interval over seeds",
+                floor: None,
+                series: vec![series("region", -5.0 * k as f64), series("measured σ = 5°", 1.0)],
+            })
+            .collect();
+        let path = d.join(format!("grid-{w}.svg"));
+        let drawn = line_grid(&path, &style, "Small multiples", &plots, 3, Some(&[0, 0, 1])).unwrap();
+        check(
+            "line_grid",
+            &path,
+            &drawn,
+            &["third panel", "queries", "log-likelihood", "measured σ = 5°", "Small multiples"],
+        );
+        assert_eq!(drawn.axes.len(), 3);
+        // Two columns at most side by side (one at one column), however many asked for.
+        let columns = drawn.axes.iter().map(|r| r.0).collect::<std::collections::BTreeSet<_>>().len();
+        assert_eq!(columns, if w == "two" { 2 } else { 1 });
+    }
+}
+
+#[test]
+fn charts_with_their_legend_beside_or_under_them() {
+    let d = dir();
+    for (style, w) in styles() {
+        let series = [
+            PowerSeries {
+                name: "test log-likelihood",
+                points: vec![(8.0, 0.2, 0.05, 0.5), (16.0, 0.6, 0.4, 0.8), (32.0, 0.95, 0.85, 1.0)],
+            },
+            PowerSeries {
+                name: "distance",
+                points: vec![(8.0, 0.0, 0.0, 0.3), (16.0, 0.1, 0.0, 0.4), (32.0, 1.0, 0.9, 1.0)],
+            },
+        ];
+        let path = d.join(format!("power-{w}.svg"));
+        let drawn = power_plot(&path, &style, "Power of a protocol", "95 % Wilson interval", &series).unwrap();
+        check("power_plot", &path, &drawn, &["participants in the study", "80 %", "Wilson", "distance", "32"]);
+        let legend = drawn.legend.unwrap();
+        let axes = drawn.axes[0];
+        // Beside the chart at two columns, under it at one.
+        if w == "two" {
+            assert!(legend.0 >= axes.2, "{legend:?} {axes:?}")
+        } else {
+            assert!(legend.1 >= axes.3)
+        }
+
+        let groups = vec![("active".to_string(), vec![0.7, 0.3]), ("passive".to_string(), vec![0.4, 0.6])];
+        let path = d.join(format!("bars-{w}.svg"));
+        let drawn =
+            bar_chart(&path, &style, "Objects", "share of offers", &["handlebars".into(), "u-lock".into()], &groups)
+                .unwrap();
+        check("bar_chart", &path, &drawn, &["share of offers", "handlebars", "u-lock", "active", "passive"]);
+
+        // Curves down to −60 (under the axis' floor), an interval past both ends of the grid,
+        // a protocol α off the grid.
+        let curve = |c: f64| {
+            (0..40)
+                .map(|k| 2f64.powf(-2.0 + k as f64 * 0.25))
+                .map(|a| (a, -((a.ln() - c).powi(2)) * 6.0))
+                .collect::<Vec<_>>()
+        };
+        let sessions = vec![curve(0.5), curve(2.0), curve(3.0)];
+        let pooled = PooledEvidence { curve: curve(1.5), alpha: 4.5, low: 0.01, high: 1e4 };
+        let path = d.join(format!("alpha-{w}.svg"));
+        let drawn =
+            alpha_plot(&path, &style, "α by maximum marginal likelihood", &sessions, Some(&pooled), &[5.0, 1e6], 1.92)
+                .unwrap();
+        check(
+            "alpha_plot",
+            &path,
+            &drawn,
+            &["α (log scale)", "log evidence", "pooled", "one session", "protocol α = 5"],
+        );
+    }
+}
+
+#[test]
+fn scatter_and_front_panels_keep_their_points_inside() {
+    let d = dir();
+    for (style, w) in styles() {
+        let groups = |s: f64| {
+            vec![
+                PointGroup {
+                    name: "left grip",
+                    points: (0..50).map(|k| (k as f64, s * (k as f64).sin() * 40.0)).collect(),
+                },
+                PointGroup { name: "right grip", points: (0..50).map(|k| (-(k as f64), s * 30.0)).collect() },
+            ]
+        };
+        let panels = vec![
+            ScatterPanel { x_label: "shoulder flexion (deg)", y_label: "abduction (deg)", groups: groups(1.0) },
+            ScatterPanel { x_label: "elbow flexion (deg)", y_label: "pronation (deg)", groups: groups(-2.0) },
+        ];
+        let path = d.join(format!("scatter-{w}.svg"));
+        let drawn = scatter_grid(&path, &style, "lock-low-upright", &panels, 2).unwrap();
+        check("scatter_grid", &path, &drawn, &["elbow flexion (deg)", "pronation (deg)", "left grip", "right grip"]);
+        assert_eq!(drawn.axes.len(), 2);
+
+        let panel = |name: &str, stretch: f64| FrontPanel {
+            title: name.to_string(),
+            lines: vec![
+                ("hybrid (β)".into(), vec![(1.1, 0.3, "0.1".into()), (1.6 * stretch, 0.9, "1".into())]),
+                ("budgeted (ε)".into(), vec![(1.0, -0.4, "0".into()), (1.3, 1.3, "0.5".into())]),
+            ],
+            active: Some((2.5 * stretch, 1.0)),
+            passive: Some((1.0, 0.0)),
+            target: (1.25, 0.8),
+        };
+        let path = d.join(format!("front-{w}.svg"));
+        let drawn =
+            front_plot(&path, &style, "Comfort–accuracy front", &[panel("planar2", 1.0), panel("arm7", 2.0)]).unwrap();
+        check(
+            "front_plot",
+            &path,
+            &drawn,
+            &["true cost / passive's", "fraction of active's gain", "arm7", "hybrid (β)", "target"],
+        );
+    }
+}
+
+#[test]
+fn every_format_is_written_png_at_300_dpi_and_pdf_with_its_fonts() {
+    let d = dir();
+    let style = FigureStyle {
+        width: FigureWidth::OneColumn,
+        formats: vec![FigureFormat::Svg, FigureFormat::Pdf, FigureFormat::Png],
+    };
+    let plot = LinePlot {
+        title: "t",
+        x_label: "iteration",
+        y_label: "y",
+        band: "band",
+        floor: None,
+        series: vec![series("a", 0.0)],
+    };
+    mean_se_plot(&d.join("formats.svg"), &style, &plot).unwrap();
+    let svg = std::fs::read_to_string(d.join("formats.svg")).unwrap();
+    assert!(svg.contains("width=\"336\""), "one column is 3.5 in at 96 px/in");
+    let png = std::fs::read(d.join("formats.png")).unwrap();
+    // 3.5 in at 300 dpi, and the resolution stored (11811 pixels a metre).
+    assert_eq!(u32::from_be_bytes(png[16..20].try_into().unwrap()), 1050);
+    let phys = png.windows(4).position(|w| w == b"pHYs").expect("a pHYs chunk");
+    assert_eq!(u32::from_be_bytes(png[phys + 4..phys + 8].try_into().unwrap()), 11811);
+    let pdf = std::fs::read(d.join("formats.pdf")).unwrap();
+    assert!(pdf.starts_with(b"%PDF-"));
+    let text = String::from_utf8_lossy(&pdf);
+    assert!(text.contains("/FontFile"), "the PDF embeds its fonts");
+    assert!(text.contains("/MediaBox [0 0 252 "), "one column is 252 pt wide");
+}
