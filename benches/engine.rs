@@ -99,7 +99,9 @@ fn console_step(c: &mut Criterion) {
 /// 300–450 configurations, region outcomes): the grasp's update, resampling and the next
 /// suggestion — what the console waits for after the operator presses a grip's key. Run with
 /// the default region observations and, side by side, the paper's configuration
-/// observations; and at 20 000 particles learning q* and w together (14-D).
+/// observations; and at 20 000 particles learning q* and w together (14-D). Beside them, what
+/// the console's worker does while the participant reaches (learning ahead for every grip
+/// offered) and what the key then costs (adopting the learner for the grip taken).
 fn session_step_default_protocol(c: &mut Criterion) {
     use handover::protocol::{DEFAULT_PROTOCOL, Study};
     use handover::session::{Event, Prompt, Session, SessionStart, condition_order};
@@ -156,6 +158,28 @@ fn session_step_default_protocol(c: &mut Criterion) {
                         })
                     });
                 }
+                // The same key when the console's worker learned ahead while the participant
+                // reached (two threads): the response adopts the learner computed for the grip.
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+                let mut ahead = session.clone();
+                g.bench_function(
+                    format!("{observation}_{particles}_{learn}/grasp_{k}_learning_ahead/2-threads"),
+                    |b| b.iter(|| pool.install(|| ahead.clone().speculate(&mut || false))),
+                );
+                assert!(pool.install(|| ahead.speculate(&mut || false)));
+                g.bench_function(
+                    format!(
+                        "{observation}_{particles}_{learn}/grasp_{k}_learned_ahead_key_to_next_suggestion/2-threads"
+                    ),
+                    |b| {
+                        b.iter(|| {
+                            let mut s = ahead.clone();
+                            s.apply(&Event::GraspRecorded { region: region.clone(), measured: None }).unwrap();
+                            assert_eq!(s.adopted_ahead(), 1);
+                            s.learners()[0].suggestion
+                        })
+                    },
+                );
             }
             session.apply(&Event::GraspRecorded { region, measured: None }).unwrap();
         }

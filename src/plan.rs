@@ -56,15 +56,21 @@ pub fn participant(
 /// A simulated participant's whole session, driven by the session's own code and kept in
 /// memory as the log `analyze` would read (stamped as a dry run without a pace stamps it);
 /// `visit` sees every state as a replay of that log would ([`replay_with`]'s order).
+/// Without `map_estimates` the belief summaries leave out the MAP estimate
+/// ([`Session::skip_map_estimates`]), which nothing a plan reports uses.
 ///
 /// [`replay_with`]: crate::record::replay_with
 pub fn drive_in_memory(
     text: String,
     study: Arc<Study>,
     p: &DryRunPlan,
+    map_estimates: bool,
     mut visit: impl FnMut(&Session, Option<ReplayStep>),
 ) -> Result<(LogContents, Session), String> {
     let mut session = Session::new(study, p.start.clone()).map_err(|e| e.to_string())?;
+    if !map_estimates {
+        session.skip_map_estimates();
+    }
     visit(&session, None);
     let mut events = Vec::new();
     let mut time_ns = START_NS;
@@ -92,12 +98,12 @@ pub fn drive_in_memory(
 
 /// [`drive_in_memory`] without looking on: the log alone.
 pub fn session_in_memory(text: String, study: Arc<Study>, p: &DryRunPlan) -> Result<LogContents, String> {
-    drive_in_memory(text, study, p, |_, _| {}).map(|(log, _)| log)
+    drive_in_memory(text, study, p, true, |_, _| {}).map(|(log, _)| log)
 }
 
 /// Study `index` of a plan: its first `participants` simulated sessions, each analysed as it
-/// is driven, as `analyze` analyses its log (without the posterior predictive, which the
-/// plan does not use).
+/// is driven, as `analyze` analyses its log (without the posterior predictive and the MAP
+/// estimates, which the plan does not use).
 pub fn simulate_study(
     text: &str,
     study: &Study,
@@ -112,7 +118,8 @@ pub fn simulate_study(
             let (text, fitted, p) = participant(text, study, s, i).map_err(err)?;
             let mut analyser = Analyser::new(START_NS, false, false);
             let (log, session) =
-                drive_in_memory(text, Arc::clone(&fitted), &p, |s, step| analyser.visit(s, step)).map_err(err)?;
+                drive_in_memory(text, Arc::clone(&fitted), &p, false, |s, step| analyser.visit(s, step))
+                    .map_err(err)?;
             analyser.finish(&session, &fitted, &log).map_err(|e| err(e.to_string()))
         })
         .collect()
@@ -341,7 +348,8 @@ mod tests {
         let text = crate::protocol::DEFAULT_PROTOCOL;
         let (text, fitted, p) = participant(text, &study, study_seed(3, 0), 0).unwrap();
         let mut analyser = Analyser::new(START_NS, false, true);
-        let (log, session) = drive_in_memory(text, Arc::clone(&fitted), &p, |s, step| analyser.visit(s, step)).unwrap();
+        let (log, session) =
+            drive_in_memory(text, Arc::clone(&fitted), &p, true, |s, step| analyser.visit(s, step)).unwrap();
         let driven = analyser.finish(&session, &fitted, &log).unwrap();
         let replayed = crate::analysis::analyse(&log).unwrap();
         assert!(replayed.completed && driven.completed);

@@ -85,6 +85,11 @@ impl RecordedSession {
         Ok(applied)
     }
 
+    /// Learns ahead for the presented query ([`Session::speculate`]); nothing is logged.
+    pub fn speculate(&mut self, stop: &mut dyn FnMut() -> bool) -> bool {
+        self.session.speculate(stop)
+    }
+
     /// Finishes the file (summary and footer).
     pub fn finish(self) -> Result<PathBuf, RecordError> {
         self.recorder.finish()

@@ -103,7 +103,7 @@ impl Session {
     }
 
     /// The trial under way, if any.
-    fn cursor(&self) -> Option<TrialCursor> {
+    pub(super) fn cursor(&self) -> Option<TrialCursor> {
         match self.stage {
             Stage::Trial(c) => Some(c),
             _ => None,
@@ -208,11 +208,23 @@ impl Session {
         let belief = match cursor.slot {
             TrialSlot::Training { run, .. } => {
                 let obs = self.ctx.observation_of(set, &record);
-                // Learn on a copy: a degenerate update leaves the session unchanged.
-                let mut learner = self.learners[run].clone();
-                let menu_index = learner.suggestion;
-                learner.learn(menu_index, &obs, &self.menu, &self.ctx).map_err(|e| degenerate(e.to_string()))?;
+                let ahead = self.ahead.as_ref().and_then(|a| a.learned(run, &self.learners[run], &obs));
+                let adopted = ahead.is_some();
+                let learner = match ahead {
+                    Some(learner) => learner,
+                    None => {
+                        // Learn on a copy: a degenerate update leaves the session unchanged.
+                        let mut learner = self.learners[run].clone();
+                        let menu_index = learner.suggestion;
+                        learner
+                            .learn(menu_index, &obs, &self.menu, &self.ctx)
+                            .map_err(|e| degenerate(e.to_string()))?;
+                        learner
+                    }
+                };
                 undo.learner = Some((run, std::mem::replace(&mut self.learners[run], learner)));
+                self.adopted_ahead += usize::from(adopted);
+                self.ahead = None;
                 Some(self.learners[run].summary.clone())
             }
             TrialSlot::Test { .. } => None,

@@ -25,6 +25,10 @@ pub struct LearningContext {
     pub label_model: Lambda,
     /// The prior (for the MAP estimate, recomputed from it and every observation).
     pub prior: Prior,
+    /// Whether a belief's summary carries its MAP estimate (a pass over every observation so
+    /// far for every particle); without it the summary's `map` is the mean. Only the plan,
+    /// which reports no MAP, leaves it out ([`super::Session::skip_map_estimates`]).
+    pub map_estimates: bool,
 }
 
 impl LearningContext {
@@ -72,7 +76,11 @@ impl BeliefSummary {
             iteration,
             mean: belief.mean(),
             // The history's observations index their own sets (checked when observed).
-            map: belief.map_estimate(&ctx.prior, history, ctx.alpha).unwrap_or_else(|_| belief.mean()),
+            map: if ctx.map_estimates {
+                belief.map_estimate(&ctx.prior, history, ctx.alpha).unwrap_or_else(|_| belief.mean())
+            } else {
+                belief.mean()
+            },
             ci_low,
             ci_high,
             grid_mode: cells.mode(belief),
@@ -102,6 +110,15 @@ pub struct Learner {
     pub summary: BeliefSummary,
     /// Every observation learned from: (menu index, observation).
     pub history: Vec<(usize, Observation)>,
+    /// Names this state: new for every learner made or updated in this process, kept by
+    /// its copies (what a learner computed ahead is checked against, [`super::Session::speculate`]).
+    generation: u64,
+}
+
+/// A new learner state's [`Learner::generation`].
+fn next_generation() -> u64 {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
 }
 
 impl Learner {
@@ -126,6 +143,7 @@ impl Learner {
             estimates,
             summary,
             history: Vec::new(),
+            generation: next_generation(),
         };
         l.suggest(menu, ctx);
         l
@@ -164,6 +182,12 @@ impl Learner {
         self.entropies.push(self.summary.entropy);
         self.estimates.push(self.summary.mean.clone());
         self.suggest(menu, ctx);
+        self.generation = next_generation();
         Ok(())
+    }
+
+    /// This state's name: equal for a learner and its copies, never for two states.
+    pub fn generation(&self) -> u64 {
+        self.generation
     }
 }

@@ -2,6 +2,7 @@
 //! the state, `Session::prompt()` says what the operator must do next. No terminal, file or
 //! clock in here: the shells (console, dry run, replay) do the I/O.
 
+mod ahead;
 mod apply;
 mod events;
 mod learner;
@@ -285,6 +286,11 @@ pub struct Session {
     events: usize,
     /// How many of `events` were the robot's or confirmed a transition.
     side_events: usize,
+    /// Learners computed ahead for the presented query ([`Session::speculate`]); shared by
+    /// copies of the session, never logged.
+    ahead: Option<Arc<ahead::Ahead>>,
+    /// Responses that adopted a learner computed ahead.
+    adopted_ahead: usize,
 }
 
 mod purpose {
@@ -318,6 +324,7 @@ impl Session {
             tradeoff: crate::select::Tradeoff { beta: learning.hybrid_beta, epsilon: learning.budget_epsilon },
             label_model: learning.label_model.to_lambda(),
             prior: prior.clone(),
+            map_estimates: true,
         };
         let menu: Arc<Vec<FeasibleSet>> = Arc::new(study.training.iter().map(|q| choice_set(&q.feasible)).collect());
         let tests: Arc<Vec<FeasibleSet>> = Arc::new(study.test.iter().map(|q| choice_set(&q.feasible)).collect());
@@ -358,6 +365,8 @@ impl Session {
             robot: None,
             events: 0,
             side_events: 0,
+            ahead: None,
+            adopted_ahead: 0,
         })
     }
 
@@ -371,6 +380,12 @@ impl Session {
 
     pub fn learners(&self) -> &[Learner] {
         &self.learners
+    }
+
+    /// From now on, belief summaries leave out the MAP estimate (their `map` is the mean):
+    /// for a plan, which reports none; a logged session always carries it.
+    pub fn skip_map_estimates(&mut self) {
+        self.ctx.map_estimates = false;
     }
 
     pub fn context(&self) -> &LearningContext {

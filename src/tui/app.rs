@@ -583,6 +583,13 @@ impl App {
         }
     }
 
+    /// Takes the worker's reports that are ready; whether there was one (the screen changed).
+    pub fn collect_reports(&mut self) -> bool {
+        let before = self.worker.as_ref().map_or(0, Worker::outstanding);
+        self.collect();
+        self.worker.as_ref().map_or(0, Worker::outstanding) < before
+    }
+
     fn wait_worker(&mut self) {
         self.poll_worker(true);
     }

@@ -12,7 +12,7 @@ mod worker;
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use ratatui::Terminal;
 use ratatui::backend::Backend;
@@ -67,11 +67,24 @@ where
         let size = terminal.size().map_err(|e| e.to_string())?;
         app.visible = size.width >= theme::MIN_WIDTH && size.height >= theme::MIN_HEIGHT;
         terminal.draw(|f| render(app, f)).map_err(|e| e.to_string())?;
-        let ready = match event::poll(Duration::from_millis(50)) {
-            Ok(ready) => ready,
-            // A signal can interrupt the wait; it is handled at the top of the loop.
-            Err(_) if stop().is_some() => continue,
-            Err(e) => return Err(e.to_string()),
+        // Wait for a key or the tick. While the worker has an event in hand, its report ends
+        // the wait too (looked for every 2 ms), so the next screen is drawn as soon as it is
+        // there rather than at the tick.
+        let tick = Instant::now() + TICK;
+        let ready = loop {
+            let left = tick.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                break false;
+            }
+            let busy = app.busy();
+            match event::poll(if busy { left.min(Duration::from_millis(2)) } else { left }) {
+                Ok(true) => break true,
+                Ok(false) if busy && app.collect_reports() => break false,
+                Ok(false) => {}
+                // A signal can interrupt the wait; it is handled at the top of the loop.
+                Err(_) if stop().is_some() => break false,
+                Err(e) => return Err(e.to_string()),
+            }
         };
         if ready {
             match event::read() {
@@ -84,6 +97,9 @@ where
     }
     Ok(None)
 }
+
+/// The loop's tick: the screen is redrawn at least this often (clocks, robot reports).
+const TICK: Duration = Duration::from_millis(50);
 
 /// How long the loop has to leave by itself after a signal or a vanished terminal.
 const WATCHDOG_GRACE: Duration = Duration::from_secs(3);

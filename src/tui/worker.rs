@@ -59,7 +59,16 @@ impl Worker {
         let (done_tx, done) = channel::<Done>();
         let path = rec.path().to_path_buf();
         let thread = std::thread::spawn(move || {
-            for job in job_rx {
+            // A job that arrived while the worker was learning ahead.
+            let mut waiting: Option<Job> = None;
+            loop {
+                let job = match waiting.take() {
+                    Some(job) => job,
+                    None => match job_rx.recv() {
+                        Ok(job) => job,
+                        Err(_) => return,
+                    },
+                };
                 match job {
                     Job::Submit(stamped) => {
                         let result = submit(&mut rec, stamped);
@@ -67,6 +76,17 @@ impl Worker {
                         if done_tx.send(Done::Submitted(session, result)).is_err() {
                             return;
                         }
+                        // Idle until the next key: learn ahead for the query presented (if
+                        // any), and leave off as soon as a job comes.
+                        let mut stop = || match job_rx.try_recv() {
+                            Ok(job) => {
+                                waiting = Some(job);
+                                true
+                            }
+                            Err(TryRecvError::Empty) => false,
+                            Err(TryRecvError::Disconnected) => true,
+                        };
+                        rec.speculate(&mut stop);
                     }
                     Job::Finish { completed } => {
                         let _ = done_tx.send(Done::Finished(Box::new(finish(rec, completed))));
@@ -92,6 +112,11 @@ impl Worker {
     /// Whether a job is under way.
     pub fn busy(&self) -> bool {
         self.outstanding > 0
+    }
+
+    /// Jobs sent and not yet reported.
+    pub fn outstanding(&self) -> usize {
+        self.outstanding
     }
 
     fn send(&mut self, job: Job) {
