@@ -4,6 +4,8 @@
 //! Its length: one test per way a session is driven (keys, failures, resume, the robot),
 //! sharing the console's setup and snapshot helpers.
 
+mod prerequisite;
+
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
@@ -297,7 +299,7 @@ fn a_double_press_answers_one_statement_and_enter_asks_before_skipping() {
 /// through HANDOVER_PYTHON (a Python with `mcap` and `jsonschema`).
 fn check_with_reference_reader(path: &Path, responses: usize) {
     let Ok(python) = std::env::var("HANDOVER_PYTHON") else {
-        eprintln!("HANDOVER_PYTHON not set: the reference reader check runs in CI (.ci/run)");
+        prerequisite::missing("HANDOVER_PYTHON, a Python with mcap and jsonschema for the reference reader");
         return;
     };
     let out = std::process::Command::new(python)

@@ -1,6 +1,8 @@
 //! End to end: the real binary in a real terminal (tmux): start a session, record grasps,
 //! undo one, void one, answer the questionnaire, and check the screen and the log.
 
+mod prerequisite;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
@@ -92,8 +94,7 @@ fn instruction_on(screen: &str) -> Shown {
 #[test]
 fn the_console_runs_a_session_in_a_real_terminal() {
     if !has_tmux() {
-        assert!(std::env::var_os("CI").is_none(), "CI must install tmux (.ci/run does)");
-        eprintln!("tmux is not installed: skipping the end-to-end console test (CI runs it)");
+        prerequisite::missing("tmux");
         return;
     }
     let dir = std::env::temp_dir().join(format!("handover-tmux-{}", std::process::id()));
@@ -240,8 +241,7 @@ fn console_pid(name: &str) -> String {
 #[test]
 fn signals_restore_the_terminal_and_leave_the_session_resumable() {
     if !has_tmux() {
-        assert!(std::env::var_os("CI").is_none(), "CI must install tmux (.ci/run does)");
-        eprintln!("tmux is not installed: skipping");
+        prerequisite::missing("tmux");
         return;
     }
     let dir = std::env::temp_dir().join(format!("handover-signal-{}", std::process::id()));
@@ -320,8 +320,7 @@ fn signals_restore_the_terminal_and_leave_the_session_resumable() {
 #[test]
 fn follow_in_a_second_terminal_tracks_the_console() {
     if !has_tmux() {
-        assert!(std::env::var_os("CI").is_none(), "CI must install tmux (.ci/run does)");
-        eprintln!("tmux is not installed: skipping");
+        prerequisite::missing("tmux");
         return;
     }
     let dir = std::env::temp_dir().join(format!("handover-follow-{}", std::process::id()));
@@ -373,8 +372,7 @@ fn follow_in_a_second_terminal_tracks_the_console() {
 #[test]
 fn follow_says_when_the_console_is_lost_and_follows_its_resumption() {
     if !has_tmux() {
-        assert!(std::env::var_os("CI").is_none(), "CI must install tmux (.ci/run does)");
-        eprintln!("tmux is not installed: skipping");
+        prerequisite::missing("tmux");
         return;
     }
     let dir = std::env::temp_dir().join(format!("handover-follow-lost-{}", std::process::id()));

@@ -1,6 +1,8 @@
 //! What a crash, a full disk or a second resume does to the logs: nothing acknowledged is
 //! lost, nothing is left empty or half-written, and a session is never continued twice.
 
+mod prerequisite;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -129,7 +131,7 @@ fn a_full_disk_names_its_cause_and_leaves_only_whole_files() {
     let dir = tmpdir("full");
     let disk = dir.join("disk");
     if !mount_small(&disk, 1152) {
-        eprintln!("cannot mount a small tmpfs here (not root?): skipping the full-disk test");
+        prerequisite::missing("a small tmpfs to fill (mount needs root)");
         return;
     }
     let _unmount = Unmount(disk.clone());
@@ -197,7 +199,7 @@ fn the_console_blocks_on_a_failed_write_until_it_is_retried() {
     let dir = tmpdir("console-full");
     let disk = dir.join("disk");
     if !mount_small(&disk, 256) {
-        eprintln!("cannot mount a small tmpfs here (not root?): skipping");
+        prerequisite::missing("a small tmpfs to fill (mount needs root)");
         return;
     }
     let _unmount = Unmount(disk.clone());

@@ -5,6 +5,8 @@
 //! anywhere still replays up to its last whole event, and a log of the earlier, unindexed
 //! format still reads and analyses.
 
+mod prerequisite;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::Arc;
@@ -99,12 +101,6 @@ fn sorted(mut r: Vec<Row>) -> Vec<Row> {
     r
 }
 
-/// A prerequisite this machine lacks: a failure in CI, a skip (said) elsewhere.
-fn missing(what: &str) {
-    assert!(std::env::var("CI").as_deref() != Ok("true"), "the indexed-reader check cannot run under CI: {what}");
-    eprintln!("skipped: {what} (runs in CI, .ci/run)");
-}
-
 /// What an external reader printed (`{"statistics", "indexed", "stream"}`).
 fn external(cmd: &mut Command) -> Value {
     let out = cmd.output().unwrap();
@@ -142,7 +138,7 @@ fn every_message_of_a_finished_log_reads_through_its_index() {
             assert_eq!(got["chunk_indexes"].as_u64(), Some(log.events.len() as u64 + 1), "one chunk per event");
             check_external("Python mcap", &got, &stream);
         }
-        Err(_) => missing("HANDOVER_PYTHON (a Python with mcap) is not set"),
+        Err(_) => prerequisite::missing("HANDOVER_PYTHON (a Python with mcap) is not set"),
     }
     match std::env::var("HANDOVER_NODE_MODULES") {
         Ok(modules) => {
@@ -151,7 +147,7 @@ fn every_message_of_a_finished_log_reads_through_its_index() {
             );
             check_external("@mcap/core", &got, &stream);
         }
-        Err(_) => missing("HANDOVER_NODE_MODULES (a node_modules with @mcap/core) is not set"),
+        Err(_) => prerequisite::missing("HANDOVER_NODE_MODULES (a node_modules with @mcap/core) is not set"),
     }
     std::fs::remove_dir_all(dir).unwrap();
 }

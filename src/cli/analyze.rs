@@ -397,21 +397,17 @@ fn write_outputs(
                     .collect(),
             })
             .collect();
-        let y = if predictive {
-            "posterior-predictive test log-likelihood"
-        } else {
-            "test-set log-likelihood of the posterior mean"
-        };
         let kind = if group.first().is_some_and(|a| a.log.start.pilot) { "pilot (simulated)" } else { "real" };
         let measure = if predictive { "Posterior-predictive" } else { "Posterior mean's" };
         // The figure says what it shows; the data it comes from is in the legend.
         let title = format!("{measure} test log-likelihood by training iteration");
-        let y_label = format!("{y} (nats)");
+        // Short enough for a one-column figure's height; the title says which estimate.
+        let y_label = "test-set log-likelihood (nats)";
         let band = format!("± 1 s.e. over {} {kind} session{}", s.sessions, if s.sessions == 1 { "" } else { "s" });
         let plot = LinePlot {
             title: &title,
             x_label: "training iteration (handovers learned from)",
-            y_label: &y_label,
+            y_label,
             band: &band,
             floor: None,
             series,

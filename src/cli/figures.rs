@@ -33,16 +33,14 @@ pub struct FigureArgs {
 
 impl FigureArgs {
     pub fn style(&self) -> FigureStyle {
-        let mut formats: Vec<FigureFormat> = self
-            .figure_formats
-            .iter()
+        let formats = super::input::first_occurrences(&self.figure_formats)
+            .into_iter()
             .map(|f| match f {
                 Format::Svg => FigureFormat::Svg,
                 Format::Pdf => FigureFormat::Pdf,
                 Format::Png => FigureFormat::Png,
             })
             .collect();
-        formats.dedup();
         let width = match self.figure_width {
             Width::OneColumn => FigureWidth::OneColumn,
             Width::TwoColumn => FigureWidth::TwoColumn,
