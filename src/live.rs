@@ -88,7 +88,17 @@ impl LiveView {
     pub fn url(&self) -> String {
         format!("ws://{}", self.addr)
     }
+
+    /// Keeps serving for `LINGER` before a command that served sessions ends: the server
+    /// sends each viewer's queue asynchronously and has no drain, so a process that ended
+    /// with the last message would take it with it on a loaded machine.
+    pub fn linger(&self) {
+        std::thread::sleep(LINGER);
+    }
 }
+
+/// How long a finished command's live view keeps serving its last messages.
+const LINGER: std::time::Duration = std::time::Duration::from_secs(1);
 
 impl LiveView {
     /// The topic's channel, advertised to every viewer when it is made.

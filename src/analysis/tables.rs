@@ -1,5 +1,5 @@
 //! The tidy tables `analyze --out` writes, one `Serialize` row struct per file; their
-//! columns are documented in `docs/outputs.md` (and checked against it by `tests/outputs.rs`).
+//! columns are documented in `docs/outputs.md` (and checked against it by `tests/integration/outputs.rs`).
 
 use std::path::Path;
 

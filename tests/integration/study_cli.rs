@@ -32,7 +32,8 @@ fn events(path: &Path) -> Vec<Event> {
 
 #[test]
 fn protocol_check_summarises_or_lists_every_problem() {
-    let (code, out, err) = handover(&["protocol", "check", "protocols/bike-handover.json"]);
+    let proto = concat!(env!("CARGO_MANIFEST_DIR"), "/protocols/bike-handover.json");
+    let (code, out, err) = handover(&["protocol", "check", proto]);
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("valid protocol 'bike-handover'") && out.contains("4 items × 2 programs"), "{out}");
     let dir = tmpdir("badproto");
