@@ -12,6 +12,7 @@
 use std::collections::{HashMap, HashSet};
 use std::net::SocketAddr;
 use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
 
 use foxglove::websocket::{ChannelView, Client, ServerListener};
 use foxglove::{Context, PartialMetadata, RawChannel, Schema, SinkId, WebSocketServer, WebSocketServerHandle};
@@ -22,12 +23,14 @@ use crate::record::{Tap, Topic, schema};
 pub const DEFAULT_ADDR: &str = "127.0.0.1:8765";
 
 /// The channels, each topic's latest message (time, JSON), and the viewers subscribed to
-/// each topic that have had its replay (the only ones new messages are sent to).
+/// each topic that have had its replay (the only ones new messages are sent to), and when
+/// the last message was published.
 #[derive(Default)]
 struct Shared {
     channels: HashMap<Topic, Arc<RawChannel>>,
     latest: HashMap<Topic, (u64, Vec<u8>)>,
     subscribers: HashMap<Topic, HashSet<SinkId>>,
+    last_publish: Option<Instant>,
 }
 
 /// Replays a topic's latest message to a viewer that subscribes to it.
@@ -59,12 +62,12 @@ impl ServerListener for Latch {
 }
 
 /// The live view's server; clones share it (one per process, however many sessions). It
-/// serves until the process ends.
+/// serves until the last clone is dropped (`Serving`).
 #[derive(Clone)]
 pub struct LiveView {
     context: Arc<Context>,
     shared: Arc<Mutex<Shared>>,
-    _server: Arc<WebSocketServerHandle>,
+    _server: Arc<Serving>,
     addr: SocketAddr,
 }
 
@@ -81,24 +84,36 @@ impl LiveView {
             .start_blocking()
             .map_err(|e| format!("the live view cannot listen on {addr}: {e}"))?;
         let addr = SocketAddr::new(addr.ip(), server.port());
-        Ok(Self { context, shared, _server: Arc::new(server), addr })
+        let serving = Serving { _handle: server, shared: Arc::clone(&shared) };
+        Ok(Self { context, shared, _server: Arc::new(serving), addr })
     }
 
     /// What Foxglove's *Open connection…* takes.
     pub fn url(&self) -> String {
         format!("ws://{}", self.addr)
     }
-
-    /// Keeps serving for `LINGER` before a command that served sessions ends: the server
-    /// sends each viewer's queue asynchronously and has no drain, so a process that ended
-    /// with the last message would take it with it on a loaded machine.
-    pub fn linger(&self) {
-        std::thread::sleep(LINGER);
-    }
 }
 
-/// How long a finished command's live view keeps serving its last messages.
-const LINGER: std::time::Duration = std::time::Duration::from_secs(1);
+/// How long the live view keeps serving after its last message when it is dropped.
+const LINGER: Duration = Duration::from_secs(1);
+
+/// The server, which serves until the last clone of the view is dropped; then it waits
+/// until `LINGER` has passed since the last message. The server sends each viewer's queue
+/// asynchronously and has no drain, so a process that ended with its last message would
+/// take that message with it on a loaded machine.
+struct Serving {
+    _handle: WebSocketServerHandle,
+    shared: Arc<Mutex<Shared>>,
+}
+
+impl Drop for Serving {
+    fn drop(&mut self) {
+        let last = lock(&self.shared).last_publish;
+        if let Some(left) = last.map(|t| LINGER.saturating_sub(t.elapsed())) {
+            std::thread::sleep(left);
+        }
+    }
+}
 
 impl LiveView {
     /// The topic's channel, advertised to every viewer when it is made.
@@ -132,6 +147,7 @@ impl Tap for LiveView {
         let mut shared = lock(&self.shared);
         let Some(channel) = self.channel(&mut shared, topic) else { return };
         shared.latest.insert(topic, (time_ns, data.to_vec()));
+        shared.last_publish = Some(Instant::now());
         // Under the lock: a viewer subscribing now gets this message either as its replay or
         // here, never both. The server calls `on_subscribe` holding none of its own locks.
         for &sink in shared.subscribers.get(&topic).into_iter().flatten() {

@@ -169,9 +169,6 @@ pub fn run(args: DryRunArgs) -> Result<()> {
         None => None,
     };
     bar.finish_and_clear();
-    if let Some(view) = &live {
-        view.linger();
-    }
     let label_a =
         args.protocol.as_ref().map_or_else(|| "the embedded protocol".to_string(), |p| p.display().to_string());
     if let (Some(runs_b), Some((_, study_b)), Some(path_b)) = (&second, &versus, &args.versus) {

@@ -159,17 +159,14 @@ pub fn run(args: ResumeArgs) -> Result<()> {
     let view = args.live.start()?;
     let path = continuation_path(&old, chrono::Utc::now());
     let mut rec = RecordedSession::resume(&old, &path, now_ns())?;
-    if let Some(view) = &view {
-        rec.set_tap(Box::new(view.clone()));
+    if let Some(view) = view {
+        rec.set_tap(Box::new(view));
     }
     errln!("resumed {} ({} events) into {}", old.path.display(), old.events.len(), rec.path().display());
     let person = SimulatedPerson { truth, alpha: study.population().alpha };
     let participant = ScriptedParticipant { person };
     let driven = drive_session(&mut rec, &participant, robot.as_mut(), arm.as_ref(), Duration::from_millis(args.pace))?;
     let path = rec.finish().context("cannot finish the log")?;
-    if let Some(view) = &view {
-        view.linger();
-    }
     if let RobotDrive::GaveUp(why) = driven {
         anyhow::bail!("the session was aborted: {why}; log: {}", path.display());
     }

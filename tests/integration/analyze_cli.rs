@@ -1,6 +1,6 @@
 //! `handover analyze` as a researcher runs it on a folder of logs.
 
-use crate::support::handover;
+use crate::support::{handover, small_protocol_text};
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -11,12 +11,6 @@ use handover::dryrun::{DryRunPlan, drive, now_ns, plan_from};
 use handover::protocol::Study;
 use handover::record::{RecordedSession, new_log_path};
 use handover::session::Session;
-
-fn small_protocol_text() -> String {
-    let mut v: serde_json::Value = serde_json::from_str(handover::protocol::DEFAULT_PROTOCOL).unwrap();
-    v["learning"]["particles"] = 300.into();
-    v.to_string()
-}
 
 /// Runs a planned session to its end and logs it in `dir`.
 fn record(dir: &Path, text: &str, study: &Arc<Study>, p: &DryRunPlan) {

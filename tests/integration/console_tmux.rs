@@ -1,7 +1,9 @@
 //! End to end: the real binary in a real terminal (tmux): start a session, record grasps,
 //! undo one, void one, answer the questionnaire, and check the screen and the log.
 
-use std::path::{Path, PathBuf};
+use crate::support::small_protocol;
+
+use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
@@ -41,14 +43,6 @@ fn wait_for(name: &str, text: &str) -> String {
         assert!(t0.elapsed() < Duration::from_secs(60), "'{text}' never appeared; the screen:\n{screen}");
         std::thread::sleep(Duration::from_millis(50));
     }
-}
-
-fn small_protocol(dir: &Path) -> PathBuf {
-    let mut v: serde_json::Value = serde_json::from_str(handover::protocol::DEFAULT_PROTOCOL).unwrap();
-    v["learning"]["particles"] = 300.into();
-    let p = dir.join("small.json");
-    std::fs::write(&p, v.to_string()).unwrap();
-    p
 }
 
 /// What the operator's instruction said for one trial, read off the screen.

@@ -9,7 +9,8 @@
 //! `cargo test --test integration golden::write_current_format -- --ignored`.
 
 use crate::console::{answer, app, keys, past_transition, press};
-use crate::support::{handover_in, tmpdir};
+use crate::robot_hook::script;
+use crate::support::{handover_in, small_protocol, small_protocol_with, tmpdir};
 
 use std::os::unix::fs::PermissionsExt;
 use std::path::{Path, PathBuf};
@@ -239,17 +240,6 @@ fn killed_golden_sessions_resume_to_their_end() {
 
 // ---- Writing the current format's golden logs -------------------------------------------
 
-/// The default protocol with few particles, so the logs stay small; `edit` changes it
-/// further.
-fn small_protocol(dir: &Path, edit: impl FnOnce(&mut serde_json::Value)) -> PathBuf {
-    let mut v: serde_json::Value = serde_json::from_str(handover::protocol::DEFAULT_PROTOCOL).unwrap();
-    v["learning"]["particles"] = 300.into();
-    edit(&mut v);
-    let p = dir.join("protocol.json");
-    std::fs::write(&p, v.to_string()).unwrap();
-    p
-}
-
 /// One dry run's log, written into `dir/logs`.
 fn dry_run(dir: &Path, protocol: &Path, extra: &[&str]) -> PathBuf {
     let logs = dir.join("logs");
@@ -351,19 +341,17 @@ fn write_current_format() {
     };
 
     let d = tmpdir("golden-dry-run");
-    place(&dry_run(&d, &small_protocol(&d, |_| {}), &[]), "dry-run.mcap");
+    place(&dry_run(&d, &small_protocol(&d), &[]), "dry-run.mcap");
 
     let d = tmpdir("golden-console");
     place(&console_session(&d), "console.mcap");
 
     let d = tmpdir("golden-robot");
-    let robot = d.join("robot.sh");
-    std::fs::write(&robot, "#!/bin/sh\ncat > /dev/null\nexit 0\n").unwrap();
-    std::fs::set_permissions(&robot, std::fs::Permissions::from_mode(0o755)).unwrap();
-    place(&dry_run(&d, &small_protocol(&d, |_| {}), &["--robot-command", robot.to_str().unwrap()]), "robot.mcap");
+    let robot = script(&d, "robot.sh", "cat > /dev/null\nexit 0");
+    place(&dry_run(&d, &small_protocol(&d), &["--robot-command", robot.to_str().unwrap()]), "robot.mcap");
 
     let d = tmpdir("golden-measured");
-    let measured = small_protocol(&d, |v| {
+    let measured = small_protocol_with(&d, |v| {
         v["learning"]["observation"] = "measured".into();
         v["learning"]["measurement"] = serde_json::json!({ "sigma_deg": vec![5.0; 7] });
     });
@@ -372,7 +360,7 @@ fn write_current_format() {
     // The killed log and its continuation, named as the golden set names them: the
     // continuation records the killed log's name, so the killed log is renamed first.
     let d = tmpdir("golden-killed");
-    let killed = killed_dry_run(&d, &small_protocol(&d, |_| {}));
+    let killed = killed_dry_run(&d, &small_protocol(&d));
     let folder = killed.parent().unwrap();
     std::fs::rename(&killed, folder.join("killed.mcap")).unwrap();
     place(&folder.join("killed.mcap"), "killed.mcap");

@@ -1,7 +1,7 @@
 //! Any robot through `--robot-command PROGRAM`: dry runs against scripts that record their
 //! input and exit 0, exit 1, or hang.
 
-use crate::support::tmpdir;
+use crate::support::{small_protocol, tmpdir};
 
 use std::os::unix::fs::PermissionsExt;
 use std::path::{Path, PathBuf};
@@ -11,16 +11,7 @@ use std::time::{Duration, Instant};
 use handover::record::{LogContents, mcap_files, read_log};
 use handover::session::{Event, RobotState, VoidReason};
 
-/// A protocol with few particles, so that dry runs in debug builds are quick.
-fn small_protocol(dir: &Path) -> PathBuf {
-    let mut v: serde_json::Value = serde_json::from_str(handover::protocol::DEFAULT_PROTOCOL).unwrap();
-    v["learning"]["particles"] = 300.into();
-    let p = dir.join("small.json");
-    std::fs::write(&p, v.to_string()).unwrap();
-    p
-}
-
-fn script(dir: &Path, name: &str, body: &str) -> PathBuf {
+pub(crate) fn script(dir: &Path, name: &str, body: &str) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, format!("#!/bin/sh\n{body}\n")).unwrap();
     std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o755)).unwrap();

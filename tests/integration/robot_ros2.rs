@@ -10,7 +10,7 @@
 //! makes); when either is set, a missing prerequisite fails the test. With neither, the tests
 //! say so and pass.
 
-use crate::support::tmpdir;
+use crate::support::{small_protocol, tmpdir};
 
 use std::path::Path;
 use std::process::Command;
@@ -77,13 +77,6 @@ ready() {{ for _ in $(seq 300); do grep -q ready "$1" 2>/dev/null && return 0; s
         }
     }
     (out.status.code().unwrap_or(-1), err)
-}
-
-/// A protocol with few particles, so that dry runs in debug builds are quick.
-fn small_protocol(dir: &Path) {
-    let mut v: serde_json::Value = serde_json::from_str(handover::protocol::DEFAULT_PROTOCOL).unwrap();
-    v["learning"]["particles"] = 300.into();
-    std::fs::write(dir.join("small.json"), v.to_string()).unwrap();
 }
 
 /// The lab's settings: no domain (the environment's), DDS on the loopback.

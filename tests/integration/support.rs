@@ -2,7 +2,7 @@
 //! is removed when the test ends, and a prerequisite this machine lacks.
 
 use std::ops::Deref;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
 /// Runs the built binary with `args` (standard input empty) from a folder that is not the
@@ -41,6 +41,30 @@ impl AsRef<Path> for TestDir {
     fn as_ref(&self) -> &Path {
         self.0.path()
     }
+}
+
+/// The default protocol with 300 particles, so that sessions in tests are quick.
+pub fn small_protocol_text() -> String {
+    small_protocol_value(|_| {}).to_string()
+}
+
+fn small_protocol_value(edit: impl FnOnce(&mut serde_json::Value)) -> serde_json::Value {
+    let mut v: serde_json::Value = serde_json::from_str(handover::protocol::DEFAULT_PROTOCOL).unwrap();
+    v["learning"]["particles"] = 300.into();
+    edit(&mut v);
+    v
+}
+
+/// `small_protocol_text` as `dir/small.json`.
+pub fn small_protocol(dir: &Path) -> PathBuf {
+    small_protocol_with(dir, |_| {})
+}
+
+/// `small_protocol_text` as `edit` changes it, as `dir/small.json`.
+pub fn small_protocol_with(dir: &Path, edit: impl FnOnce(&mut serde_json::Value)) -> PathBuf {
+    let p = dir.join("small.json");
+    std::fs::write(&p, small_protocol_value(edit).to_string()).unwrap();
+    p
 }
 
 /// A test's prerequisite that this machine lacks (a tool, a privilege, a reference reader):
