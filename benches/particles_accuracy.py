@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Does speed buy accuracy? The same simulated arm7 study at several particle counts.
 
-Runs `handover simulate arm7 --particles N` for each N with the same seeds and trials (a
+Runs `handover research simulate arm7 --particles N` for each N with the same seeds and trials (a
 trial's truth, menu and test set depend only on the seed and the trial, so the runs are
 paired trial by trial), then prints, at the last iteration, each count's mean distance to
 the truth and test log-likelihood with a 95 % t-interval over the seeds' means, and the
@@ -78,7 +78,7 @@ def main():
         out = os.path.join(args.out, f"particles-{n}")
         metrics = os.path.join(out, "metrics.csv")
         if not os.path.exists(metrics):
-            cmd = [args.handover, "simulate", "arm7", "--learn", args.learn, "--particles", str(n),
+            cmd = [args.handover, "research", "simulate", "arm7", "--learn", args.learn, "--particles", str(n),
                    "--algorithms", args.algorithms, "--seeds", str(args.seeds), "--trials", str(args.trials),
                    "--observation", args.observation, "--out", out] + (["--alpha", args.alpha] if args.alpha else [])
             t0 = time.perf_counter()

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Exact mutual-information selection, `handover score` against NumPy, side by side in one run.
+# Exact mutual-information selection, `handover research score` against NumPy, side by side in one run.
 # Builds the release binary, makes a venv with NumPy (and JAX, with --jax) under target/, and
 # runs benches/score_vs_numpy.py with any arguments given (see its --help).
 #

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Exact mutual-information selection: `handover score` against a NumPy version, side by side.
+"""Exact mutual-information selection: `handover research score` against a NumPy version, side by side.
 
 Both run as whole processes on the same input (interpreter or binary start, JSON parsing,
 the computation, JSON output), alternating, `--repeats` times each; the medians and their
@@ -46,7 +46,7 @@ def query_value(xp, q, w, wq, const, pw, alpha):
 
 
 def numpy_score(path):
-    """The NumPy version: reads a `handover score` input, prints what `score` prints
+    """The NumPy version: reads a `handover research score` input, prints what `score` prints
     (without the paper's eq. 8 and the posterior, which the input does not ask for)."""
     import numpy as np
 
@@ -190,7 +190,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "score.json")
         make_input(path, args.particles, args.queries, args.configs, args.joints, args.alpha, args.seed)
-        ours_cmd = [args.handover, "score", path]
+        ours_cmd = [args.handover, "research", "score", path]
         theirs_cmd = [sys.executable, os.path.abspath(__file__), "--numpy-score", path]
         # One warm-up each (page cache, NumPy's import), then alternate.
         _, ours = timed(ours_cmd)
@@ -210,7 +210,7 @@ def main():
         f"{args.joints} joints, α = {args.alpha}, exact mutual information, whole process, "
         f"median of {args.repeats} (threads: {threads})"
     )
-    print(f"  handover score: {mo * 1e3:8.1f} ms  ({mo / pairs * 1e9:.2f} ns per pair)  runs: "
+    print(f"  handover research score: {mo * 1e3:8.1f} ms  ({mo / pairs * 1e9:.2f} ns per pair)  runs: "
           + " ".join(f"{t * 1e3:.0f}" for t in t_ours))
     print(f"  NumPy:          {mt * 1e3:8.1f} ms  ({mt / pairs * 1e9:.2f} ns per pair)  runs: "
           + " ".join(f"{t * 1e3:.0f}" for t in t_theirs))

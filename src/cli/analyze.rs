@@ -28,9 +28,9 @@ use super::input::bad;
 /// session counts once. Exit status 1 if a file was skipped or --verify found a difference.
 #[derive(Debug, Args)]
 pub struct AnalyzeArgs {
-    /// Session logs (.mcap) or directories searched recursively (default with --study-dir:
-    /// the study's logs/).
-    #[arg(required_unless_present = "study_dir", value_name = "LOG|DIR")]
+    /// Session logs (.mcap) or directories searched recursively (default with --study-dir
+    /// or --logs: the study's logs).
+    #[arg(required_unless_present_any = ["study_dir", "logs"], value_name = "LOG|DIR")]
     paths: Vec<PathBuf>,
     /// Write sessions.csv, trials.csv (every presentation: taken, undone or voided),
     /// notes.csv, robot.csv (sessions with a robot: every command and its timing),
@@ -58,6 +58,9 @@ pub struct AnalyzeArgs {
     /// Where participant records live (default: STUDY_DIR/participants).
     #[arg(long = "participants-dir", value_name = "DIR")]
     participants: Option<PathBuf>,
+    /// Where session logs live (default: STUDY_DIR/logs).
+    #[arg(long, value_name = "DIR")]
+    logs: Option<PathBuf>,
     #[command(flatten)]
     measured: MeasuredArgs,
     #[command(flatten)]
@@ -133,7 +136,7 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
     args.measured.check()?;
     let mut files = Vec::new();
     let paths = if args.paths.is_empty() {
-        vec![StudyDirs::resolve(args.study_dir.as_deref(), args.participants.as_deref(), None).logs]
+        vec![StudyDirs::resolve(args.study_dir.as_deref(), args.participants.as_deref(), args.logs.as_deref()).logs]
     } else {
         args.paths.clone()
     };

@@ -11,7 +11,7 @@ use handover::record::{LogContents, SharedTap, study_of};
 use handover::study_dir::StudyDirs;
 use handover::tui::{App, AppConfig, Outcome, run_terminal};
 
-use super::input::{StudyFolders, bad, load_protocol};
+use super::input::{Pace, StudyFolders, bad, load_protocol};
 use super::live::LiveArgs;
 use super::robot::RobotArgs;
 
@@ -30,20 +30,19 @@ pub struct RunArgs {
     #[command(flatten)]
     folders: StudyFolders,
     /// Let a simulated participant answer (a rehearsal; the log is flagged pilot).
-    #[arg(long)]
-    simulate: bool,
+    #[arg(long, alias = "simulate")]
+    simulated_participant: bool,
     /// A pilot with a real person (a colleague, a dress rehearsal): its own `pilot-` id and no
     /// participant record; the log is flagged pilot, so analyze reports it apart and
     /// counterbalancing never counts it.
-    #[arg(long, conflicts_with_all = ["simulate", "participant"])]
+    #[arg(long, conflicts_with_all = ["simulated_participant", "participant"])]
     pilot: bool,
     /// A rehearsal to practise on: a simulated participant chooses, the status line says
     /// what they did, and you press every key (the log is flagged pilot).
-    #[arg(long, conflicts_with_all = ["simulate", "pilot", "participant"])]
+    #[arg(long, conflicts_with_all = ["simulated_participant", "pilot", "participant"])]
     practice: bool,
-    /// Milliseconds between the simulated participant's actions.
-    #[arg(long, value_name = "MS", default_value_t = 800)]
-    pace: u64,
+    #[command(flatten)]
+    pace: Pace,
     /// The session seed, 0 to 2^53 − 1 (random by default; recorded in the log).
     #[arg(long, value_parser = clap::value_parser!(u64).range(0..=handover::MAX_SESSION_SEED))]
     seed: Option<u64>,
@@ -61,10 +60,10 @@ impl RunArgs {
             protocol: None,
             participant: "new".into(),
             folders: StudyFolders::default(),
-            simulate: false,
+            simulated_participant: false,
             pilot: false,
             practice: false,
-            pace: 800,
+            pace: Pace::default(),
             seed: None,
             robot: RobotArgs::default(),
             live: LiveArgs::default(),
@@ -93,7 +92,8 @@ fn finish(result: Result<Outcome, String>) -> Result<()> {
 }
 
 pub fn run(args: RunArgs) -> Result<()> {
-    let RunArgs { protocol, participant, folders, simulate, pilot, practice, pace, seed, robot, live } = args;
+    let RunArgs { protocol, participant, folders, simulated_participant, pilot, practice, pace, seed, robot, live } =
+        args;
     if participant != "new" {
         validate_id(&participant).map_err(|e| bad(format!("--participant: {e}")))?;
     }
@@ -104,10 +104,10 @@ pub fn run(args: RunArgs) -> Result<()> {
         protocol_text,
         dirs: folders.resolve(),
         participant,
-        simulate: simulate || practice,
+        simulate: simulated_participant || practice,
         pilot,
         practice,
-        pace: Duration::from_millis(pace),
+        pace: pace.in_console(),
         seed,
         tap: None,
     };
@@ -127,7 +127,7 @@ pub fn run(args: RunArgs) -> Result<()> {
 }
 
 /// The console on an interrupted session's log.
-fn config_of(old: &LogContents, dirs: StudyDirs, simulate: bool, pace: u64) -> Result<AppConfig> {
+fn config_of(old: &LogContents, dirs: StudyDirs, simulate: bool, pace: Duration) -> Result<AppConfig> {
     let study = Arc::new(study_of(old).map_err(|e| bad(e.to_string()))?);
     Ok(AppConfig {
         study,
@@ -137,7 +137,7 @@ fn config_of(old: &LogContents, dirs: StudyDirs, simulate: bool, pace: u64) -> R
         simulate,
         pilot: old.start.pilot && old.start.simulated_truth.is_none(),
         practice: false,
-        pace: Duration::from_millis(pace),
+        pace,
         seed: Some(old.start.seed),
         tap: None,
     })
@@ -147,7 +147,7 @@ pub fn resume(
     old: LogContents,
     dirs: StudyDirs,
     simulate: bool,
-    pace: u64,
+    pace: Duration,
     extra: (&RobotArgs, &LiveArgs),
 ) -> Result<()> {
     let (robot, live) = extra;
@@ -166,7 +166,7 @@ pub fn resume(
 
 /// A finished session, read-only on the summary screen.
 pub fn summary(old: LogContents, dirs: StudyDirs) -> Result<()> {
-    let config = config_of(&old, dirs, false, 0)?;
+    let config = config_of(&old, dirs, false, Duration::ZERO)?;
     require_terminal()?;
     finish(run_terminal(App::summary_of(config, &old)))
 }

@@ -2,7 +2,6 @@
 
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::time::Duration;
 
 use anyhow::{Context, Result};
 use clap::Args;
@@ -15,9 +14,9 @@ use handover::protocol::{LambdaSpec, Study, for_body};
 use handover::record::{RecordedSession, new_log_path, read_log};
 use handover::robot::Robot;
 use handover::session::{Session, program_letter};
-use handover::study_dir::{ParticipantLock, StudyDirs};
+use handover::study_dir::ParticipantLock;
 
-use super::input::{HandArg, bad, body_height, load_protocol, parse_json, read_text};
+use super::input::{HandArg, LogFolders, Pace, bad, body_height, count, load_protocol, parse_json, read_text};
 use super::live::LiveArgs;
 use super::robot::RobotArgs;
 
@@ -35,7 +34,7 @@ pub struct DryRunArgs {
     #[arg(long, value_name = "FILE")]
     protocol: Option<PathBuf>,
     /// Number of simulated participants.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = count(1))]
     participants: usize,
     /// Seed of the whole dry run (ids, truths, answers).
     #[arg(long, default_value_t = 0)]
@@ -43,14 +42,11 @@ pub struct DryRunArgs {
     /// Run N seeds (SEED, SEED+1, …) of --participants each, and report every measure as the
     /// mean with a 95 % confidence interval over the seeds' means, and the conditions'
     /// paired differences (the same participants) per iteration.
-    #[arg(long, default_value_t = 1, value_name = "N")]
+    #[arg(long, default_value_t = 1, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=1000))]
     seeds: u64,
-    /// The study directory (logs in DIR/logs).
-    #[arg(long, value_name = "DIR")]
-    study_dir: Option<PathBuf>,
-    /// Where logs are written, as LOGS/<id>/<id>_<UTC time>.mcap (default: STUDY_DIR/logs).
-    #[arg(long, value_name = "DIR")]
-    logs: Option<PathBuf>,
+    /// Where the pilot logs are written, as LOGS/<id>/<id>_<UTC time>.mcap.
+    #[command(flatten)]
+    folders: LogFolders,
     /// Every participant's body height (m) instead of a draw from adult stature.
     #[arg(long, value_name = "M")]
     body_height: Option<f64>,
@@ -68,9 +64,8 @@ pub struct DryRunArgs {
     /// the population section drew them).
     #[arg(long, value_enum, default_value = "protocol")]
     population: PopulationArg,
-    /// Milliseconds to wait between actions, to watch or rehearse.
-    #[arg(long, value_name = "MS", default_value_t = 0)]
-    pace: u64,
+    #[command(flatten)]
+    pace: Pace,
     /// Also run the same participants (the same seeds: ids, truths and test sets) under a
     /// second protocol, and report per condition the paired difference --protocol − FILE in
     /// the distance to the true q* by iteration (and in the test log-likelihood when both
@@ -111,13 +106,7 @@ fn load_truth(path: &std::path::Path) -> Result<Lambda> {
 pub fn run(args: DryRunArgs) -> Result<()> {
     let (text, study) = load_protocol(args.protocol.as_deref())?;
     let study = Arc::new(study);
-    if args.participants == 0 {
-        return Err(bad("--participants is 0, expected at least 1"));
-    }
     let truth = args.truth.as_deref().map(load_truth).transpose()?;
-    if !(1..=1000).contains(&args.seeds) {
-        return Err(bad(format!("--seeds is {}, expected 1 to 1000", args.seeds)));
-    }
     if !(0.0..=1.0).contains(&args.left_handed_share) {
         return Err(bad(format!("--left-handed-share is {}, expected a fraction from 0 to 1", args.left_handed_share)));
     }
@@ -132,7 +121,7 @@ pub fn run(args: DryRunArgs) -> Result<()> {
             .map_err(|e| bad(e.to_string()))?;
     }
     let versus = args.versus.as_deref().map(|p| load_protocol(Some(p))).transpose()?;
-    let dirs = StudyDirs::resolve(args.study_dir.as_deref(), None, args.logs.as_deref());
+    let dirs = args.folders.resolve();
     let protocols = 1 + u64::from(versus.is_some());
     let bar = if args.seeds > 1 || versus.is_some() {
         let bar = indicatif::ProgressBar::new(protocols * args.seeds * args.participants as u64);
@@ -229,8 +218,7 @@ fn run_seeds(
             if let Some(view) = live {
                 rec.set_tap(Box::new(view.clone()));
             }
-            let driven =
-                drive_session(&mut rec, &p.participant, robot.as_deref_mut(), arm, Duration::from_millis(args.pace))?;
+            let driven = drive_session(&mut rec, &p.participant, robot.as_deref_mut(), arm, args.pace.headless())?;
             let path = rec.finish()?;
             if let RobotDrive::GaveUp(why) = driven {
                 anyhow::bail!("{}: the session was aborted: {why}; log: {}", p.start.participant, path.display());

@@ -23,10 +23,11 @@ pub struct FeasibleArgs {
     /// Only this query (an id from training_menu or test_set).
     #[arg(long, value_name = "ID")]
     query: Option<String>,
-    /// Output format on stdout: `json` (nested, with arm points) or `csv` (one row per
-    /// configuration: its index in the query's feasible set — the `config_index` of the
-    /// logs — region id and label, joint angles in radians, arm points in metres).
-    #[arg(long, value_enum, default_value_t = Format::Json)]
+    /// Output on stdout: `table` (per query, its configurations per grip), `json` (nested,
+    /// with arm points) or `csv` (one row per configuration: its index in the query's feasible
+    /// set — the `config_index` of the logs — region id and label, joint angles in radians,
+    /// arm points in metres).
+    #[arg(long, value_enum, default_value_t = Format::Table)]
     format: Format,
     /// Also write one SVG per query into DIR: 2-D projections of the feasible set in
     /// configuration space, coloured by region (as the paper's Fig. 5, 6 and 9).
@@ -38,6 +39,7 @@ pub struct FeasibleArgs {
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum Format {
+    Table,
     Json,
     Csv,
 }
@@ -98,6 +100,10 @@ pub fn run(args: FeasibleArgs) -> Result<()> {
     let arm = &study.arm;
     let mut stdout = std::io::stdout().lock();
     match args.format {
+        Format::Table => {
+            drop(stdout);
+            print_table(&study, &queries)?;
+        }
         Format::Json => {
             let out = Output {
                 protocol: &study.protocol.name,
@@ -164,6 +170,29 @@ pub fn run(args: FeasibleArgs) -> Result<()> {
             plot_query(&study, q, &path, &style).map_err(anyhow::Error::msg)?;
             errln!("wrote {}", dir.join(style.file_names(&q.query.id)).display());
         }
+    }
+    Ok(())
+}
+
+/// Per query, its configurations per grip: what a protocol designer reads first.
+fn print_table(study: &Study, queries: &[&ResolvedQuery]) -> Result<()> {
+    outln!(
+        "{}: feasible arm configurations per query (--format json or csv for the configurations)",
+        study.protocol.name
+    );
+    outln!("{:<28} {:<12} {:>14}  per grip", "query", "object", "configurations");
+    for q in queries {
+        let object = study.object(q);
+        let per_grip: Vec<String> = q
+            .regions
+            .iter()
+            .enumerate()
+            .map(|(r, &region)| {
+                let n = q.feasible.configs.iter().filter(|c| c.region == r).count();
+                format!("{} {n}", object.regions[region].id)
+            })
+            .collect();
+        outln!("{:<28} {:<12} {:>14}  {}", q.query.id, q.query.object, q.feasible.configs.len(), per_grip.join(" · "));
     }
     Ok(())
 }

@@ -1,4 +1,4 @@
-//! `handover front`: the comfort–accuracy front of the comfort-aware selectors.
+//! `handover research front`: the comfort–accuracy front of the comfort-aware selectors.
 
 use super::figures::FigureArgs;
 use std::path::PathBuf;
@@ -46,7 +46,6 @@ pub struct FrontArgs {
 pub const TARGET: (f64, f64) = (1.25, 0.8);
 
 pub fn run(a: FrontArgs) -> Result<()> {
-    a.sweep.check()?;
     for (name, values) in [("--betas", &a.betas), ("--epsilons", &a.epsilons)] {
         if let Some(v) = values.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
             return Err(bad(format!("{name} has {v}, expected non-negative numbers")));

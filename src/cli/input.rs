@@ -80,26 +80,68 @@ pub fn body_height(flag: &str, h: f64) -> anyhow::Result<f64> {
 /// The study's folders, as every command that reads or writes them takes them.
 #[derive(Debug, Default, clap::Args)]
 pub struct StudyFolders {
-    /// The study directory: participant records in DIR/participants, logs in DIR/logs
-    /// (default: $HANDOVER_STUDY_DIR, else the current directory).
-    #[arg(long, value_name = "DIR", env = "HANDOVER_STUDY_DIR")]
-    pub study_dir: Option<std::path::PathBuf>,
+    #[command(flatten)]
+    pub logs: LogFolders,
     /// Where participant records live (default: STUDY_DIR/participants).
     #[arg(long = "participants-dir", value_name = "DIR")]
     pub participants: Option<std::path::PathBuf>,
-    /// Where session logs live (default: STUDY_DIR/logs).
-    #[arg(long, value_name = "DIR")]
-    pub logs: Option<std::path::PathBuf>,
 }
 
 impl StudyFolders {
     pub fn resolve(&self) -> handover::study_dir::StudyDirs {
         handover::study_dir::StudyDirs::resolve(
-            self.study_dir.as_deref(),
+            self.logs.study_dir.as_deref(),
             self.participants.as_deref(),
-            self.logs.as_deref(),
+            self.logs.logs.as_deref(),
         )
     }
+}
+
+/// The study's folder and its logs, for a command that writes logs but no participant
+/// records (`dry-run`).
+#[derive(Debug, Default, clap::Args)]
+pub struct LogFolders {
+    /// The study directory: participant records in DIR/participants, logs in DIR/logs
+    /// (default: $HANDOVER_STUDY_DIR, else the current directory).
+    #[arg(long, value_name = "DIR", env = "HANDOVER_STUDY_DIR")]
+    pub study_dir: Option<std::path::PathBuf>,
+    /// Where session logs live (default: STUDY_DIR/logs).
+    #[arg(long, value_name = "DIR")]
+    pub logs: Option<std::path::PathBuf>,
+}
+
+impl LogFolders {
+    pub fn resolve(&self) -> handover::study_dir::StudyDirs {
+        handover::study_dir::StudyDirs::resolve(self.study_dir.as_deref(), None, self.logs.as_deref())
+    }
+}
+
+/// How fast a simulated participant acts: slow enough to follow where a console shows it,
+/// at once where nothing does.
+#[derive(Debug, Default, clap::Args)]
+pub struct Pace {
+    /// Milliseconds between the simulated participant's actions [default: 800 in the
+    /// console, to follow them; 0 without one].
+    #[arg(long = "pace", value_name = "MS")]
+    ms: Option<u64>,
+}
+
+impl Pace {
+    /// The pace where the console shows the session.
+    pub fn in_console(&self) -> std::time::Duration {
+        std::time::Duration::from_millis(self.ms.unwrap_or(800))
+    }
+
+    /// The pace where nothing shows it (a dry run).
+    pub fn headless(&self) -> std::time::Duration {
+        std::time::Duration::from_millis(self.ms.unwrap_or(0))
+    }
+}
+
+/// clap's parser of a count of at least `min`: `--trials 0` is refused naming the flag, before
+/// anything runs (exit 2).
+pub fn count(min: u64) -> clap::builder::RangedU64ValueParser<usize> {
+    clap::builder::RangedU64ValueParser::new().range(min..)
 }
 
 /// A list with each value kept at its first place only (`a,b,a` is `a,b`): a value given twice

@@ -79,10 +79,12 @@ mod shards;
 mod simulate;
 mod status;
 mod sweep;
+mod vocabulary;
 
 use clap::{Parser, Subcommand};
 
 pub use input::BadInput;
+pub use vocabulary::warn_renamed;
 
 /// Whether an error is a write to a closed standard output (a pipe whose reader left).
 pub fn is_broken_pipe(err: &anyhow::Error) -> bool {
@@ -119,28 +121,11 @@ enum Command {
     /// overwritten) and, while it runs, LOGS/<id>/.session.lock; for the participant "new",
     /// their record PARTICIPANTS/<id>.json when the session starts.
     Run(console::RunArgs),
-    /// The learning engine as a JSON tool: score a menu of queries, update a belief.
-    ///
-    /// Writes: the scores (and the updated belief) as JSON on stdout; no file.
-    Score(score::ScoreArgs),
     /// The feasible arm configurations of a protocol's handover queries.
     ///
-    /// Writes: JSON or CSV on stdout (docs/outputs.md: feasible.csv); with --plot, one SVG
+    /// Writes: a table, JSON or CSV on stdout (docs/outputs.md: feasible.csv); with --plot, one SVG
     /// per query into that folder.
     Feasible(feasible::FeasibleArgs),
-    /// Reproduce the paper's simulation studies (planar 2-DoF, 7-DoF arm, two sets).
-    ///
-    /// Writes: a table on stdout; with --out DIR, metrics.csv, summary.csv, tests.csv and one
-    /// SVG per measure (two-sets: two_sets.csv) into DIR (docs/outputs.md).
-    Simulate(simulate::SimulateArgs),
-    /// The comfort–accuracy front of the comfort-aware selectors (hybrid β, budgeted ε).
-    ///
-    /// Writes: a table on stdout; with --out DIR, front.csv and front.svg into DIR.
-    Front(front::FrontArgs),
-    /// Region, configuration and measured-arm observations side by side, over seeds.
-    ///
-    /// Writes: a table on stdout; with --out DIR, observations.csv and observations.svg into DIR.
-    Observations(observations::ObservationsArgs),
     /// Validate a protocol file.
     ///
     /// Writes: the problems or a summary on stdout; no file.
@@ -187,6 +172,11 @@ enum Command {
     /// fig10.svg, fig10_predictive.svg, objects.svg, alpha.svg and table1.md into DIR (pilot
     /// sessions into DIR/pilot). Never writes to a log.
     Analyze(analyze::AnalyzeArgs),
+    /// Research tools: the paper's simulations, their sweeps and the engine as a JSON tool.
+    ///
+    /// Writes: see each command.
+    #[command(subcommand)]
+    Research(Research),
     /// Print a shell completion script on stdout, e.g.
     /// `handover completions bash > ~/.local/share/bash-completion/completions/handover`.
     ///
@@ -205,6 +195,41 @@ enum Command {
         #[arg(long, value_enum, default_value_t = ManFormat::Roff)]
         format: ManFormat,
     },
+    /// `research score`, under its name in 0.1.0.
+    #[command(hide = true)]
+    Score(score::ScoreArgs),
+    /// `research simulate`, under its name in 0.1.0.
+    #[command(hide = true)]
+    Simulate(simulate::SimulateArgs),
+    /// `research front`, under its name in 0.1.0.
+    #[command(hide = true)]
+    Front(front::FrontArgs),
+    /// `research observations`, under its name in 0.1.0.
+    #[command(hide = true)]
+    Observations(observations::ObservationsArgs),
+}
+
+/// The research commands (`handover research …`): the paper's simulation studies, two of its
+/// footnotes as sweeps, and the engine as a JSON tool.
+#[derive(Debug, Subcommand)]
+enum Research {
+    /// Reproduce the paper's simulation studies (planar 2-DoF, 7-DoF arm, two sets).
+    ///
+    /// Writes: a table on stdout; with --out DIR, metrics.csv, summary.csv, tests.csv and one
+    /// SVG per measure (two-sets: two_sets.csv) into DIR (docs/outputs.md).
+    Simulate(simulate::SimulateArgs),
+    /// The comfort–accuracy front of the comfort-aware selectors (hybrid β, budgeted ε).
+    ///
+    /// Writes: a table on stdout; with --out DIR, front.csv and front.svg into DIR.
+    Front(front::FrontArgs),
+    /// Region, configuration and measured-arm observations side by side, over seeds.
+    ///
+    /// Writes: a table on stdout; with --out DIR, observations.csv and observations.svg into DIR.
+    Observations(observations::ObservationsArgs),
+    /// The learning engine as a JSON tool: score a menu of queries, update a belief.
+    ///
+    /// Writes: the scores (and the updated belief) as JSON on stdout; no file.
+    Score(score::ScoreArgs),
 }
 
 /// The formats of `handover man`.
@@ -221,11 +246,11 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     };
     match command {
         Command::Run(args) => console::run(args),
-        Command::Score(args) => score::run(args),
         Command::Feasible(args) => feasible::run(args),
-        Command::Simulate(args) => simulate::run(args),
-        Command::Front(args) => front::run(args),
-        Command::Observations(args) => observations::run(args),
+        Command::Research(Research::Simulate(args)) | Command::Simulate(args) => simulate::run(args),
+        Command::Research(Research::Front(args)) | Command::Front(args) => front::run(args),
+        Command::Research(Research::Observations(args)) | Command::Observations(args) => observations::run(args),
+        Command::Research(Research::Score(args)) | Command::Score(args) => score::run(args),
         Command::Protocol(args) => protocol::run(args),
         Command::Participant(args) => participant::run(args),
         Command::DryRun(args) => dry_run::run(args),

@@ -1,4 +1,4 @@
-//! `handover observations`: what measuring the arm buys over the region taken.
+//! `handover research observations`: what measuring the arm buys over the region taken.
 
 use super::figures::FigureArgs;
 use std::path::PathBuf;
@@ -29,8 +29,8 @@ pub struct ObservationsArgs {
     #[arg(long, value_enum, value_delimiter = ',', default_value = "planar2,arm7")]
     scenarios: Vec<SweepScenario>,
     /// Measurement noise levels σ per joint, degrees, comma-separated (0.01 to 57.3).
-    #[arg(long, value_delimiter = ',', default_value = "2,5,10,20", value_name = "DEG,…")]
-    sigmas_deg: Vec<f64>,
+    #[arg(long, alias = "sigmas-deg", value_delimiter = ',', default_value = "2,5,10,20", value_name = "DEG,…")]
+    sigma_deg: Vec<f64>,
     /// Selectors, comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "active,passive")]
     algorithms: Vec<SelectorKind>,
@@ -47,10 +47,9 @@ pub struct ObservationsArgs {
 }
 
 pub fn run(a: ObservationsArgs) -> Result<()> {
-    a.sweep.check()?;
     let (min, max) = handover::ergo::SIGMA_DEG;
-    if let Some(s) = a.sigmas_deg.iter().find(|s| !(s.is_finite() && (min..=max).contains(*s))) {
-        return Err(bad(format!("--sigmas-deg has {s}, expected {min} to {max:.1} degrees")));
+    if let Some(s) = a.sigma_deg.iter().find(|s| !(s.is_finite() && (min..=max).contains(*s))) {
+        return Err(bad(format!("--sigma-deg has {s}, expected {min} to {max:.1} degrees")));
     }
     if a.scenarios.is_empty() || a.algorithms.is_empty() {
         return Err(bad("--scenarios and --algorithms need at least one value each"));
@@ -60,7 +59,7 @@ pub fn run(a: ObservationsArgs) -> Result<()> {
     if let Some(dir) = &a.out {
         handover::private_files::create_dir(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
-    let observations = observation_settings(&a.sigmas_deg);
+    let observations = observation_settings(&a.sigma_deg);
     let scenarios: Vec<Box<dyn Scenario>> = a.scenarios.iter().map(|s| s.build()).collect();
     let sw = &a.sweep;
     let bar = sw.progress("observations", scenarios.len() as u64 * observations.len() as u64);

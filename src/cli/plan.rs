@@ -21,7 +21,7 @@ use handover::session::Session;
 use handover::study_dir::ParticipantLock;
 use rayon::prelude::*;
 
-use super::input::{bad, load_protocol};
+use super::input::{bad, count, load_protocol};
 use super::simulate::write_csv;
 
 /// Simulated sessions a plan may run (studies × the largest size): the work budget.
@@ -50,10 +50,10 @@ pub struct PlanArgs {
     #[arg(long, value_name = "FILE")]
     protocol: Option<PathBuf>,
     /// Study sizes to plan for, comma-separated (participants, each 2 to 1000).
-    #[arg(long, value_delimiter = ',', default_value = "5,10,20,40")]
-    participants: Vec<usize>,
+    #[arg(long, alias = "participants", value_delimiter = ',', default_value = "5,10,20,40")]
+    sizes: Vec<usize>,
     /// Simulated studies per size.
-    #[arg(long, default_value_t = 200)]
+    #[arg(long, default_value_t = 200, value_parser = count(1))]
     studies: usize,
     /// Seed of the whole plan (studies, bodies, λ, answers); the same seed gives
     /// byte-identical files for any --threads and any sharding.
@@ -62,8 +62,8 @@ pub struct PlanArgs {
     /// Output folder for the CSVs and the figure.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
-    /// Worker threads [default: all cores].
-    #[arg(long)]
+    /// Worker threads [default: all cores]; the numbers do not depend on it.
+    #[arg(long, value_parser = count(1))]
     threads: Option<usize>,
     /// Also write the first simulated study's sessions (at the largest size) as pilot logs,
     /// LOGS/<id>/<id>_<UTC time>.mcap, so that `analyze LOGS` shows the same study.
@@ -84,32 +84,26 @@ pub struct PlanArgs {
 /// The checked sizes (each 2 to [`MAX_PARTICIPANTS`], no repeats, the work within budget):
 /// the largest.
 fn check(a: &PlanArgs) -> Result<usize> {
-    for &n in &a.participants {
+    for &n in &a.sizes {
         if !(2..=MAX_PARTICIPANTS).contains(&n) {
             return Err(bad(format!(
-                "--participants has {n}, expected sizes from 2 (a paired test needs pairs) to {MAX_PARTICIPANTS}"
+                "--sizes has {n}, expected sizes from 2 (a paired test needs pairs) to {MAX_PARTICIPANTS}"
             )));
         }
     }
-    let mut sorted = a.participants.clone();
+    let mut sorted = a.sizes.clone();
     sorted.sort_unstable();
     sorted.dedup();
-    if sorted.len() != a.participants.len() {
-        return Err(bad("--participants names a size twice"));
-    }
-    if a.studies == 0 {
-        return Err(bad("--studies is 0, expected at least 1"));
-    }
-    if a.threads == Some(0) {
-        return Err(bad("--threads is 0, expected at least 1"));
+    if sorted.len() != a.sizes.len() {
+        return Err(bad("--sizes names a size twice"));
     }
     let Some(&largest) = sorted.last() else {
-        return Err(bad("--participants is empty, expected sizes such as 5,10,20,40"));
+        return Err(bad("--sizes is empty, expected sizes such as 5,10,20,40"));
     };
     let sessions = a.studies.saturating_mul(largest);
     if sessions > MAX_SESSIONS {
         return Err(bad(format!(
-            "--studies × the largest --participants = {sessions} simulated sessions, over the budget of {MAX_SESSIONS}"
+            "--studies × the largest --sizes = {sessions} simulated sessions, over the budget of {MAX_SESSIONS}"
         )));
     }
     Ok(largest)
@@ -120,10 +114,8 @@ pub fn run(args: PlanArgs) -> Result<()> {
     let (text, study) = load_protocol(args.protocol.as_deref())?;
     let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start worker threads")?;
-    let fingerprint = format!(
-        "plan protocol {} sizes {:?} studies {} seed {}",
-        study.sha256, args.participants, args.studies, args.seed
-    );
+    let fingerprint =
+        format!("plan protocol {} sizes {:?} studies {} seed {}", study.sha256, args.sizes, args.studies, args.seed);
     for dir in args.out.iter() {
         handover::private_files::create_dir(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
@@ -213,7 +205,7 @@ fn run_studies(
             .map(|&k| {
                 let sessions = simulate_study(text, study, args.seed, k, largest)?;
                 bar.inc(largest as u64);
-                Ok::<_, handover::plan::PlanError>(study_rows(k, &sessions, &args.participants, &object_ids))
+                Ok::<_, handover::plan::PlanError>(study_rows(k, &sessions, &args.sizes, &object_ids))
             })
             .collect::<Result<Vec<_>, _>>()
     })?;
@@ -231,10 +223,9 @@ fn merge_shards(
 ) -> Result<(Vec<StudyRow>, Vec<StudyObjectRow>, Vec<ShardManifest>)> {
     // Budgets: a study has at most one row per size × measure × iteration (iterations are
     // at most the protocol's trials per condition + 1) and per size × condition × object.
-    let per_study =
-        args.participants.len() * SEED_MEASURES.len() * (handover::protocol::limits::TRIALS_PER_CONDITION + 1);
+    let per_study = args.sizes.len() * SEED_MEASURES.len() * (handover::protocol::limits::TRIALS_PER_CONDITION + 1);
     let max_rows = args.studies * per_study;
-    let max_objects = args.studies * args.participants.len() * 2 * handover::protocol::limits::OBJECTS;
+    let max_objects = args.studies * args.sizes.len() * 2 * handover::protocol::limits::OBJECTS;
     let mut rows: Vec<StudyRow> = Vec::new();
     let mut objects: Vec<StudyObjectRow> = Vec::new();
     let mut manifests = Vec::new();
@@ -248,7 +239,7 @@ fn merge_shards(
             return Err(bad(format!("the shards hold more rows than a plan of {} studies has", args.studies)));
         }
     }
-    let size_rank = |n: usize| args.participants.iter().position(|&p| p == n);
+    let size_rank = |n: usize| args.sizes.iter().position(|&p| p == n);
     let measure_rank = |m: &str| SEED_MEASURES.iter().position(|&s| s == m);
     for r in &rows {
         if r.study >= args.studies || size_rank(r.participants).is_none() || measure_rank(&r.measure).is_none() {
@@ -343,7 +334,7 @@ fn print_table(
         "effect (deg)",
         "session hours"
     );
-    for &n in &args.participants {
+    for &n in &args.sizes {
         let cell = |r: Option<&PowerRow>| {
             r.map_or((String::from("—"), String::from("—")), |r| {
                 (
@@ -356,7 +347,7 @@ fn print_table(
         let (d_p, d_e) = cell(find(n, "distance_to_truth_deg"));
         outln!("{n:>12} {ll_p:>24} {ll_e:>28} {d_p:>24} {d_e:>28} {:>14.1}", n as f64 * session_s / 3600.0);
     }
-    let n = args.participants[0];
+    let n = args.sizes[0];
     let offered: Vec<String> = shares
         .iter()
         .filter(|s| s.participants == n)

@@ -34,7 +34,37 @@ pub fn markdown(cmd: &Command) -> String {
     for sub in visible(cmd) {
         section(&mut out, sub, &format!("handover {}", sub.get_name()), 2);
     }
+    vocabulary(&mut out);
     out
+}
+
+/// The vocabulary: each flag's one meaning and default, and where a command differs.
+fn vocabulary(out: &mut String) {
+    use super::vocabulary::{CONCEPTS, RENAMED};
+    let _ = writeln!(
+        out,
+        "## Flags across commands\n\nA flag means the same in every command that takes it; a command that sweeps a \
+         setting takes a comma-separated list under the same flag. Defaults are the same everywhere except where \
+         said.\n"
+    );
+    let _ = writeln!(out, "| flag | meaning | default |\n|---|---|---|");
+    let mut concepts: Vec<_> = CONCEPTS.iter().collect();
+    concepts.sort_by_key(|c| c.flag);
+    for c in concepts {
+        let mut default = c.default.map_or("—".to_string(), |d| format!("`{d}`"));
+        for e in c.except {
+            let theirs = e.default.map_or("none".to_string(), |d| format!("`{d}`"));
+            default.push_str(&format!("; `{}`: {theirs} ({})", e.command, e.why));
+        }
+        let value = if c.value.is_empty() { String::new() } else { format!(" {}", c.value) };
+        let _ = writeln!(out, "| `--{}{value}` | {} | {} |", c.flag, cell(c.meaning), cell(&default));
+    }
+    let _ = writeln!(out, "\n### Renamed in 0.2.0\n\nThe old spellings work, with a warning, until 0.3.0.\n");
+    let _ = writeln!(out, "| old | new |\n|---|---|");
+    for r in RENAMED {
+        let command = if r.command.is_empty() { String::new() } else { format!("{} ", r.command) };
+        let _ = writeln!(out, "| `handover {command}{}` | `handover {command}{}` |", r.old, r.new);
+    }
 }
 
 fn visible(cmd: &Command) -> impl Iterator<Item = &Command> {

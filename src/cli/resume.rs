@@ -1,7 +1,6 @@
 //! `handover resume LOG`: continue an interrupted session from its log.
 
 use std::path::PathBuf;
-use std::time::Duration;
 
 use anyhow::{Context, Result};
 use clap::Args;
@@ -12,7 +11,7 @@ use handover::record::{
 };
 use handover::study_dir::{ParticipantLock, StudyDirs};
 
-use super::input::bad;
+use super::input::{Pace, bad};
 use super::live::LiveArgs;
 use super::robot::RobotArgs;
 
@@ -22,7 +21,7 @@ use super::robot::RobotArgs;
 /// newest continuation is resumed instead (and said so), unless --fork asks to branch from
 /// the given log. A completed or aborted session is opened read-only on its summary.
 /// Without options it reopens the operator console where the session stopped; with
-/// --dry-run a simulated participant continues a dry run headless.
+/// --no-console a simulated participant continues a dry run headless.
 #[derive(Debug, Args)]
 pub struct ResumeArgs {
     /// The session log (.mcap) to continue.
@@ -33,11 +32,11 @@ pub struct ResumeArgs {
     #[arg(long, value_name = "ID")]
     participant: Option<String>,
     /// Continue a dry run with its simulated participant, without the console.
-    #[arg(long)]
-    dry_run: bool,
+    #[arg(long, alias = "dry-run")]
+    no_console: bool,
     /// In the console, let the simulated participant of a dry run or rehearsal continue.
-    #[arg(long, conflicts_with = "dry_run")]
-    simulate: bool,
+    #[arg(long, alias = "simulate", conflicts_with = "no_console")]
+    simulated_participant: bool,
     /// Continue this very log even though a newer continuation of it exists (a second
     /// branch of the session; analysis keeps one log per session).
     #[arg(long)]
@@ -52,9 +51,8 @@ pub struct ResumeArgs {
     /// Where participant records live (default: STUDY_DIR/participants).
     #[arg(long = "participants-dir", value_name = "DIR")]
     participants: Option<PathBuf>,
-    /// Milliseconds to wait between simulated actions.
-    #[arg(long, value_name = "MS", default_value_t = 0)]
-    pace: u64,
+    #[command(flatten)]
+    pace: Pace,
     /// A robot in the loop, as for `run` and `dry-run`.
     #[command(flatten)]
     robot: RobotArgs,
@@ -127,14 +125,14 @@ pub fn run(args: ResumeArgs) -> Result<()> {
         StudyDirs::for_log(args.study_dir.as_deref(), args.participants.as_deref(), &old.path, &old.start.participant);
     if is_over(&old) {
         errln!("{}: the session is over; opening it read-only (nothing is written)", old.path.display());
-        if args.dry_run {
+        if args.no_console {
             let study = study_of(&old).map_err(|e| bad(e.to_string()))?;
             let a = handover::analysis::analyse(&old)?;
             return super::dry_run::report(&study, &old.path, &a);
         }
         return super::console::summary(old, dirs);
     }
-    if !args.dry_run {
+    if !args.no_console {
         if !old.start.pilot && handover::participant::has_withdrawn(&dirs.participants, &old.start.participant) {
             return Err(bad(format!(
                 "{}: participant {} withdrew from the study; their session is not continued",
@@ -142,16 +140,22 @@ pub fn run(args: ResumeArgs) -> Result<()> {
                 old.start.participant
             )));
         }
-        return super::console::resume(old, dirs, args.simulate, args.pace, (&args.robot, &args.live));
+        return super::console::resume(
+            old,
+            dirs,
+            args.simulated_participant,
+            args.pace.in_console(),
+            (&args.robot, &args.live),
+        );
     }
     let Some(truth) = old.start.simulated_truth.clone() else {
         return Err(bad(format!(
-            "{}: not a dry run (no simulated participant); resume it without --dry-run",
+            "{}: not a dry run (no simulated participant); resume it without --no-console",
             old.path.display()
         )));
     };
     let study = study_of(&old).map_err(|e| bad(e.to_string()))?;
-    let _lock = ParticipantLock::acquire(&log_folder(&old.path), &old.start.participant, "resume --dry-run")?;
+    let _lock = ParticipantLock::acquire(&log_folder(&old.path), &old.start.participant, "resume --no-console")?;
     // Every resource first (the robot, the live view's port): a bad robot option or a busy
     // port is refused before the continuation's file exists.
     let mut robot = args.robot.connect()?;
@@ -165,7 +169,7 @@ pub fn run(args: ResumeArgs) -> Result<()> {
     errln!("resumed {} ({} events) into {}", old.path.display(), old.events.len(), rec.path().display());
     let person = SimulatedPerson { truth, alpha: study.population().alpha };
     let participant = ScriptedParticipant { person };
-    let driven = drive_session(&mut rec, &participant, robot.as_mut(), arm.as_ref(), Duration::from_millis(args.pace))?;
+    let driven = drive_session(&mut rec, &participant, robot.as_mut(), arm.as_ref(), args.pace.headless())?;
     let path = rec.finish().context("cannot finish the log")?;
     if let RobotDrive::GaveUp(why) = driven {
         anyhow::bail!("the session was aborted: {why}; log: {}", path.display());

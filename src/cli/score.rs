@@ -1,4 +1,4 @@
-//! `handover score`: the engine as a JSON tool (scores a menu, optionally updates a belief).
+//! `handover research score`: the engine as a JSON tool (scores a menu, optionally updates a belief).
 
 use std::collections::HashSet;
 use std::path::PathBuf;

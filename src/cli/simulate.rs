@@ -1,4 +1,4 @@
-//! `handover simulate`: the paper's simulation studies (sections V and VI, Fig. 2–4 and 8).
+//! `handover research simulate`: the paper's simulation studies (sections V and VI, Fig. 2–4 and 8).
 
 use super::figures::FigureArgs;
 use std::path::{Path, PathBuf};
@@ -15,7 +15,7 @@ use handover::plot::{LinePlot, Series, line_grid, mean_se_plot};
 use handover::select::{DEFAULT_BUDGET_EPSILON, DEFAULT_HYBRID_BETA, SelectorKind, Tradeoff};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use super::input::bad;
+use super::input::{bad, count};
 
 /// Reproduce the paper's simulation studies: a simulated person with a ground truth drawn
 /// from the prior answers every algorithm's queries; each algorithm is measured after every
@@ -35,19 +35,19 @@ pub struct SimulateArgs {
     #[arg(long, default_value = "q-star")]
     learn: LearnMask,
     /// Number of trials (each with its own ground truth, menu and test set).
-    #[arg(long, default_value_t = 50)]
+    #[arg(long, default_value_t = 20, value_parser = count(1))]
     trials: usize,
     /// Number of queries on each trial's menu.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = 8, value_parser = count(1))]
     menu: usize,
     /// Queries per algorithm and trial [default: planar2 5, arm7 10, two-sets 8].
-    #[arg(long)]
+    #[arg(long, value_parser = count(1))]
     iterations: Option<usize>,
     /// Number of random test queries answered by the simulated person per trial.
-    #[arg(long, default_value_t = 300)]
+    #[arg(long, default_value_t = 300, value_parser = count(1))]
     test_size: usize,
     /// Number of particles in the belief.
-    #[arg(long, default_value_t = 1000)]
+    #[arg(long, default_value_t = 1000, value_parser = count(1))]
     particles: usize,
     /// Rationality α of the simulated person and of the model [default: planar2 10;
     /// arm7 40 for q-star, 10 for weights and both; two-sets 2].
@@ -82,13 +82,13 @@ pub struct SimulateArgs {
     /// Seed of every random draw; the same seed gives byte-identical CSV for any --threads.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Run N seeds (SEED, SEED+1, …): every measure is then reported as the mean with a 95 %
-    /// confidence interval over the seeds' means, and each algorithm is compared with
-    /// `active` by a paired test (same truth, menu and test set), in tests.csv.
-    #[arg(long, default_value_t = 1, value_name = "N")]
+    /// Run N seeds (SEED, SEED+1, …), 1 to 1000: every measure is then reported as the mean
+    /// with a 95 % confidence interval over the seeds' means, and each algorithm is compared
+    /// with `active` by a paired test (same truth, menu and test set), in tests.csv.
+    #[arg(long, default_value_t = 5, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=1000))]
     seeds: u64,
-    /// Worker threads [default: all cores].
-    #[arg(long)]
+    /// Worker threads [default: all cores]; the numbers do not depend on it.
+    #[arg(long, value_parser = count(1))]
     threads: Option<usize>,
     /// Output directory for CSV and SVG (created if missing); without it only the table is printed.
     #[arg(long, value_name = "DIR")]
@@ -139,13 +139,6 @@ fn check(a: &SimulateArgs) -> Result<Checked> {
         ScenarioName::Planar2 => Box::new(Planar2::default()),
         _ => Box::new(Arm7::default()),
     };
-    for (name, v) in
-        [("--trials", a.trials), ("--menu", a.menu), ("--test-size", a.test_size), ("--particles", a.particles)]
-    {
-        if v == 0 {
-            return Err(bad(format!("{name} is 0, expected a positive count")));
-        }
-    }
     if a.algorithms.is_empty() {
         return Err(bad(
             "--algorithms is empty, expected at least one of active, active-paper, passive, random, hybrid, budgeted",
@@ -160,12 +153,6 @@ fn check(a: &SimulateArgs) -> Result<Checked> {
     }
     if !(a.epsilon.is_finite() && a.epsilon >= 0.0) {
         return Err(bad(format!("--epsilon is {}, expected a non-negative number", a.epsilon)));
-    }
-    if !(1..=1000).contains(&a.seeds) {
-        return Err(bad(format!("--seeds is {}, expected 1 to 1000", a.seeds)));
-    }
-    if a.threads == Some(0) {
-        return Err(bad("--threads is 0, expected at least 1"));
     }
     let observation = match (a.observation, a.sigma_deg) {
         (ObservationArg::Configuration, None) => SimObservation::Configuration,

@@ -273,7 +273,7 @@ fn truncated_foreign_and_resumed_logs() {
     assert!(err.contains("ends early") && err.contains("analysed up to its last whole message"), "{err}");
     assert!(out.contains("partial"), "{out}");
     // Resuming it writes a second log of the same session: it is counted once.
-    let (code, _, err) = handover(&["resume", all[0].to_str().unwrap(), "--dry-run"]);
+    let (code, _, err) = handover(&["resume", all[0].to_str().unwrap(), "--no-console"]);
     assert_eq!(code, 0, "{err}");
     let (code, out, err) = handover(&["analyze", "--alpha-particles", "300", dir.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");

@@ -30,14 +30,14 @@ fn a_session_is_continued_once_and_a_finished_one_is_only_read() {
     let folder = complete.parent().unwrap().to_path_buf();
     let count = || mcap_files(&dir.join("logs")).len();
     // A completed session opens read-only: nothing is written.
-    let (code, _, err) = handover_in(&dir, &["resume", "--dry-run", complete.to_str().unwrap()]);
+    let (code, _, err) = handover_in(&dir, &["resume", "--no-console", complete.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("the session is over; opening it read-only"), "{err}");
     assert_eq!(count(), 1);
     // A crash half-way: the cut log is continued beside it, once.
     let crashed = folder.join("crashed.mcap");
     std::fs::write(&crashed, cut(&complete, 0.5)).unwrap();
-    let (code, _, err) = handover_in(&dir, &["resume", "--dry-run", crashed.to_str().unwrap()]);
+    let (code, _, err) = handover_in(&dir, &["resume", "--no-console", crashed.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     assert_eq!(count(), 3);
     let continuation = mcap_files(&folder)
@@ -46,12 +46,12 @@ fn a_session_is_continued_once_and_a_finished_one_is_only_read() {
         .expect("a continuation beside the log");
     // Resuming the crashed log again resumes its newest continuation, which is complete:
     // read-only, nothing written.
-    let (code, _, err) = handover_in(&dir, &["resume", "--dry-run", crashed.to_str().unwrap()]);
+    let (code, _, err) = handover_in(&dir, &["resume", "--no-console", crashed.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("resuming its newest continuation") && err.contains("read-only"), "{err}");
     assert_eq!(count(), 3);
     // --fork branches from the crashed log itself.
-    let (code, _, err) = handover_in(&dir, &["resume", "--dry-run", "--fork", crashed.to_str().unwrap()]);
+    let (code, _, err) = handover_in(&dir, &["resume", "--no-console", "--fork", crashed.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("--fork: branching from it as asked"), "{err}");
     let forks: Vec<PathBuf> = mcap_files(&folder)
@@ -68,7 +68,7 @@ fn a_session_is_continued_once_and_a_finished_one_is_only_read() {
     let rewritten = read_log(newest).unwrap();
     assert!(!rewritten.finished && rewritten.start.resumed_from.as_deref() == Some("crashed.mcap"));
     let before = count();
-    let (code, _, err) = handover_in(&dir, &["resume", "--dry-run", crashed.to_str().unwrap()]);
+    let (code, _, err) = handover_in(&dir, &["resume", "--no-console", crashed.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("was already continued; resuming its newest continuation"), "{err}");
     assert_eq!(count(), before + 1, "{err}");
@@ -154,7 +154,7 @@ fn a_full_disk_names_its_cause_and_leaves_only_whole_files() {
     assert!(records.is_empty(), "no partial record: {records:?}");
     // Resuming on a full disk: the cause, and no 0-byte log.
     let before = mcap_files(&logs).len();
-    let (code, _, err) = handover_in(&dir, &["resume", "--dry-run", partial.to_str().unwrap()]);
+    let (code, _, err) = handover_in(&dir, &["resume", "--no-console", partial.to_str().unwrap()]);
     assert_eq!(code, 1, "{err}");
     assert!(err.contains("No space left on device"), "{err}");
     assert_eq!(mcap_files(&logs).len(), before, "no empty continuation left behind");
@@ -167,7 +167,7 @@ fn a_full_disk_names_its_cause_and_leaves_only_whole_files() {
             std::fs::remove_file(p).unwrap();
         }
     }
-    let (code, _, err) = handover_in(&dir, &["resume", "--dry-run", partial.to_str().unwrap()]);
+    let (code, _, err) = handover_in(&dir, &["resume", "--no-console", partial.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     drop(_unmount);
     let _ = std::fs::remove_dir_all(&dir);
@@ -263,7 +263,7 @@ fn resume_by_participant_finds_the_unfinished_session() {
     let folder = complete.parent().unwrap().to_path_buf();
     let id = folder.file_name().unwrap().to_string_lossy().into_owned();
     // Only a finished session: nothing to continue.
-    let (code, _, err) = handover_in(&dir, &["resume", "--dry-run", "--participant", &id, "--study-dir", "."]);
+    let (code, _, err) = handover_in(&dir, &["resume", "--no-console", "--participant", &id, "--study-dir", "."]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains(&format!("participant {id} has no unfinished session")), "{err}");
     // It crashed half-way instead: found and continued.
@@ -271,11 +271,11 @@ fn resume_by_participant_finds_the_unfinished_session() {
     std::fs::remove_file(&complete).unwrap();
     std::fs::write(&complete, bytes).unwrap();
     let name = complete.file_name().unwrap().to_string_lossy().into_owned();
-    let (code, _, err) = handover_in(&dir, &["resume", "--dry-run", "--participant", &id]);
+    let (code, _, err) = handover_in(&dir, &["resume", "--no-console", "--participant", &id]);
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("resumed") && err.contains(&name), "{err}");
     assert_eq!(mcap_files(&folder).len(), 2);
-    let (code, _, err) = handover_in(&dir, &["resume", "--dry-run", "--participant", &id]);
+    let (code, _, err) = handover_in(&dir, &["resume", "--no-console", "--participant", &id]);
     assert_eq!(code, 2, "everything is finished again: {err}");
     // A log and --participant together, or an id that is not one, are refused.
     let (code, _, _) = handover_in(&dir, &["resume", "--participant", &id, complete.to_str().unwrap()]);

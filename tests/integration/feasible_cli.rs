@@ -8,7 +8,7 @@ fn dist(a: &serde_json::Value, b: &serde_json::Value) -> f64 {
 
 #[test]
 fn json_lists_every_configuration_with_its_arm_points() {
-    let (code, out, err) = handover(&["feasible", "--query", "bars-low-level"]);
+    let (code, out, err) = handover(&["feasible", "--query", "bars-low-level", "--format", "json"]);
     assert_eq!(code, 0, "{err}");
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
     let (l1, l2) = (v["upper_arm"].as_f64().unwrap(), v["forearm"].as_f64().unwrap());
@@ -53,6 +53,32 @@ fn csv_has_one_row_per_configuration() {
         assert_eq!(idx, (0..q.feasible.configs.len()).collect::<Vec<_>>(), "{}", q.query.id);
     }
     assert!(records.iter().any(|r| &r[4] == "Left grip (blue)"));
+}
+
+/// The default table: one line per query with its configurations, in all and per grip, as
+/// many as the CSV has.
+#[test]
+fn the_table_counts_each_querys_configurations_per_grip() {
+    let (code, table, err) = handover(&["feasible"]);
+    assert_eq!(code, 0, "{err}");
+    let (_, csv_text, _) = handover(&["feasible", "--format", "csv"]);
+    let mut rows = csv::Reader::from_reader(csv_text.as_bytes());
+    let records: Vec<csv::StringRecord> = rows.records().map(|r| r.unwrap()).collect();
+    let study = handover::protocol::Study::default_study();
+    for q in study.all_queries() {
+        let line = table
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(q.query.id.as_str()))
+            .unwrap_or_else(|| panic!("no line for {}:\n{table}", q.query.id));
+        let mine: Vec<&csv::StringRecord> = records.iter().filter(|r| r[0] == q.query.id).collect();
+        let words: Vec<&str> = line.split_whitespace().collect();
+        assert_eq!(words[2], mine.len().to_string(), "{line}");
+        let grips: std::collections::BTreeSet<&str> = mine.iter().map(|r| &r[3]).collect();
+        for grip in grips {
+            let n = mine.iter().filter(|r| &r[3] == grip).count();
+            assert!(line.contains(&format!("{grip} {n}")), "{line}: {grip} has {n}");
+        }
+    }
 }
 
 #[test]

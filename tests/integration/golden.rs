@@ -192,7 +192,7 @@ fn finished_golden_logs_replay_read_only() {
     for format in formats() {
         for g in sessions_of(format).filter(|g| g.finished && g.files.len() == 1) {
             let dir = copy_of(format, g);
-            let (code, _, err) = handover_in(&dir, &["resume", "--dry-run", g.files[0]]);
+            let (code, _, err) = handover_in(&dir, &["resume", "--no-console", g.files[0]]);
             assert_eq!(code, 0, "format {format} {}: {err}", g.name);
             assert!(err.contains("the session is over; opening it read-only"), "format {format} {}: {err}", g.name);
             assert_eq!(mcap_files(&dir).len(), 1, "nothing written");
@@ -218,7 +218,7 @@ fn killed_golden_sessions_resume_to_their_end() {
         };
         let killed = read_log(&dir.join("killed.mcap")).unwrap();
         assert!(!killed.finished && !killed.events.is_empty(), "format {format}");
-        let (code, _, err) = handover_in(&dir, &["resume", "--dry-run", "killed.mcap"]);
+        let (code, _, err) = handover_in(&dir, &["resume", "--no-console", "killed.mcap"]);
         assert_eq!(code, 0, "format {format}: {err}");
         let continuation = mcap_files(&dir)
             .into_iter()
@@ -364,7 +364,7 @@ fn write_current_format() {
     let folder = killed.parent().unwrap();
     std::fs::rename(&killed, folder.join("killed.mcap")).unwrap();
     place(&folder.join("killed.mcap"), "killed.mcap");
-    let (code, _, err) = handover_in(folder, &["resume", "--dry-run", "killed.mcap"]);
+    let (code, _, err) = handover_in(folder, &["resume", "--no-console", "killed.mcap"]);
     assert_eq!(code, 0, "{err}");
     let continuation = mcap_files(folder).into_iter().find(|p| p.file_name().unwrap() != "killed.mcap").unwrap();
     place(&continuation, "resumed.mcap");

@@ -111,7 +111,7 @@ fn try_log(root: &Path, name: &str, bytes: &[u8]) -> (i32, i32) {
     let before_outside = tree(root).into_iter().filter(|p| !p.starts_with(&case)).collect::<BTreeSet<_>>();
     let verify = run_in(&case, &["analyze", "--alpha-particles", "300", "--verify", "logs/p-case/case.mcap"]);
     assert_contained(&verify, &format!("{name}: analyze --verify"), "case.mcap");
-    let resume = run_in(&case, &["resume", "--dry-run", "logs/p-case/case.mcap"]);
+    let resume = run_in(&case, &["resume", "--no-console", "logs/p-case/case.mcap"]);
     assert_contained(&resume, &format!("{name}: resume --dry-run"), "case.mcap");
     // The follower reads the log first, then wants a terminal (none here): a bad log is
     // named, a good one gets as far as asking for a terminal; never a crash.
@@ -387,13 +387,13 @@ fn hostile_score_inputs_exit_2_naming_the_field() {
         edit(&mut v);
         let f = dir.join(format!("{name}.json"));
         std::fs::write(&f, v.to_string()).unwrap();
-        let r = run_in(&dir, &["score", f.to_str().unwrap()]);
+        let r = run_in(&dir, &["research", "score", f.to_str().unwrap()]);
         assert_eq!(r.code, 2, "{name}: {}{}", r.stdout, r.stderr);
         assert!(r.stderr.contains(&format!("{name}.json")) && r.stderr.contains(field), "{name}: {}", r.stderr);
         assert!(!r.stdout.contains("null"), "{name}: no undefined number is printed");
     }
     // An endless input is refused, not read forever: a device is not a regular file.
-    let r = run_in(&dir, &["score", "/dev/zero"]);
+    let r = run_in(&dir, &["research", "score", "/dev/zero"]);
     assert_eq!(r.code, 2, "{}", r.stderr);
     assert!(r.stderr.contains("/dev/zero") && r.stderr.contains("a device"), "{}", r.stderr);
     std::fs::remove_dir_all(&dir).unwrap();
@@ -457,7 +457,7 @@ fn a_closed_standard_output_ends_every_command_quietly() {
         vec!["participant", "show", "p-abc"],
         vec!["feasible", "--protocol", "small.json"],
         vec!["protocol", "check", "small.json"],
-        vec!["score", example_score().to_str().unwrap()],
+        vec!["research", "score", example_score().to_str().unwrap()],
     ] {
         let mut child = Command::new(env!("CARGO_BIN_EXE_handover"))
             .args(&args)
@@ -641,7 +641,7 @@ fn fifos_and_link_loops_are_refused_without_waiting() {
     // skips it as it skips any file that is not a log, and exits 1.
     let cases: &[(&[&str], &str, i32)] = &[
         (&["analyze", "logs/p-abc/session.mcap"], "session.mcap", 1),
-        (&["resume", "--dry-run", "logs/p-abc/session.mcap"], "session.mcap", 2),
+        (&["resume", "--no-console", "logs/p-abc/session.mcap"], "session.mcap", 2),
         (&["follow", "logs/p-abc/session.mcap"], "session.mcap", 2),
         (&["protocol", "check", "protocol.json"], "protocol.json", 2),
         (&["dry-run", "--protocol", "protocol.json"], "protocol.json", 2),

@@ -173,7 +173,18 @@ fn a_foxglove_client_gets_the_logged_messages_live() {
             (m.channel.topic.clone(), m.log_time, m.data.to_vec())
         })
         .collect();
-    assert_eq!(got.len(), logged.len(), "every message of the session reaches the viewer, none lost");
+    let missing: Vec<(&str, u64)> = logged
+        .iter()
+        .filter(|m| !got.iter().any(|g| g.0 == m.0 && g.1 == m.1 && g.2 == m.2))
+        .map(|m| (m.0.as_str(), m.1 - logged[0].1))
+        .collect();
+    assert_eq!(
+        got.len(),
+        logged.len(),
+        "every message of the session reaches the viewer, none lost; missing (topic, ns after the start): {missing:?}, \
+         {} logged in all",
+        logged.len()
+    );
     // The start's messages may come as each topic is subscribed (its latest); from the first
     // event on, in the order logged.
     let start = logged.iter().filter(|m| m.1 == logged[0].1).count();

@@ -342,17 +342,19 @@ fn every_csv_matches_the_data_dictionary() {
     );
     handover(
         &[
-            &["observations", "--scenarios", "planar2", "--seeds", "2", "--sigmas-deg", "5"][..],
+            &["research", "observations", "--scenarios", "planar2", "--seeds", "2", "--sigma-deg", "5"][..],
             &["--out", &s(&dir.join("observations"))][..],
             &sim[..],
         ]
         .concat(),
     );
-    handover(&[&["simulate", "planar2", "--seeds", "2", "--out", &s(&dir.join("sim"))][..], &sim[..]].concat());
-    handover(&[&["simulate", "two-sets", "--out", &s(&dir.join("two"))][..], &sim[..]].concat());
+    handover(
+        &[&["research", "simulate", "planar2", "--seeds", "2", "--out", &s(&dir.join("sim"))][..], &sim[..]].concat(),
+    );
+    handover(&[&["research", "simulate", "two-sets", "--out", &s(&dir.join("two"))][..], &sim[..]].concat());
     handover(
         &[
-            &["front", "--scenarios", "planar2", "--learn", "q-star", "--seeds", "2", "--betas", "0.1"][..],
+            &["research", "front", "--scenarios", "planar2", "--learn", "q-star", "--seeds", "2", "--betas", "0.1"][..],
             &["--epsilons", "0.25", "--out", &s(&dir.join("front"))][..],
             &sim[..],
         ]
@@ -360,7 +362,7 @@ fn every_csv_matches_the_data_dictionary() {
     );
     handover(&[
         "plan",
-        "--participants",
+        "--sizes",
         "2,3",
         "--studies",
         "2",

@@ -66,7 +66,7 @@ fn without_an_effect_the_power_is_the_significance_level() {
         "plan",
         "--protocol",
         &p,
-        "--participants",
+        "--sizes",
         "2,8",
         "--studies",
         "40",
@@ -103,7 +103,7 @@ fn an_effect_every_participant_shares_gains_power_with_participants() {
         "plan",
         "--protocol",
         &p,
-        "--participants",
+        "--sizes",
         "3,10",
         "--studies",
         "12",
@@ -148,7 +148,7 @@ fn a_planned_study_kept_as_logs_is_what_analyze_finds() {
         "plan",
         "--protocol",
         &p,
-        "--participants",
+        "--sizes",
         "4",
         "--studies",
         "2",
@@ -193,7 +193,7 @@ fn shards_merged_are_byte_for_byte_the_whole_plan() {
     let p = protocol(&dir, "p.json", |_| {});
     let s = |name: &str| dir.join(name).to_str().unwrap().to_string();
     let run = |extra: &[&str]| {
-        let mut args = vec!["plan", "--protocol", &p, "--participants", "2,3", "--studies", "3", "--seed", "2"];
+        let mut args = vec!["plan", "--protocol", &p, "--sizes", "2,3", "--studies", "3", "--seed", "2"];
         args.extend(extra);
         handover(&args)
     };
@@ -248,7 +248,7 @@ fn shards_merged_are_byte_for_byte_the_whole_plan() {
         "plan",
         "--protocol",
         &p,
-        "--participants",
+        "--sizes",
         "2,3",
         "--studies",
         "4",
@@ -272,14 +272,14 @@ fn bad_input_exits_2_naming_what() {
         p["population"]["q_star_deg"][3]["mean"] = 170.0.into();
         p["population"]["w"][0]["sd"] = (-1.0).into();
     });
-    let (code, _, err) = handover(&["plan", "--protocol", &p, "--participants", "4", "--studies", "1"]);
+    let (code, _, err) = handover(&["plan", "--protocol", &p, "--sizes", "4", "--studies", "1"]);
     assert_eq!(code, 2);
     assert!(err.contains("population.q_star_deg[3].mean") && err.contains("population.w[0].sd"), "{err}");
     for (args, what) in [
-        (vec!["plan", "--participants", "1"], "--participants has 1"),
-        (vec!["plan", "--participants", "4,4"], "names a size twice"),
-        (vec!["plan", "--studies", "0"], "--studies is 0"),
-        (vec!["plan", "--studies", "10000", "--participants", "40"], "over the budget of 200000"),
+        (vec!["plan", "--sizes", "1"], "--sizes has 1"),
+        (vec!["plan", "--sizes", "4,4"], "names a size twice"),
+        (vec!["plan", "--studies", "0"], "'--studies <STUDIES>'"),
+        (vec!["plan", "--studies", "10000", "--sizes", "40"], "over the budget of 200000"),
         (vec!["plan", "--shard", "0/2"], "--shard needs --out"),
     ] {
         let (code, _, err) = handover(&args);

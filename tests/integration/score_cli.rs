@@ -5,7 +5,7 @@ use std::process::{Command, Stdio};
 
 fn score(input: &str) -> (i32, String, String) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_handover"))
-        .args(["score", "-"])
+        .args(["research", "score", "-"])
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())

@@ -8,12 +8,16 @@ fn tmp(name: &str) -> std::path::PathBuf {
     std::env::temp_dir().join(format!("handover-sim-{}-{name}", std::process::id()))
 }
 
+/// One seed, where a test reads one seed's rows (the default is 5).
+const ONE_SEED: [&str; 2] = ["--seeds", "1"];
+
 const SMALL: [&str; 10] =
     ["--trials", "4", "--iterations", "3", "--test-size", "30", "--particles", "200", "--seed", "11"];
 
 fn run_small(dir: &Path, threads: &str) {
-    let mut args = vec!["simulate", "planar2", "--threads", threads, "--out", dir.to_str().unwrap()];
+    let mut args = vec!["research", "simulate", "planar2", "--threads", threads, "--out", dir.to_str().unwrap()];
     args.extend(SMALL);
+    args.extend(ONE_SEED);
     let (code, out, err) = handover(&args);
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("active") && out.contains("passive"), "{out}");
@@ -120,8 +124,10 @@ fn last_distances(dir: &Path) -> Vec<f64> {
 fn a_precise_measurement_learns_as_the_configuration_does_and_a_noisy_one_less() {
     let run = |name: &str, observation: &[&str]| {
         let dir = tmp(name);
-        let mut args = vec!["simulate", "planar2", "--algorithms", "active,passive", "--out", dir.to_str().unwrap()];
+        let mut args =
+            vec!["research", "simulate", "planar2", "--algorithms", "active,passive", "--out", dir.to_str().unwrap()];
         args.extend(SMALL);
+        args.extend(ONE_SEED);
         args.extend(observation);
         let (code, out, err) = handover(&args);
         assert_eq!(code, 0, "{err}");
@@ -144,9 +150,10 @@ fn arm7_learns_from_the_grip_taken() {
     let dir = tmp("obs-region");
     let (code, out, err) = handover(
         &[
-            &["simulate", "arm7", "--observation", "region", "--algorithms", "active,passive"][..],
+            &["research", "simulate", "arm7", "--observation", "region", "--algorithms", "active,passive"][..],
             &["--out", dir.to_str().unwrap(), "--menu", "4"][..],
             &SMALL[..],
+            &ONE_SEED[..],
         ]
         .concat(),
     );
@@ -159,9 +166,11 @@ fn arm7_learns_from_the_grip_taken() {
 fn planar2_learns_from_the_piece_taken() {
     let run = |observation: &str| {
         let dir = tmp(&format!("obs-planar2-{observation}"));
-        let mut args = vec!["simulate", "planar2", "--algorithms", "active,passive", "--out", dir.to_str().unwrap()];
+        let mut args =
+            vec!["research", "simulate", "planar2", "--algorithms", "active,passive", "--out", dir.to_str().unwrap()];
         args.extend(&SMALL[2..]);
         args.extend(["--trials", "16", "--observation", observation]);
+        args.extend(ONE_SEED);
         let (code, out, err) = handover(&args);
         assert_eq!(code, 0, "{err}");
         (out, last_distances(&dir))
@@ -177,7 +186,7 @@ fn planar2_learns_from_the_piece_taken() {
 
 #[test]
 fn two_sets_alternates() {
-    let (code, out, _) = handover(&["simulate", "two-sets", "--particles", "1000"]);
+    let (code, out, _) = handover(&["research", "simulate", "two-sets", "--particles", "1000"]);
     assert_eq!(code, 0);
     let chosen: Vec<&str> = out.lines().skip(2).map(|l| l.split_whitespace().nth(3).unwrap()).collect();
     assert_eq!(chosen.len(), 8);
@@ -187,20 +196,20 @@ fn two_sets_alternates() {
 #[test]
 fn bad_arguments_exit_2() {
     for args in [
-        vec!["simulate", "planar2", "--trials", "0"],
-        vec!["simulate", "planar2", "--algorithms", "greedy"],
-        vec!["simulate", "planar2", "--alpha", "-1"],
-        vec!["simulate", "planar2", "--learn", "elbows"],
-        vec!["simulate", "planar2", "--threads", "0"],
-        vec!["simulate", "planar2", "--seeds", "0"],
-        vec!["simulate", "planar2", "--estimate", "median"],
-        vec!["simulate", "hexapod"],
-        vec!["simulate", "planar2", "--observation", "measured"],
-        vec!["simulate", "planar2", "--sigma-deg", "5"],
-        vec!["simulate", "planar2", "--observation", "measured", "--sigma-deg", "0"],
-        vec!["simulate", "planar2", "--observation", "measured", "--sigma-deg", "90"],
-        vec!["simulate", "two-sets", "--observation", "measured", "--sigma-deg", "5"],
-        vec!["simulate", "arm7", "--observation", "region", "--sigma-deg", "5"],
+        vec!["research", "simulate", "planar2", "--trials", "0"],
+        vec!["research", "simulate", "planar2", "--algorithms", "greedy"],
+        vec!["research", "simulate", "planar2", "--alpha", "-1"],
+        vec!["research", "simulate", "planar2", "--learn", "elbows"],
+        vec!["research", "simulate", "planar2", "--threads", "0"],
+        vec!["research", "simulate", "planar2", "--seeds", "0"],
+        vec!["research", "simulate", "planar2", "--estimate", "median"],
+        vec!["research", "simulate", "hexapod"],
+        vec!["research", "simulate", "planar2", "--observation", "measured"],
+        vec!["research", "simulate", "planar2", "--sigma-deg", "5"],
+        vec!["research", "simulate", "planar2", "--observation", "measured", "--sigma-deg", "0"],
+        vec!["research", "simulate", "planar2", "--observation", "measured", "--sigma-deg", "90"],
+        vec!["research", "simulate", "two-sets", "--observation", "measured", "--sigma-deg", "5"],
+        vec!["research", "simulate", "arm7", "--observation", "region", "--sigma-deg", "5"],
     ] {
         let (code, _, err) = handover(&args);
         assert_eq!(code, 2, "{args:?}: {err}");
@@ -251,9 +260,9 @@ fn the_front_anchors_passive_and_active_and_writes_csv_and_svg() {
     assert_eq!(get("budgeted", "1000.0", "distance"), get("active", "", "distance"));
     // β huge weighs only cost: passive's choices.
     assert_eq!(get("hybrid", "1000.0", "distance"), get("passive", "", "distance"));
-    let (code, _, err) = handover(&["front", "--seeds", "1"]);
+    let (code, _, err) = handover(&["research", "front", "--seeds", "1"]);
     assert_eq!(code, 2, "{err}");
-    assert!(err.contains("--seeds is 1"), "{err}");
+    assert!(err.contains("'--seeds <N>'") && err.contains("2..=1000"), "{err}");
 }
 
 #[test]
@@ -261,7 +270,7 @@ fn shards_merged_are_byte_for_byte_the_whole_run() {
     let dir = tmp("shards");
     let _ = std::fs::remove_dir_all(&dir);
     let run = |extra: &[&str]| {
-        let mut args = vec!["simulate", "planar2", "--seeds", "2", "--algorithms", "active,passive,random"];
+        let mut args = vec!["research", "simulate", "planar2", "--seeds", "2", "--algorithms", "active,passive,random"];
         args.extend(SMALL);
         args.extend(extra);
         handover(&args)
@@ -411,7 +420,7 @@ fn the_array_job_example_runs_its_shards_and_merges_them_without_a_cluster() {
     assert!(err.contains("array index 3 is not below SHARDS=3"), "{err}");
     let (code, _, err) = handover(
         &[
-            &["simulate", "planar2", "--seeds", "2", "--algorithms", "active,passive"][..],
+            &["research", "simulate", "planar2", "--seeds", "2", "--algorithms", "active,passive"][..],
             &SMALL[..],
             &["--out", dir.join("whole").to_str().unwrap()],
         ]
@@ -428,7 +437,19 @@ fn the_array_job_example_runs_its_shards_and_merges_them_without_a_cluster() {
 #[test]
 fn a_run_without_a_terminal_prints_progress_lines() {
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_handover"))
-        .args(["simulate", "planar2", "--seeds", "2", "--trials", "6", "--iterations", "5", "--particles", "2000"])
+        .args([
+            "research",
+            "simulate",
+            "planar2",
+            "--seeds",
+            "2",
+            "--trials",
+            "6",
+            "--iterations",
+            "5",
+            "--particles",
+            "2000",
+        ])
         .env("HANDOVER_PROGRESS_S", "0.2")
         .output()
         .unwrap();
@@ -467,7 +488,7 @@ fn an_algorithm_named_twice_runs_once() {
 fn plots_show_each_algorithm_beside_active_within_the_measures_range() {
     let dir = tmp("plots");
     let _ = std::fs::remove_dir_all(&dir);
-    let mut args = vec!["simulate", "planar2", "--seeds", "2", "--out", dir.to_str().unwrap()];
+    let mut args = vec!["research", "simulate", "planar2", "--seeds", "2", "--out", dir.to_str().unwrap()];
     args.extend(SMALL);
     let (code, _, err) = handover(&args);
     assert_eq!(code, 0, "{err}");

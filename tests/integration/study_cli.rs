@@ -181,7 +181,7 @@ fn dry_run_bad_input_exits_2() {
         vec!["dry-run", "--participants", "0", "--logs", logs.to_str().unwrap()],
         vec!["dry-run", "--truth", truth.to_str().unwrap(), "--logs", logs.to_str().unwrap()],
         vec!["dry-run", "--protocol", "/nonexistent.json"],
-        vec!["resume", truth.to_str().unwrap(), "--dry-run"],
+        vec!["resume", truth.to_str().unwrap(), "--no-console"],
     ] {
         let (code, _, err) = handover(&args);
         assert_eq!(code, 2, "{args:?}: {err}");
@@ -239,12 +239,12 @@ fn a_killed_dry_run_resumes_to_the_same_events() {
             // the continuation's file is made.
             let busy = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
             let addr = busy.local_addr().unwrap().to_string();
-            let (code, _, err) = handover(&["resume", crashed[0].to_str().unwrap(), "--dry-run", "--live", &addr]);
+            let (code, _, err) = handover(&["resume", crashed[0].to_str().unwrap(), "--no-console", "--live", &addr]);
             assert_ne!(code, 0, "a busy port: {err}");
             assert!(err.contains(&addr), "names the port: {err}");
             assert_eq!(logs_in(&logs).len(), 1, "no continuation file is left: {err}");
         }
-        let (code, _, err) = handover(&["resume", crashed[0].to_str().unwrap(), "--dry-run"]);
+        let (code, _, err) = handover(&["resume", crashed[0].to_str().unwrap(), "--no-console"]);
         assert_eq!(code, 0, "{err}");
         let all = logs_in(&logs);
         assert_eq!(all.len(), 2, "the crashed log and its continuation");
@@ -474,7 +474,7 @@ fn completions_and_the_man_page_cover_every_subcommand() {
     let (code, man, err) = handover(&["man"]);
     assert_eq!(code, 0, "{err}");
     assert!(man.contains(".TH handover 1"), "{man}");
-    for sub in ["run", "dry-run", "analyze", "participant", "protocol", "resume", "simulate", "front", "feasible"] {
+    for sub in ["run", "dry-run", "analyze", "participant", "protocol", "resume", "research", "feasible"] {
         assert!(
             bash.contains(&format!("handover__subcmd__{}", sub.replace('-', "__subcmd__"))),
             "bash completes {sub}"
@@ -496,10 +496,12 @@ fn every_help_says_what_the_command_writes() {
     };
     let commands = [
         vec!["run"],
-        vec!["score"],
         vec!["feasible"],
-        vec!["simulate"],
-        vec!["front"],
+        vec!["research"],
+        vec!["research", "simulate"],
+        vec!["research", "front"],
+        vec!["research", "observations"],
+        vec!["research", "score"],
         vec!["protocol", "check"],
         vec!["participant", "new"],
         vec!["participant", "withdraw"],
