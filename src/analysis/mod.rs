@@ -22,7 +22,7 @@ pub use alpha::{
     ALPHA_RANGE, AlphaEvidence, AlphaFit, AlphaSummary, EVIDENCE_PARTICLES, MAX_EVIDENCE_PARTICLES, SUPPORT_DROP,
     SessionAlpha, alpha_grid, alpha_summary, fit_alpha,
 };
-pub use collect::{Analysed, most_complete};
+pub use collect::{Analysed, Collected, WithdrawnLeftOut, collect};
 pub use measured::{
     MAX_MEASUREMENT_BYTES, MAX_MEASUREMENT_SAMPLES, MeasuredRefit, MeasurementFileError, MeasurementSeries, RefitRun,
     refit,

@@ -5,12 +5,11 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use handover::analysis::{
-    AlphaFit, AlphaSummary, Analysed, EVIDENCE_PARTICLES, MAX_EVIDENCE_PARTICLES, SUPPORT_DROP, SessionAnalysis,
-    StudySummary, alpha_summary, analyse_and_verify, most_complete, summarise, write_tables,
+    AlphaFit, AlphaSummary, Analysed, Collected, EVIDENCE_PARTICLES, MAX_EVIDENCE_PARTICLES, SUPPORT_DROP,
+    SessionAnalysis, StudySummary, WithdrawnLeftOut, alpha_summary, collect, write_tables,
 };
-use handover::participant::has_withdrawn;
 use handover::plot::{FigureStyle, LinePlot, PooledEvidence, Series, alpha_plot, bar_chart, mean_se_plot};
-use handover::record::{LOG_FORMAT, LogContents, Topic, mcap_files, read_log, study_of};
+use handover::record::{LogContents, mcap_files};
 use handover::session::program_letter;
 use handover::study_dir::StudyDirs;
 use serde::Serialize;
@@ -103,13 +102,6 @@ struct JsonRun<'a> {
     beliefs: &'a [handover::session::BeliefSummary],
 }
 
-/// Sessions (and participants) left out because the participant withdrew.
-#[derive(Serialize, Clone, Copy)]
-struct WithdrawnLeftOut {
-    sessions: usize,
-    participants: usize,
-}
-
 #[derive(Serialize)]
 struct JsonOut<'a> {
     sessions: Vec<JsonSession<'a>>,
@@ -121,9 +113,9 @@ struct JsonOut<'a> {
     /// With --measurements: each session re-fitted with the measured arm.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     measured_refits: Vec<RefitReport>,
-    skipped: Vec<String>,
-    warnings: Vec<String>,
-    differences: Vec<String>,
+    skipped: &'a [String],
+    warnings: &'a [String],
+    differences: &'a [String],
 }
 
 pub fn run(args: AnalyzeArgs) -> Result<()> {
@@ -149,107 +141,16 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
     if files.is_empty() {
         return Err(bad("no .mcap files found in the given paths"));
     }
-    let (mut skipped, mut differences) = (Vec::new(), Vec::new());
-    let mut logs = Vec::new();
-    for f in &files {
-        match read_log(f) {
-            Ok(log) => logs.push(log),
-            Err(e) => {
-                // A log that cannot be read (or whose ids break the rules) fails --verify.
-                if args.verify {
-                    differences.push(e.to_string());
-                }
-                skipped.push(format!("skipped {e}"));
-            }
-        }
-    }
-    let (mut logs, mut warnings) = most_complete(logs);
-    // Participants who withdrew are never counted.
     // Each log's study is the one given, else the log's own (`<study>/logs/<id>/`), else the
     // current folder's: the same participants are left out from any folder.
-    let dirs_of = |l: &LogContents| {
+    let collected = collect(&files, args.verify, |l: &LogContents| {
         StudyDirs::for_log(args.study_dir.as_deref(), args.participants.as_deref(), &l.path, &l.start.participant)
-    };
-    let before = logs.len();
-    let mut consulted: Vec<PathBuf> = logs.iter().filter(|l| !l.start.pilot).map(|l| dirs_of(l).participants).collect();
-    consulted.sort();
-    consulted.dedup();
-    let mut withdrawn: Vec<String> = logs
-        .iter()
-        .filter(|l| !l.start.pilot && has_withdrawn(&dirs_of(l).participants, &l.start.participant))
-        .map(|l| l.start.participant.clone())
-        .collect();
-    logs.retain(|l| l.start.pilot || !withdrawn.contains(&l.start.participant));
-    if !consulted.is_empty() {
-        let names: Vec<String> = consulted.iter().map(|p| p.display().to_string()).collect();
-        errln!("withdrawals: participant records in {}", names.join(", "));
-    }
-    withdrawn.sort();
-    withdrawn.dedup();
-    let left_out = WithdrawnLeftOut { sessions: before - logs.len(), participants: withdrawn.len() };
-    if left_out.sessions > 0 {
-        errln!("left out {} session(s) of {} participant(s) who withdrew", left_out.sessions, left_out.participants);
-    }
-    let mut analysed = Vec::new();
-    for log in logs {
-        if !log.finished {
-            warnings.push(format!(
-                "{}: the log ends early (a crash not yet resumed, or a quit): analysed up to its last whole message ({} events){}",
-                log.path.display(),
-                log.events.len(),
-                if log.cut_tail { "; a partial record at the end was ignored" } else { "" }
-            ));
-        }
-        if args.verify {
-            differences.extend(log.integrity.iter().map(|p| format!("{}: {p}", log.path.display())));
-        }
-        match analyse_and_verify(&log, args.verify) {
-            Ok((analysis, mut diffs)) => {
-                if args.verify && log.format < LOG_FORMAT {
-                    // An earlier format's derived topics have that format's names and shapes:
-                    // its events are checked (they replay, and their messages are compared);
-                    // the topics derived from them are not.
-                    let before = diffs.len();
-                    diffs.retain(|d| Topic::from_name(&d.topic).is_some_and(Topic::is_event));
-                    errln!(
-                        "verify: {}: log format {} (this version writes {LOG_FORMAT}): its events replay and are compared; \
-                         its derived topics are in that format's shape and are not ({} such difference(s) not counted)",
-                        log.path.display(),
-                        log.format,
-                        before - diffs.len()
-                    );
-                }
-                differences.extend(
-                    diffs
-                        .into_iter()
-                        .map(|d| format!("{}: event {} {}: {}", log.path.display(), d.event_index, d.topic, d.detail)),
-                );
-                analysed.push(Analysed { log, analysis });
-            }
-            Err(e) => {
-                // A log whose events do not replay is both a verify failure and a skip.
-                if args.verify {
-                    differences.push(e.to_string());
-                }
-                skipped.push(format!("skipped {e}"));
-            }
-        }
-    }
-    analysed.sort_by(|a, b| {
-        (a.log.start.pilot, &a.log.start.started_at).cmp(&(b.log.start.pilot, &b.log.start.started_at))
     });
-    let summary_of = |pilot: bool| -> Option<StudySummary> {
-        let group: Vec<&Analysed> = analysed.iter().filter(|a| a.log.start.pilot == pilot).collect();
-        let first = group.first()?;
-        let study = study_of(&first.log).ok()?;
-        let conditions: Vec<String> = study.protocol.session.conditions.iter().map(|c| c.name().to_string()).collect();
-        let items: Vec<(String, String)> =
-            study.protocol.questionnaire.items.iter().map(|i| (i.id.clone(), i.statement.clone())).collect();
-        let sessions: Vec<SessionAnalysis> = group.iter().map(|a| a.analysis.clone()).collect();
-        Some(summarise(&sessions, &conditions, &items))
-    };
-    let (real, pilot) = (summary_of(false), summary_of(true));
-    let bar = indicatif::ProgressBar::new(analysed.len() as u64);
+    for note in &collected.notes {
+        errln!("{note}");
+    }
+    let (real, pilot) = (collected.summary(false), collected.summary(true));
+    let bar = indicatif::ProgressBar::new(collected.analysed.len() as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
             "α evidence [{bar:40}] {pos}/{len} sessions, {elapsed} elapsed, ETA {eta}",
@@ -258,8 +159,7 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
         .progress_chars("=> "),
     );
     let alpha_of = |pilot: bool| -> Result<Option<AlphaSummary>> {
-        let group: Vec<&SessionAnalysis> =
-            analysed.iter().filter(|a| a.log.start.pilot == pilot).map(|a| &a.analysis).collect();
+        let group: Vec<&SessionAnalysis> = collected.group(pilot).into_iter().map(|a| &a.analysis).collect();
         if group.is_empty() {
             return Ok(None);
         }
@@ -267,7 +167,7 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
     };
     let (real_alpha, pilot_alpha) = (alpha_of(false)?, alpha_of(true)?);
     bar.finish_and_clear();
-    let refits = args.measured.run(&analysed)?;
+    let refits = args.measured.run(&collected.analysed)?;
     if let Some(dir) = &args.out {
         super::analyze_measured::write_csv(dir, &refits)?;
     }
@@ -275,8 +175,7 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
         for (is_pilot, summary, alpha) in [(false, &real, &real_alpha), (true, &pilot, &pilot_alpha)] {
             let (Some(summary), Some(alpha)) = (summary, alpha) else { continue };
             let d = if is_pilot { dir.join("pilot") } else { dir.clone() };
-            let group: Vec<&Analysed> = analysed.iter().filter(|a| a.log.start.pilot == is_pilot).collect();
-            write_outputs(&d, &args.figures.style(), &group, summary, alpha)
+            write_outputs(&d, &args.figures.style(), &collected.group(is_pilot), summary, alpha)
                 .with_context(|| format!("cannot write into {}", d.display()))?;
             errln!("wrote {}", d.display());
         }
@@ -284,16 +183,16 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
     match args.format {
         Format::Json => {
             let out = JsonOut {
-                sessions: analysed.iter().map(json_session).collect(),
+                sessions: collected.analysed.iter().map(json_session).collect(),
                 real,
                 pilot,
                 real_alpha,
                 pilot_alpha,
-                withdrawn_left_out: left_out,
+                withdrawn_left_out: collected.left_out,
                 measured_refits: refits,
-                skipped: skipped.clone(),
-                warnings: warnings.clone(),
-                differences: differences.clone(),
+                skipped: &collected.skipped,
+                warnings: &collected.warnings,
+                differences: &collected.differences,
             };
             outln!("{}", serde_json::to_string_pretty(&out)?);
         }
@@ -302,9 +201,8 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
                 ("REAL SESSIONS", false, &real, &real_alpha),
                 ("PILOT SESSIONS (dry runs, rehearsals)", true, &pilot, &pilot_alpha),
             ] {
-                let group: Vec<&Analysed> = analysed.iter().filter(|a| a.log.start.pilot == is_pilot).collect();
                 if let (Some(s), Some(alpha)) = (summary, alpha) {
-                    out!("{}", table(label, &group, s, alpha));
+                    out!("{}", table(label, &collected.group(is_pilot), s, alpha));
                 }
             }
             if args.measured.given() {
@@ -312,17 +210,18 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
             }
         }
     }
-    for w in &warnings {
+    let Collected { skipped, warnings, differences, .. } = &collected;
+    for w in warnings {
         errln!("warning: {w}");
     }
-    for s in &skipped {
+    for s in skipped {
         errln!("{s}");
     }
     if args.verify {
         if differences.is_empty() {
             errln!("verify: every derived value matches its recomputation");
         }
-        for d in &differences {
+        for d in differences {
             errln!("verify: {d}");
         }
     }
