@@ -16,7 +16,7 @@ use crate::{SeededRng, derive_seed};
 
 mod purpose {
     pub const ID: u64 = 301;
-    pub const SESSION: u64 = 302;
+    pub(crate) const SESSION: u64 = 302;
     pub const BODY: u64 = 304;
 }
 
@@ -33,7 +33,7 @@ pub struct BodyPopulation {
 
 /// The heights the population is truncated to (m): 5th percentile women to beyond the 95th
 /// of men.
-pub const HEIGHT_RANGE_M: (f64, f64) = (1.50, 1.95);
+pub(crate) const HEIGHT_RANGE_M: (f64, f64) = (1.50, 1.95);
 /// The default share of left-handed simulated participants.
 pub const LEFT_HANDED_SHARE: f64 = 0.10;
 /// (mean, sd) of stature (m): women, men.
@@ -141,7 +141,7 @@ pub fn drive(rec: &mut RecordedSession, participant: &ScriptedParticipant, pace:
 }
 
 /// Failed robot commands in a row after which a dry run gives the session up.
-pub const MAX_ROBOT_FAILURES: u32 = 3;
+pub(crate) const MAX_ROBOT_FAILURES: u32 = 3;
 
 /// How a dry run with a robot ended.
 #[derive(Clone, Debug, PartialEq)]
@@ -158,7 +158,7 @@ pub enum RobotDrive {
 /// sent), every report is logged as it comes, and the query is presented on `at_pose`. A
 /// failure or a timeout voids the trial as a robot fault and the command is sent again;
 /// after [`MAX_ROBOT_FAILURES`] in a row the session is aborted.
-pub fn drive_with_robot(
+pub(crate) fn drive_with_robot(
     rec: &mut RecordedSession,
     participant: &ScriptedParticipant,
     robot: &mut Robot,

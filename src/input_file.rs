@@ -7,7 +7,7 @@ use std::io::Read;
 use std::path::Path;
 
 /// The most bytes read from a table a command merges (a shard's CSV).
-pub const MAX_TABLE_BYTES: u64 = 256 << 20;
+pub(crate) const MAX_TABLE_BYTES: u64 = 256 << 20;
 
 /// What kind of file a non-regular one is, for a message.
 fn kind(m: &std::fs::Metadata) -> &'static str {
@@ -100,7 +100,7 @@ impl Read for Bounded {
 
 /// The largest magnitude a number in a merged table may have: far beyond any value a run
 /// computes, and small enough that sums and sums of squares over a whole run stay finite.
-pub const MAX_TABLE_NUMBER: f64 = 1e100;
+pub(crate) const MAX_TABLE_NUMBER: f64 = 1e100;
 
 /// The rows of a CSV file this program wrote (a shard's table), read back untrusted: a
 /// regular file of at most [`MAX_TABLE_BYTES`], at most `max_rows` rows, every number finite

@@ -289,7 +289,7 @@ pub fn has_withdrawn(participants: &std::path::Path, id: &str) -> bool {
 /// The body heights the arm model serves (m), as checked on a record and on the command line.
 pub const BODY_HEIGHT_M: (f64, f64) = (0.5, 2.5);
 /// The largest participant record read.
-pub const MAX_RECORD_BYTES: u64 = 64 << 10;
+pub(crate) const MAX_RECORD_BYTES: u64 = 64 << 10;
 
 #[cfg(test)]
 mod id_tests {

@@ -60,7 +60,7 @@ pub fn participant(
 /// ([`Session::skip_map_estimates`]), which nothing a plan reports uses.
 ///
 /// [`replay_with`]: crate::record::replay_with
-pub fn drive_in_memory(
+pub(crate) fn drive_in_memory(
     text: String,
     study: Arc<Study>,
     p: &DryRunPlan,
@@ -228,7 +228,7 @@ pub struct PowerRow {
 }
 
 /// The 95 % Wilson score interval of `k` successes in `n` trials.
-pub fn wilson_interval(k: usize, n: usize) -> (f64, f64) {
+pub(crate) fn wilson_interval(k: usize, n: usize) -> (f64, f64) {
     if n == 0 {
         return (f64::NAN, f64::NAN);
     }

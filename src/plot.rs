@@ -62,7 +62,7 @@ impl Default for FigureStyle {
 }
 
 /// PNG resolution.
-pub const PNG_DPI: f32 = 300.0;
+pub(crate) const PNG_DPI: f32 = 300.0;
 /// The SVG's pixels an inch (CSS's, which viewers and converters assume).
 const SVG_DPI: f32 = 96.0;
 
@@ -475,7 +475,7 @@ pub struct LinePlot<'a> {
 impl LinePlot<'_> {
     /// The lowest band end (cut at the floor) and the highest, over every series; none
     /// without a finite point.
-    pub fn data_range(&self) -> Option<(f64, f64)> {
+    pub(crate) fn data_range(&self) -> Option<(f64, f64)> {
         let points = self.series.iter().flat_map(|s| &s.points).filter(|p| p.1.is_finite() && p.2.is_finite());
         let low = |p: &(f64, f64, f64)| self.floor.map_or(p.1 - p.2, |f| (p.1 - p.2).max(f));
         let lo = points.clone().map(low).fold(f64::INFINITY, f64::min);
@@ -893,7 +893,7 @@ pub fn alpha_plot(
 }
 
 /// (x, y, label) points of one line.
-pub type LabelledPoints = Vec<(f64, f64, String)>;
+pub(crate) type LabelledPoints = Vec<(f64, f64, String)>;
 
 /// One panel of the comfort–accuracy front.
 pub struct FrontPanel {

@@ -37,7 +37,7 @@ pub fn median(v: &[f64]) -> f64 {
 /// The 0.975 quantile of Student's t with `df` degrees of freedom (two-sided 95 %; R's
 /// `qt(0.975, df)`), from statrs's inverse of the regularised incomplete beta function; NaN
 /// for df = 0.
-pub fn t_975(df: usize) -> f64 {
+pub(crate) fn t_975(df: usize) -> f64 {
     use statrs::distribution::{ContinuousCDF, StudentsT};
     if df == 0 {
         return f64::NAN;
@@ -139,7 +139,7 @@ fn ranks(abs: &[f64]) -> Vec<f64> {
 
 /// Up to this many non-zero pairs the Wilcoxon p-value is exact (the null distribution
 /// computed by recursion over the ranks, O(n³) work); beyond it, the normal approximation.
-pub const WILCOXON_EXACT_MAX: usize = 300;
+pub(crate) const WILCOXON_EXACT_MAX: usize = 300;
 
 /// The two-sided Wilcoxon signed-rank test of paired differences `d` against 0. Zero
 /// differences are dropped; ties in |d| get mid-ranks. With at most [`WILCOXON_EXACT_MAX`]

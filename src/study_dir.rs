@@ -29,7 +29,7 @@ impl StudyDirs {
     /// `<study>/logs/<participant>/<file>.mcap` belongs to `<study>` (made absolute, no link
     /// followed), so that who withdrew is decided the same from any current folder. None for a
     /// log kept anywhere else.
-    pub fn of_log(log: &Path, participant: &str) -> Option<Self> {
+    pub(crate) fn of_log(log: &Path, participant: &str) -> Option<Self> {
         let log = std::path::absolute(log).ok()?;
         let folder = log.parent()?;
         let logs = folder.parent()?;

@@ -27,7 +27,7 @@ use crate::{SeededRng, derive_seed};
 /// The search range of α (both ends are grid points).
 pub const ALPHA_RANGE: (f64, f64) = (0.25, 256.0);
 /// Grid points per doubling of α (41 over the range).
-pub const GRID_PER_OCTAVE: usize = 4;
+pub(crate) const GRID_PER_OCTAVE: usize = 4;
 /// χ²₁(0.95) / 2: the log-evidence drop that bounds the support interval.
 pub const SUPPORT_DROP: f64 = 1.920_729_410_347_062;
 /// A curve whose grid values all lie within this (relative) of each other does not identify α.
@@ -64,13 +64,13 @@ impl AlphaEvidence {
     /// log P(R | Q, λ, α) = (−α m_R + ln S_R) − logsumexp_r(−α m_r + ln S_r) never underflows.
     /// The grid doubles α every [`GRID_PER_OCTAVE`] points, so exp(−2α d) = exp(−α d)²: one
     /// exponential per configuration and base point, then squarings.
-    pub fn log_evidence_curve(&self, particles: usize) -> Result<Vec<f64>, BeliefError> {
+    pub(crate) fn log_evidence_curve(&self, particles: usize) -> Result<Vec<f64>, BeliefError> {
         let mut rng = SeededRng::seed_from_u64(derive_seed(self.seed, 0, PURPOSE));
         Ok(self.log_evidence_curve_over(&Belief::from_prior(&self.prior, particles, &mut rng)?))
     }
 
     /// [`AlphaEvidence::log_evidence_curve`] over given particles.
-    pub fn log_evidence_curve_over(&self, prior: &Belief) -> Vec<f64> {
+    pub(crate) fn log_evidence_curve_over(&self, prior: &Belief) -> Vec<f64> {
         let grid = alpha_grid();
         let k_max = grid.len();
         let (dim, s) = (prior.dim(), 2 * prior.dim());

@@ -23,7 +23,7 @@ pub const MAX_MEASUREMENT_BYTES: u64 = 256 << 20;
 pub const MAX_MEASUREMENT_SAMPLES: usize = 2_000_000;
 /// The most points × frames of a C3D file (what its reader allocates for: 60 markers for
 /// 10 minutes at 200 Hz is 7.2 million).
-pub const MAX_C3D_POINT_FRAMES: usize = 8_000_000;
+pub(crate) const MAX_C3D_POINT_FRAMES: usize = 8_000_000;
 
 /// Why a measurements file was refused.
 #[derive(Debug, thiserror::Error)]

@@ -50,7 +50,12 @@ impl Belief {
     /// The unnormalised log posterior of every particle, recomputed exactly: log p(λ_i) plus
     /// Σ_t log P(obs_t | Q_t, λ_i) over every observation so far (eq. 4–5 without the
     /// normaliser, which is the same for every particle).
-    pub fn log_posteriors(&self, prior: &Prior, history: &[Observed], alpha: f64) -> Result<Vec<f64>, BeliefError> {
+    pub(crate) fn log_posteriors(
+        &self,
+        prior: &Prior,
+        history: &[Observed],
+        alpha: f64,
+    ) -> Result<Vec<f64>, BeliefError> {
         self.per_particle_log_likelihoods(history, alpha, |p| prior.log_density_unnormalised(p))
     }
 

@@ -58,7 +58,7 @@ impl CellIndex {
     }
 
     /// Probability mass per cell under `weights` (normalised).
-    pub fn masses(&self, weights: &[f64]) -> Vec<f64> {
+    pub(crate) fn masses(&self, weights: &[f64]) -> Vec<f64> {
         let mut m = vec![0.0; self.cells];
         for (&c, &w) in self.cell_of.iter().zip(weights) {
             m[c] += w;

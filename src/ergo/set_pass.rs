@@ -25,10 +25,10 @@ use super::numeric::{exp_nonpositive, sum_lanes};
 
 /// ln 1e-17: configurations this far below the best one in log-probability are given
 /// weight 0.
-pub const PRUNE_LOGIT: f64 = -39.143_946_580_898_5;
+pub(crate) const PRUNE_LOGIT: f64 = -39.143_946_580_898_5;
 
 /// Configurations evaluated together: one AVX-512 register, two AVX2 registers.
-pub const BLOCK: usize = WIDTH;
+pub(crate) const BLOCK: usize = WIDTH;
 
 /// A region's sum of the pass's weights is used for its likelihood only when it is at least
 /// this many times the region's size: then the pruned weights (each below 1e-17) change it
@@ -67,7 +67,7 @@ impl Scratch {
 
     /// The start index of every block of [`BLOCK`] configurations that holds a non-zero
     /// weight, in increasing order; every other weight is 0.
-    pub fn live_blocks(&self) -> &[usize] {
+    pub(crate) fn live_blocks(&self) -> &[usize] {
         &self.live[..self.live_count]
     }
 

@@ -111,13 +111,13 @@ pub struct MetricRow {
 }
 
 mod purpose {
-    pub const TRUTH: u64 = 1;
+    pub(crate) const TRUTH: u64 = 1;
     pub const MENU: u64 = 2;
-    pub const TEST: u64 = 3;
+    pub(crate) const TEST: u64 = 3;
     pub const PARTICLES: u64 = 4;
-    pub const PERSON: u64 = 5;
-    pub const RESAMPLE: u64 = 6;
-    pub const SELECT: u64 = 7;
+    pub(crate) const PERSON: u64 = 5;
+    pub(crate) const RESAMPLE: u64 = 6;
+    pub(crate) const SELECT: u64 = 7;
     pub const MEASURE: u64 = 8;
 }
 

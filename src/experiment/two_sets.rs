@@ -26,7 +26,7 @@ pub struct TwoSetsStep {
 }
 
 /// Set A spreads along joint 1 (it tells about q*₁ only); set B along joint 2.
-pub fn the_two_sets() -> [FeasibleSet; 2] {
+pub(crate) fn the_two_sets() -> [FeasibleSet; 2] {
     let line = |horizontal: bool| {
         let rows: Vec<[f64; 2]> = (0..41)
             .map(|k| {

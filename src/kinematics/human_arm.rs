@@ -118,13 +118,13 @@ pub enum ArmError {
 
 /// Winter's segment fractions of body height (after Drillis & Contini).
 pub const UPPER_ARM_FRACTION: f64 = 0.186;
-pub const FOREARM_FRACTION: f64 = 0.146;
-pub const HAND_FRACTION: f64 = 0.108;
+pub(crate) const FOREARM_FRACTION: f64 = 0.146;
+pub(crate) const HAND_FRACTION: f64 = 0.108;
 /// The grasp centre lies this fraction of the hand's length from the wrist.
-pub const GRASP_CENTRE_FRACTION: f64 = 0.4;
+pub(crate) const GRASP_CENTRE_FRACTION: f64 = 0.4;
 
 /// AAOS ranges of motion (Norkin & White) in this model's convention, degrees.
-pub const AAOS_LIMITS_DEG: [[f64; 2]; JOINTS] = [
+pub(crate) const AAOS_LIMITS_DEG: [[f64; 2]; JOINTS] = [
     [-60.0, 180.0], // flexion 180 / extension 60
     [-30.0, 180.0], // abduction 180 / adduction ~30
     [-90.0, 70.0],  // internal 70 / external 90

@@ -290,12 +290,14 @@ impl HumanArm {
 
     /// Every solution over a swivel grid φ = 0, step, 2·step, … (one full turn, no repeated
     /// endpoint).
-    pub fn inverse_grid(&self, grasp: &Isometry3<f64>, step: f64) -> Vec<IkSolution> {
+    #[cfg(test)]
+    pub(crate) fn inverse_grid(&self, grasp: &Isometry3<f64>, step: f64) -> Vec<IkSolution> {
         self.inverse(grasp, &swivel_grid(step))
     }
 
     /// The swivel angle of a configuration (as [`HumanArm::inverse`] measures it).
-    pub fn swivel_angle(&self, q: &ArmConfig) -> Option<f64> {
+    #[cfg(test)]
+    pub(crate) fn swivel_angle(&self, q: &ArmConfig) -> Option<f64> {
         let frames = self.forward_right(q);
         let wrist = frames.wrist.translation.vector;
         let elbow = frames.elbow.translation.vector;

@@ -56,60 +56,60 @@ pub mod limits {
     pub const PROTOCOL_BYTES: usize = 4 << 20;
     /// Bytes of a name or label (UTF-8; no control characters). One rule with the log
     /// reader's: `crate::text`.
-    pub const TEXT: usize = crate::text::NAME_BYTES;
+    pub(crate) const TEXT: usize = crate::text::NAME_BYTES;
     /// Bytes of a description or statement (line breaks allowed, no other control characters).
-    pub const LONG_TEXT: usize = crate::text::LONG_BYTES;
+    pub(crate) const LONG_TEXT: usize = crate::text::LONG_BYTES;
     /// Bytes of a program label (the blinded name of a condition).
-    pub const PROGRAM_LABEL: usize = crate::text::PROGRAM_LABEL_BYTES;
+    pub(crate) const PROGRAM_LABEL: usize = crate::text::PROGRAM_LABEL_BYTES;
     /// Characters of an id (A–Z, a–z, 0–9, '-', '_'): ids become file names and CSV keys.
     pub const ID: usize = crate::text::ID_BYTES;
     /// |position| of a pose or TSR frame, m.
-    pub const POSITION_M: f64 = 5.0;
+    pub(crate) const POSITION_M: f64 = 5.0;
     /// |angle| of any orientation, bound, limit or prior, degrees.
-    pub const ANGLE_DEG: f64 = 360.0;
+    pub(crate) const ANGLE_DEG: f64 = 360.0;
     /// |translation bound| of a TSR, m.
-    pub const TSR_TRANSLATION_M: f64 = 1.0;
+    pub(crate) const TSR_TRANSLATION_M: f64 = 1.0;
     /// TSR translation sampling step, m.
-    pub const TRANSLATION_STEP_M: (f64, f64) = (0.001, 1.0);
+    pub(crate) const TRANSLATION_STEP_M: (f64, f64) = (0.001, 1.0);
     /// TSR rotation sampling and swivel steps, degrees.
-    pub const ANGLE_STEP_DEG: (f64, f64) = (1.0, 360.0);
+    pub(crate) const ANGLE_STEP_DEG: (f64, f64) = (1.0, 360.0);
     /// Duplicate tolerance of feasible configurations, rad.
-    pub const DUPLICATE_TOLERANCE_RAD: (f64, f64) = (1e-9, 0.1);
+    pub(crate) const DUPLICATE_TOLERANCE_RAD: (f64, f64) = (1e-9, 0.1);
     pub const OBJECTS: usize = 32;
     /// Grip regions per object (the console's keys 1–9).
-    pub const REGIONS: usize = 9;
+    pub(crate) const REGIONS: usize = 9;
     /// Queries in the training menu, and in the test set.
-    pub const QUERIES: usize = 200;
+    pub(crate) const QUERIES: usize = 200;
     /// σ of a measuring system's joint-angle error, degrees.
     pub const SIGMA_DEG: (f64, f64) = crate::ergo::SIGMA_DEG;
     /// How far a measurement may lie from its grasp, s.
     pub const MEASUREMENT_WINDOW_S: (f64, f64) = (0.001, 5.0);
     /// Samples of one region's TSR.
-    pub const GRASPS_PER_REGION: f64 = 20_000.0;
+    pub(crate) const GRASPS_PER_REGION: f64 = 20_000.0;
     /// Inverse-kinematics evaluations (grasps × swivel angles) for one query, and for the
     /// whole protocol.
-    pub const IK_PER_QUERY: f64 = 1_000_000.0;
-    pub const IK_PER_PROTOCOL: f64 = 5_000_000.0;
+    pub(crate) const IK_PER_QUERY: f64 = 1_000_000.0;
+    pub(crate) const IK_PER_PROTOCOL: f64 = 5_000_000.0;
     /// Distinct feasible configurations of one query.
-    pub const CONFIGS_PER_QUERY: usize = 20_000;
+    pub(crate) const CONFIGS_PER_QUERY: usize = 20_000;
     pub const PARTICLES: usize = 100_000;
     /// Particle–configuration pairs of one learning step (particles × every configuration
     /// of the training menu), and likewise for the test set: about 0.2 s of the engine on
     /// two cores, room for 20 000 particles on the default protocol (its test set is the
     /// larger, 5840 configurations: 1.2e8 pairs).
-    pub const PAIRS_PER_STEP: f64 = 2e8;
+    pub(crate) const PAIRS_PER_STEP: f64 = 2e8;
     pub const ALPHA: f64 = 1000.0;
     /// Largest cost weight w.
-    pub const WEIGHT: f64 = 1000.0;
-    pub const GRID_BOXES: usize = 1000;
-    pub const HYBRID_BETA: f64 = 1e6;
+    pub(crate) const WEIGHT: f64 = 1000.0;
+    pub(crate) const GRID_BOXES: usize = 1000;
+    pub(crate) const HYBRID_BETA: f64 = 1e6;
     /// ε of the budgeted selector, at least 0.
-    pub const BUDGET_EPSILON: f64 = 1e6;
+    pub(crate) const BUDGET_EPSILON: f64 = 1e6;
     pub const TRIALS_PER_CONDITION: usize = 200;
     /// Points of the Likert scale (keys 1–9), and their |value|.
-    pub const SCALE_POINTS: usize = 9;
-    pub const SCALE_VALUE: i64 = 1000;
-    pub const ITEMS: usize = 50;
+    pub(crate) const SCALE_POINTS: usize = 9;
+    pub(crate) const SCALE_VALUE: i64 = 1000;
+    pub(crate) const ITEMS: usize = 50;
 }
 
 #[derive(Default)]

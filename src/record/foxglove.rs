@@ -16,7 +16,8 @@ pub const SCENE_UPDATE: OfficialSchema =
     ("foxglove.SceneUpdate", include_str!("../../schemas/foxglove/SceneUpdate.json"));
 
 /// Every `foxglove.*` schema the log uses.
-pub const SCHEMAS: [OfficialSchema; 4] = [FRAME_TRANSFORMS, LOG, POSE_IN_FRAME, SCENE_UPDATE];
+#[cfg(test)]
+pub(crate) const SCHEMAS: [OfficialSchema; 4] = [FRAME_TRANSFORMS, LOG, POSE_IN_FRAME, SCENE_UPDATE];
 
 /// `time`: seconds and nanoseconds since the Unix epoch.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -16,7 +16,7 @@ use crate::protocol::ResolvedQuery;
 
 pub const WORLD: &str = "world";
 pub const SHOULDER: &str = "shoulder";
-pub const OBJECT: &str = "object";
+pub(crate) const OBJECT: &str = "object";
 
 /// Fractions of body height (Winter; `HUMAN-ARM.md`).
 const SHOULDER_HEIGHT: f64 = 0.818;
@@ -39,7 +39,7 @@ const MIN_GRIP_SIDE: f64 = 0.05;
 const LABEL_OFFSET: f64 = 0.07;
 
 /// The colour a grip's label names (`"Left grip (blue)"`), else one of a fixed palette.
-pub fn grip_colour(label: &str, index: usize) -> Color {
+pub(crate) fn grip_colour(label: &str, index: usize) -> Color {
     let lower = label.to_ascii_lowercase();
     let named = [
         ("blue", (0.15, 0.35, 0.9)),

@@ -33,7 +33,7 @@ fn official((name, text): OfficialSchema) -> (&'static str, String) {
 /// `null`) becomes `T`: the writer leaves an absent field out of the message instead of
 /// writing `null`, and `required` says which may be absent. A `oneOf` of string constants
 /// (an enum with documented variants) becomes a string `enum`.
-pub fn viewer_form(schema: &mut Value) {
+pub(crate) fn viewer_form(schema: &mut Value) {
     let Some(obj) = schema.as_object_mut() else { return };
     obj.remove("$defs");
     if let Some(Value::Array(types)) = obj.get("type") {
@@ -81,7 +81,7 @@ pub fn viewer_form(schema: &mut Value) {
 /// `number`, `integer`, `object`. `$ref`, `anyOf`, `allOf` and type arrays are refused, and one
 /// refused field refuses the whole topic. The error names the field's path.
 #[cfg(test)]
-pub fn viewer_accepts(schema: &Value) -> Result<(), String> {
+pub(crate) fn viewer_accepts(schema: &Value) -> Result<(), String> {
     fn object(schema: &Value, path: &str) -> Result<(), String> {
         if schema.get("type").and_then(Value::as_str) != Some("object") {
             return Err(format!(

@@ -47,19 +47,19 @@ impl<S: Sink + ?Sized> Sink for Box<S> {
 const MAGIC: &[u8; 8] = b"\x89MCAP0\r\n";
 
 mod op {
-    pub const HEADER: u8 = 0x01;
-    pub const FOOTER: u8 = 0x02;
-    pub const SCHEMA: u8 = 0x03;
-    pub const CHANNEL: u8 = 0x04;
-    pub const MESSAGE: u8 = 0x05;
-    pub const CHUNK: u8 = 0x06;
-    pub const MESSAGE_INDEX: u8 = 0x07;
-    pub const CHUNK_INDEX: u8 = 0x08;
-    pub const ATTACHMENT: u8 = 0x09;
-    pub const ATTACHMENT_INDEX: u8 = 0x0A;
-    pub const STATISTICS: u8 = 0x0B;
-    pub const SUMMARY_OFFSET: u8 = 0x0E;
-    pub const DATA_END: u8 = 0x0F;
+    pub(crate) const HEADER: u8 = 0x01;
+    pub(crate) const FOOTER: u8 = 0x02;
+    pub(crate) const SCHEMA: u8 = 0x03;
+    pub(crate) const CHANNEL: u8 = 0x04;
+    pub(crate) const MESSAGE: u8 = 0x05;
+    pub(crate) const CHUNK: u8 = 0x06;
+    pub(crate) const MESSAGE_INDEX: u8 = 0x07;
+    pub(crate) const CHUNK_INDEX: u8 = 0x08;
+    pub(crate) const ATTACHMENT: u8 = 0x09;
+    pub(crate) const ATTACHMENT_INDEX: u8 = 0x0A;
+    pub(crate) const STATISTICS: u8 = 0x0B;
+    pub(crate) const SUMMARY_OFFSET: u8 = 0x0E;
+    pub(crate) const DATA_END: u8 = 0x0F;
 }
 
 /// A record body under construction.
@@ -346,7 +346,8 @@ impl<S: Sink> McapWriter<S> {
     }
 
     /// Bytes durably written.
-    pub fn committed_len(&self) -> u64 {
+    #[cfg(test)]
+    pub(crate) fn committed_len(&self) -> u64 {
         self.committed
     }
 

@@ -41,7 +41,7 @@ pub struct Peer {
 }
 
 /// The DDS name of a ROS 2 topic (`/a/b` → `rt/a/b`).
-pub fn dds_topic(ros_topic: &str) -> String {
+pub(crate) fn dds_topic(ros_topic: &str) -> String {
     format!("rt/{}", ros_topic.trim_start_matches('/'))
 }
 

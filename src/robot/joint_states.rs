@@ -43,7 +43,7 @@ const KEEP_S: f64 = 10.0;
 /// The most samples kept (1 kHz for the whole of [`KEEP_S`]).
 const MAX_SAMPLES: usize = 10_000;
 /// The longest a grasp waits for a sample stamped after it (a 20 Hz system's period).
-pub const SETTLE: Duration = Duration::from_millis(50);
+pub(crate) const SETTLE: Duration = Duration::from_millis(50);
 
 /// What the thread has seen.
 #[derive(Debug, Default)]

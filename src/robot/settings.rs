@@ -11,7 +11,7 @@ use serde::Deserialize;
 use crate::session::validate_frame_id;
 
 /// The largest settings file read.
-pub const MAX_SETTINGS_BYTES: u64 = 64 << 10;
+pub(crate) const MAX_SETTINGS_BYTES: u64 = 64 << 10;
 
 /// What makes a trial's query "presented".
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]

@@ -295,8 +295,8 @@ pub struct Session {
 
 mod purpose {
     pub const PARTICLES: u64 = 101;
-    pub const LEARNER: u64 = 102;
-    pub const TEST_ORDER: u64 = 103;
+    pub(crate) const LEARNER: u64 = 102;
+    pub(crate) const TEST_ORDER: u64 = 103;
 }
 
 impl Session {

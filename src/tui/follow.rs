@@ -46,7 +46,7 @@ impl FollowView {
 
     /// The console ended without closing its log (a crash, `kill -9`, a power cut): what
     /// the screen shows is no longer what the console has reached.
-    pub fn console_lost(&self) -> bool {
+    pub(crate) fn console_lost(&self) -> bool {
         self.console == Some(false)
             && !self.follower.closed()
             && !matches!(self.follower.session().prompt(), Prompt::Done { .. })

@@ -129,7 +129,7 @@ impl Counts {
 
 /// What a binding does.
 #[derive(Clone, Copy, Debug)]
-pub enum Does {
+pub(crate) enum Does {
     Is(Action),
     /// The digit's 0-based index picks.
     Pick(fn(usize) -> Action),
@@ -149,7 +149,7 @@ pub enum Section {
 
 /// One key binding: the one table the key map, the help overlay and the footer hints are
 /// all derived from.
-pub struct Binding {
+pub(crate) struct Binding {
     pub keys: Keys,
     pub modes: &'static [Mode],
     pub does: Does,
@@ -178,7 +178,7 @@ const fn bind(
 }
 
 /// Every key binding, in the order the footer lists them.
-pub const BINDINGS: &[Binding] = &[
+pub(crate) const BINDINGS: &[Binding] = &[
     // Dialogs and editors take their keys first.
     bind(Keys::Enter, &[M::LineEdit], Does::Is(Action::Confirm), "save", "", Section::Dialog),
     bind(Keys::Esc, &[M::LineEdit], Does::Is(Action::Cancel), "cancel", "", Section::Dialog),
@@ -396,7 +396,7 @@ pub fn action_for(mode: Mode, key: KeyEvent, counts: Counts) -> Option<Action> {
 }
 
 /// How a binding's keys are written on screen (`1–4` for digits, with the count now).
-pub fn key_label(keys: Keys, counts: Counts) -> String {
+pub(crate) fn key_label(keys: Keys, counts: Counts) -> String {
     match keys {
         Keys::Char(c) | Keys::RobotChar(c) => c.to_string(),
         Keys::Enter => "Enter".into(),
@@ -434,7 +434,8 @@ fn in_help(b: &Binding, counts: Counts) -> bool {
 pub const NOTHING_TO_UNDO: &str = "Nothing to undo: a grasp can be undone until the next query is presented";
 
 /// What a key that does nothing in the participant's hands says (nothing about the session).
-pub const PARTICIPANT_KEYS: &str = "The numbers answer; Enter goes to the next statement; ← and → move between them";
+pub(crate) const PARTICIPANT_KEYS: &str =
+    "The numbers answer; Enter goes to the next statement; ← and → move between them";
 
 /// Why a key that does nothing now does nothing, for the status line.
 pub fn why_not(mode: Mode, key: KeyEvent) -> Option<String> {

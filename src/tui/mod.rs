@@ -28,7 +28,7 @@ pub use screens::render;
 /// action ends the process and that a program may catch, so none of them leaves the terminal
 /// on the alternate screen without echo. (SIGKILL cannot be caught: after `kill -9`, type
 /// `reset`.)
-pub const TERMINATING_SIGNALS: [i32; 7] = [
+pub(crate) const TERMINATING_SIGNALS: [i32; 7] = [
     signal_hook::consts::SIGTERM,
     signal_hook::consts::SIGHUP,
     signal_hook::consts::SIGINT,
@@ -50,7 +50,7 @@ pub struct Outcome {
 /// The loop: draw, wait for a key (or a tick), update; until the app quits or `stop` names
 /// a signal to stop for (then the app leaves as a quit does). Generic over the backend so
 /// the same loop runs on a terminal or a test backend.
-pub fn run_loop<B: Backend>(
+pub(crate) fn run_loop<B: Backend>(
     terminal: &mut Terminal<B>,
     app: &mut App,
     stop: &dyn Fn() -> Option<i32>,

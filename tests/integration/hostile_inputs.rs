@@ -288,7 +288,8 @@ fn hostile_protocols_are_refused_with_the_field_or_run() {
     let hostile = [1e308, -1e308, 1e-9, 0.0, -1.0, 1e9, 3.5];
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
     let (mut refused, mut accepted) = (0, 0);
-    // The cases, then 120 random (number, value) mutations.
+    // Known hostile values (a huge bound, a huge prior, a tiny step), then 120 random
+    // (number, value) mutations.
     let mut cases: Vec<(Vec<String>, f64)> = vec![
         (vec!["objects", "0", "regions", "0", "tsr", "Bw", "5", "1"].into_iter().map(String::from).collect(), 1e308),
         (vec!["learning", "prior", "q_star_deg", "0", "max"].into_iter().map(String::from).collect(), 1e308),
@@ -330,7 +331,7 @@ fn hostile_protocols_are_refused_with_the_field_or_run() {
         }
     }
     eprintln!("{} hostile protocols: {refused} refused, {accepted} accepted and run", cases.len());
-    // Each of the cases is refused, naming its field and (for work) the budget.
+    // Each hostile edit is refused, naming its field and (for work) the budget.
     type Edit = (&'static str, fn(&mut serde_json::Value), &'static str);
     let edits: [Edit; 4] = [
         (
