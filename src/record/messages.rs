@@ -5,6 +5,7 @@ use serde_json::Value;
 use super::Topic;
 use super::foxglove::{self, PoseInFrame, Time};
 use super::scene;
+use super::schemas::LogMessage;
 use super::types::{
     BeliefMessage, EndStatus, ForcedChoice, Interval, JointAngles, LearnedFrom, LikertAnswer, MeasuredResponse,
     QueryScore, RobotCommand, RobotPose, RobotStatus, SessionEnd, SessionMark, SessionStartMessage, SessionTransition,
@@ -35,8 +36,11 @@ pub fn topic_of(e: &Event) -> Topic {
     }
 }
 
-fn value<T: serde::Serialize>(m: &T) -> Value {
-    serde_json::to_value(m).expect("a message struct serialises to JSON")
+/// A message on its topic, refused (a programming error, caught by every test that logs) on
+/// a topic its type does not claim.
+fn on<M: LogMessage>(topic: Topic, m: &M) -> (Topic, Value) {
+    assert!(M::carried_by(topic), "{topic} does not carry {}", std::any::type_name::<M>());
+    (topic, serde_json::to_value(m).expect("a message struct serialises to JSON"))
 }
 
 fn trial_fields(index: usize, view: &TrialView, session: &Session) -> TrialFields {
@@ -67,7 +71,7 @@ fn belief_message(index: usize, run: usize, b: &BeliefSummary, session: &Session
         entropy: b.entropy,
         ess: b.ess,
     };
-    (Topic::Belief(condition), value(&m))
+    on(Topic::Belief(condition), &m)
 }
 
 /// The messages of a session's start: `/session/start`, the frames and the body, and the
@@ -82,9 +86,9 @@ pub fn start_messages(session: &Session, time_ns: u64) -> Vec<(Topic, Value)> {
     };
     let arm = &session.study().arm;
     let mut out = vec![
-        (Topic::SessionStart, value(&start)),
-        (Topic::Transforms, value(&scene::start_transforms(time_ns, arm))),
-        (Topic::HumanArm, value(&scene::body_only(time_ns, arm))),
+        on(Topic::SessionStart, &start),
+        on(Topic::Transforms, &scene::start_transforms(time_ns, arm)),
+        on(Topic::HumanArm, &scene::body_only(time_ns, arm)),
     ];
     out.extend(
         (0..session.learners().len()).map(|run| belief_message(0, run, &session.learners()[run].summary, session)),
@@ -127,15 +131,15 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                     })
                     .collect(),
             };
-            out.push((Topic::TrialQuery, value(&m)));
+            out.push(on(Topic::TrialQuery, &m));
             let pose = PoseInFrame {
                 timestamp: Time::from_ns(s.time_ns),
                 frame_id: scene::SHOULDER.into(),
                 pose: foxglove::Pose::from_isometry(&q.pose.to_isometry()),
             };
-            out.push((Topic::RobotHandoverPose, value(&pose)));
-            out.push((Topic::Transforms, value(&scene::query_transforms(s.time_ns, &study.arm, q))));
-            out.push((Topic::ObjectScene, value(&scene::object(s.time_ns, study.object(q), q))));
+            out.push(on(Topic::RobotHandoverPose, &pose));
+            out.push(on(Topic::Transforms, &scene::query_transforms(s.time_ns, &study.arm, q)));
+            out.push(on(Topic::ObjectScene, &scene::object(s.time_ns, study.object(q), q)));
         }
         (Event::GraspRecorded { region, .. }, Applied::Responded { view, record, belief }) => {
             let configuration = session.set(view.query).configs().config(record.config);
@@ -163,21 +167,21 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                     agrees: g.agrees(record.region),
                 }),
             };
-            out.push((Topic::TrialResponse, value(&m)));
+            out.push(on(Topic::TrialResponse, &m));
             let mut arm = scene::arm(s.time_ns, &study.arm, &q);
             if measuring {
                 let measured: Option<ArmConfig> =
                     record.measured.as_ref().and_then(|g| g.measurement.q_rad[..].try_into().ok());
                 scene::measured_arm(&mut arm, s.time_ns, &study.arm, measured.as_ref());
             }
-            out.push((Topic::HumanArm, value(&arm)));
+            out.push(on(Topic::HumanArm, &arm));
             let joints = JointAngles {
                 trial: trial_fields(index, view, session),
                 config_index: record.config as u32,
                 deg: q.map(f64::to_degrees).into(),
                 rad: q.into(),
             };
-            out.push((Topic::HumanJoints, value(&joints)));
+            out.push(on(Topic::HumanJoints, &joints));
             if let (Some(b), Some(run)) = (belief, view.program) {
                 out.push(belief_message(index, run, b, session));
             }
@@ -189,10 +193,10 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                 detail: detail.clone(),
                 retracted: *retracted,
             };
-            out.push((Topic::TrialVoid, value(&m)));
+            out.push(on(Topic::TrialVoid, &m));
         }
         (Event::GraspUndone, Applied::Undone { view, belief }) => {
-            out.push((Topic::TrialUndo, value(&TrialUndo { trial: trial_fields(index, view, session) })));
+            out.push(on(Topic::TrialUndo, &TrialUndo { trial: trial_fields(index, view, session) }));
             if let (Some(b), Some(run)) = (belief, view.program) {
                 out.push(belief_message(index, run, b, session));
             }
@@ -206,10 +210,10 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                 file: String::new(),
                 line: 0,
             };
-            out.push((Topic::Notes, value(&m)));
+            out.push(on(Topic::Notes, &m));
         }
-        (Event::Paused, _) => out.push((Topic::SessionPause, value(&SessionMark { event_index: index as u32 }))),
-        (Event::Resumed, _) => out.push((Topic::SessionResume, value(&SessionMark { event_index: index as u32 }))),
+        (Event::Paused, _) => out.push(on(Topic::SessionPause, &SessionMark { event_index: index as u32 })),
+        (Event::Resumed, _) => out.push(on(Topic::SessionResume, &SessionMark { event_index: index as u32 })),
         (Event::TransitionConfirmed { transition }, _) => {
             let (name, program) = match *transition {
                 Transition::Program(k) => (TransitionName::Program, Some(program_letter(k))),
@@ -217,7 +221,7 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                 Transition::Questionnaire => (TransitionName::Questionnaire, None),
             };
             let m = SessionTransition { event_index: index as u32, transition: name, program };
-            out.push((Topic::SessionTransition, value(&m)));
+            out.push(on(Topic::SessionTransition, &m));
         }
         (Event::LikertAnswered { program, item, value: answer }, _) => {
             let qn = &study.protocol.questionnaire;
@@ -237,7 +241,7 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                 value: *answer,
                 label: qn.scale.iter().find(|p| p.value == *answer).map(|p| p.label.clone()).unwrap_or_default(),
             };
-            out.push((Topic::QuestionnaireLikert, value(&m)));
+            out.push(on(Topic::QuestionnaireLikert, &m));
         }
         (Event::ForcedChoice { program }, _) => {
             let m = ForcedChoice {
@@ -247,12 +251,12 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                 condition: session.learners()[*program].condition.name().to_string(),
                 question: study.protocol.questionnaire.forced_choice.clone(),
             };
-            out.push((Topic::QuestionnaireChoice, value(&m)));
+            out.push(on(Topic::QuestionnaireChoice, &m));
         }
         (Event::Ended, _) => {
-            out.push((
+            out.push(on(
                 Topic::SessionEnd,
-                value(&SessionEnd { event_index: index as u32, status: EndStatus::Completed, reason: None }),
+                &SessionEnd { event_index: index as u32, status: EndStatus::Completed, reason: None },
             ));
             let tests = session.test_examples();
             for run in 0..session.learners().len() {
@@ -268,7 +272,7 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                     log_likelihood,
                     test_trials: tests.len() as u32,
                 };
-                out.push((Topic::TestLogLikelihood(condition), value(&m)));
+                out.push(on(Topic::TestLogLikelihood(condition), &m));
             }
         }
         (Event::RobotCommanded { link, pose, .. }, Applied::RobotCommanded { view, attempt }) => {
@@ -288,7 +292,7 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                 regions,
                 region_labels,
             };
-            out.push((Topic::RobotCommand, value(&m)));
+            out.push(on(Topic::RobotCommand, &m));
         }
         (Event::RobotReported { query, state, detail }, Applied::RobotReported { attempt }) => {
             let m = RobotStatus {
@@ -298,11 +302,11 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                 state: *state,
                 detail: detail.clone(),
             };
-            out.push((Topic::RobotStatus, value(&m)));
+            out.push(on(Topic::RobotStatus, &m));
         }
-        (Event::Aborted { reason }, _) => out.push((
+        (Event::Aborted { reason }, _) => out.push(on(
             Topic::SessionEnd,
-            value(&SessionEnd { event_index: index as u32, status: EndStatus::Aborted, reason: Some(reason.clone()) }),
+            &SessionEnd { event_index: index as u32, status: EndStatus::Aborted, reason: Some(reason.clone()) },
         )),
         // An event is logged with what the session made of it; no other pairs arise.
         _ => {}
@@ -310,39 +314,41 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
     out
 }
 
-fn typed<T: serde::de::DeserializeOwned>(v: &Value) -> Option<T> {
+/// A message read as the type its topic carries (None if it is malformed).
+fn typed<M: LogMessage + serde::de::DeserializeOwned>(topic: Topic, v: &Value) -> Option<M> {
+    assert!(M::carried_by(topic), "{topic} does not carry {}", std::any::type_name::<M>());
     serde_json::from_value(v.clone()).ok()
 }
 
 /// The event an event message records (None if it is malformed).
 pub fn event_from_message(topic: Topic, v: &Value) -> Option<Event> {
     Some(match topic {
-        Topic::TrialQuery => Event::QueryPresented { query: typed::<TrialQuery>(v)?.trial.query },
+        Topic::TrialQuery => Event::QueryPresented { query: typed::<TrialQuery>(topic, v)?.trial.query },
         Topic::TrialResponse => {
-            let m = typed::<TrialResponse>(v)?;
+            let m = typed::<TrialResponse>(topic, v)?;
             let measured =
                 m.measured.map(|g| ArmMeasurement { q_rad: g.q_rad, source: g.source, offset_s: g.offset_s });
             Event::GraspRecorded { region: m.region, measured }
         }
         Topic::TrialVoid => {
-            let m = typed::<TrialVoid>(v)?;
+            let m = typed::<TrialVoid>(topic, v)?;
             Event::TrialVoided { reason: m.reason, detail: m.detail }
         }
         Topic::TrialUndo => {
-            typed::<TrialUndo>(v)?;
+            typed::<TrialUndo>(topic, v)?;
             Event::GraspUndone
         }
-        Topic::Notes => Event::Note { text: typed::<foxglove::Log>(v)?.message },
+        Topic::Notes => Event::Note { text: typed::<foxglove::Log>(topic, v)?.message },
         Topic::SessionPause => {
-            typed::<SessionMark>(v)?;
+            typed::<SessionMark>(topic, v)?;
             Event::Paused
         }
         Topic::SessionResume => {
-            typed::<SessionMark>(v)?;
+            typed::<SessionMark>(topic, v)?;
             Event::Resumed
         }
         Topic::SessionTransition => {
-            let m = typed::<SessionTransition>(v)?;
+            let m = typed::<SessionTransition>(topic, v)?;
             let transition = match (m.transition, m.program) {
                 (TransitionName::Program, Some(p)) => Transition::Program(program_index(&p)?),
                 (TransitionName::Test, None) => Transition::Test,
@@ -352,25 +358,25 @@ pub fn event_from_message(topic: Topic, v: &Value) -> Option<Event> {
             Event::TransitionConfirmed { transition }
         }
         Topic::QuestionnaireLikert => {
-            let m = typed::<LikertAnswer>(v)?;
+            let m = typed::<LikertAnswer>(topic, v)?;
             Event::LikertAnswered { program: program_index(&m.program)?, item: m.item, value: m.value }
         }
         Topic::QuestionnaireChoice => {
-            Event::ForcedChoice { program: program_index(&typed::<ForcedChoice>(v)?.program)? }
+            Event::ForcedChoice { program: program_index(&typed::<ForcedChoice>(topic, v)?.program)? }
         }
         Topic::SessionEnd => {
-            let m = typed::<SessionEnd>(v)?;
+            let m = typed::<SessionEnd>(topic, v)?;
             match m.status {
                 EndStatus::Completed => Event::Ended,
                 EndStatus::Aborted => Event::Aborted { reason: m.reason.unwrap_or_default() },
             }
         }
         Topic::RobotCommand => {
-            let m = typed::<RobotCommand>(v)?;
+            let m = typed::<RobotCommand>(topic, v)?;
             Event::RobotCommanded { query: m.trial.query, link: m.link, pose: m.pose }
         }
         Topic::RobotStatus => {
-            let m = typed::<RobotStatus>(v)?;
+            let m = typed::<RobotStatus>(topic, v)?;
             Event::RobotReported { query: m.query, state: m.state, detail: m.detail }
         }
         _ => return None,

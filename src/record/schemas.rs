@@ -4,6 +4,7 @@
 
 use schemars::JsonSchema;
 use schemars::generate::{Contract, SchemaSettings};
+use serde::Serialize;
 use serde_json::{Map, Value};
 
 use super::Topic;
@@ -133,35 +134,124 @@ pub(crate) fn viewer_accepts(schema: &Value) -> Result<(), String> {
     object(schema, "")
 }
 
-/// (schema name, schema text) of a topic: the bytes embedded in the log.
+/// A message type of the log and the topics that carry it: the one place a struct is tied to
+/// its topics. [`schema`] gives a topic the schema of the type that claims it, and a message is
+/// logged only on a topic its type claims (`messages::on`); a test checks that every topic is
+/// claimed by exactly one type.
+pub trait LogMessage: Serialize {
+    /// The schema's name and text, as embedded in the log.
+    fn schema() -> (&'static str, String);
+    /// Whether `topic` carries this type.
+    fn carried_by(topic: Topic) -> bool;
+}
+
+/// A `handover.*` message: its schema derived from the struct.
+macro_rules! derived_message {
+    ($ty:ty, $name:literal, $($topic:pat_param)|+) => {
+        impl LogMessage for $ty {
+            fn schema() -> (&'static str, String) {
+                derived::<$ty>($name)
+            }
+            fn carried_by(topic: Topic) -> bool {
+                matches!(topic, $($topic)|+)
+            }
+        }
+    };
+}
+
+/// A `foxglove.*` message: Foxglove's published schema.
+macro_rules! official_message {
+    ($ty:ty, $schema:expr, $($topic:pat_param)|+) => {
+        impl LogMessage for $ty {
+            fn schema() -> (&'static str, String) {
+                official($schema)
+            }
+            fn carried_by(topic: Topic) -> bool {
+                matches!(topic, $($topic)|+)
+            }
+        }
+    };
+}
+
+derived_message!(SessionStartMessage, "handover.SessionStart", Topic::SessionStart);
+derived_message!(TrialQuery, "handover.TrialQuery", Topic::TrialQuery);
+derived_message!(TrialResponse, "handover.TrialResponse", Topic::TrialResponse);
+derived_message!(TrialVoid, "handover.TrialVoid", Topic::TrialVoid);
+derived_message!(TrialUndo, "handover.TrialUndo", Topic::TrialUndo);
+derived_message!(BeliefMessage, "handover.Belief", Topic::Belief(_));
+derived_message!(LikertAnswer, "handover.LikertAnswer", Topic::QuestionnaireLikert);
+derived_message!(ForcedChoice, "handover.ForcedChoice", Topic::QuestionnaireChoice);
+derived_message!(SessionMark, "handover.SessionMark", Topic::SessionPause | Topic::SessionResume);
+derived_message!(SessionTransition, "handover.SessionTransition", Topic::SessionTransition);
+derived_message!(SessionEnd, "handover.SessionEnd", Topic::SessionEnd);
+derived_message!(JointAngles, "handover.JointAngles", Topic::HumanJoints);
+derived_message!(TestLogLikelihood, "handover.TestLogLikelihood", Topic::TestLogLikelihood(_));
+derived_message!(RobotCommand, "handover.RobotCommand", Topic::RobotCommand);
+derived_message!(RobotStatus, "handover.RobotStatus", Topic::RobotStatus);
+official_message!(foxglove::PoseInFrame, foxglove::POSE_IN_FRAME, Topic::RobotHandoverPose);
+official_message!(foxglove::SceneUpdate, foxglove::SCENE_UPDATE, Topic::HumanArm | Topic::ObjectScene);
+official_message!(foxglove::FrameTransforms, foxglove::FRAME_TRANSFORMS, Topic::Transforms);
+official_message!(foxglove::Log, foxglove::LOG, Topic::Notes);
+
+/// A message type's schema and topics, as plain functions.
+type Entry = (fn() -> (&'static str, String), fn(Topic) -> bool);
+
+fn entry<M: LogMessage>() -> Entry {
+    (M::schema, M::carried_by)
+}
+
+/// Every message type of the log.
+fn message_types() -> [Entry; 19] {
+    [
+        entry::<SessionStartMessage>(),
+        entry::<TrialQuery>(),
+        entry::<TrialResponse>(),
+        entry::<TrialVoid>(),
+        entry::<TrialUndo>(),
+        entry::<BeliefMessage>(),
+        entry::<LikertAnswer>(),
+        entry::<ForcedChoice>(),
+        entry::<SessionMark>(),
+        entry::<SessionTransition>(),
+        entry::<SessionEnd>(),
+        entry::<JointAngles>(),
+        entry::<TestLogLikelihood>(),
+        entry::<RobotCommand>(),
+        entry::<RobotStatus>(),
+        entry::<foxglove::PoseInFrame>(),
+        entry::<foxglove::SceneUpdate>(),
+        entry::<foxglove::FrameTransforms>(),
+        entry::<foxglove::Log>(),
+    ]
+}
+
+/// (schema name, schema text) of a topic: the bytes embedded in the log, of the message type
+/// that claims the topic.
 pub fn schema(topic: Topic) -> (&'static str, String) {
-    match topic {
-        Topic::SessionStart => derived::<SessionStartMessage>("handover.SessionStart"),
-        Topic::TrialQuery => derived::<TrialQuery>("handover.TrialQuery"),
-        Topic::TrialResponse => derived::<TrialResponse>("handover.TrialResponse"),
-        Topic::TrialVoid => derived::<TrialVoid>("handover.TrialVoid"),
-        Topic::TrialUndo => derived::<TrialUndo>("handover.TrialUndo"),
-        Topic::Belief(_) => derived::<BeliefMessage>("handover.Belief"),
-        Topic::QuestionnaireLikert => derived::<LikertAnswer>("handover.LikertAnswer"),
-        Topic::QuestionnaireChoice => derived::<ForcedChoice>("handover.ForcedChoice"),
-        Topic::SessionPause | Topic::SessionResume => derived::<SessionMark>("handover.SessionMark"),
-        Topic::SessionTransition => derived::<SessionTransition>("handover.SessionTransition"),
-        Topic::SessionEnd => derived::<SessionEnd>("handover.SessionEnd"),
-        Topic::HumanJoints => derived::<JointAngles>("handover.JointAngles"),
-        Topic::TestLogLikelihood(_) => derived::<TestLogLikelihood>("handover.TestLogLikelihood"),
-        Topic::RobotHandoverPose => official(foxglove::POSE_IN_FRAME),
-        Topic::HumanArm | Topic::ObjectScene => official(foxglove::SCENE_UPDATE),
-        Topic::Transforms => official(foxglove::FRAME_TRANSFORMS),
-        Topic::Notes => official(foxglove::LOG),
-        Topic::RobotCommand => derived::<RobotCommand>("handover.RobotCommand"),
-        Topic::RobotStatus => derived::<RobotStatus>("handover.RobotStatus"),
-    }
+    let (schema, _) = message_types()
+        .into_iter()
+        .find(|(_, carried_by)| carried_by(topic))
+        .expect("every topic is claimed by a message type (schemas::tests)");
+    schema()
 }
 
 #[cfg(test)]
 mod tests {
-    use super::{Topic, schema, viewer_accepts, viewer_form};
+    use super::{Topic, message_types, schema, viewer_accepts, viewer_form};
     use serde_json::json;
+
+    /// No topic half registered: each is claimed by exactly one message type, and each type
+    /// claims a topic.
+    #[test]
+    fn every_topic_is_carried_by_exactly_one_message_type() {
+        for topic in Topic::ALL {
+            let claims = message_types().iter().filter(|(_, carried_by)| carried_by(topic)).count();
+            assert_eq!(claims, 1, "{topic} is claimed by {claims} message types");
+        }
+        for (schema, carried_by) in message_types() {
+            assert!(Topic::ALL.into_iter().any(carried_by), "{} carries no topic", schema().0);
+        }
+    }
 
     #[test]
     fn every_topic_schema_is_one_a_viewer_parses() {
