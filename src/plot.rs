@@ -1,12 +1,31 @@
 //! Figures: drawn as SVG (plotters' SVG backend) in a journal's column width, and written as
 //! SVG, PDF (fonts embedded) and PNG (300 dpi) as asked.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+/// Why a figure could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// The drawing library refused a step.
+    #[error("cannot draw: {0}")]
+    Drawing(String),
+    /// No font, or a drawing that cannot be made a PDF or a PNG.
+    #[error("{0}")]
+    Render(String),
+    /// The figure's file could not be written.
+    #[error("{}: {source}", path.display())]
+    Write { path: PathBuf, source: std::io::Error },
+}
+
+/// A drawing step's error.
+fn drawing(e: impl std::fmt::Display) -> PlotError {
+    PlotError::Drawing(e.to_string())
+}
 
 /// Region colours, in order: Okabe and Ito's colour-blind-safe palette.
 pub const PALETTE: [RGBColor; 6] = [
@@ -68,15 +87,18 @@ const SVG_DPI: f32 = 96.0;
 
 impl FigureStyle {
     /// Writes the drawing `svg` at `path` in each format (owner-only files).
-    fn write(&self, path: &Path, svg: &str) -> Result<(), String> {
+    fn write(&self, path: &Path, svg: &str) -> Result<(), PlotError> {
         for format in &self.formats {
             let out = path.with_extension(format.extension());
             let bytes = match format {
                 FigureFormat::Svg => svg.as_bytes().to_vec(),
-                FigureFormat::Pdf => pdf(svg)?,
-                FigureFormat::Png => png(svg, PNG_DPI)?.0,
+                FigureFormat::Pdf => pdf(svg).map_err(|e| PlotError::Render(format!("{}: {e}", out.display())))?,
+                FigureFormat::Png => {
+                    png(svg, PNG_DPI).map_err(|e| PlotError::Render(format!("{}: {e}", out.display())))?.0
+                }
             };
-            crate::private_files::write_output(&out, &bytes).map_err(|e| format!("{}: {e}", out.display()))?;
+            crate::private_files::write_output(&out, &bytes)
+                .map_err(|source| PlotError::Write { path: out, source })?;
         }
         Ok(())
     }
@@ -206,7 +228,7 @@ fn pixel_rect<DB: DrawingBackend, CT: CoordTranslate>(area: &DrawingArea<DB, CT>
 }
 
 /// Fonts for PDF and PNG: the system's, with a common sans-serif face for "sans-serif".
-fn fonts() -> Result<Arc<resvg::usvg::fontdb::Database>, String> {
+fn fonts() -> Result<Arc<resvg::usvg::fontdb::Database>, PlotError> {
     static FONTS: OnceLock<Result<Arc<resvg::usvg::fontdb::Database>, String>> = OnceLock::new();
     FONTS
         .get_or_init(|| {
@@ -226,29 +248,31 @@ fn fonts() -> Result<Arc<resvg::usvg::fontdb::Database>, String> {
             Ok(Arc::new(db))
         })
         .clone()
+        .map_err(PlotError::Render)
 }
 
-fn tree(svg: &str) -> Result<resvg::usvg::Tree, String> {
+fn tree(svg: &str) -> Result<resvg::usvg::Tree, PlotError> {
     let options = resvg::usvg::Options { fontdb: fonts()?, ..Default::default() };
-    resvg::usvg::Tree::from_str(svg, &options).map_err(|e| format!("cannot read the drawing: {e}"))
+    resvg::usvg::Tree::from_str(svg, &options).map_err(|e| PlotError::Render(format!("cannot read the drawing: {e}")))
 }
 
 /// The drawing as a PDF page of its size (96 SVG pixels an inch), fonts embedded.
-pub fn pdf(svg: &str) -> Result<Vec<u8>, String> {
+pub fn pdf(svg: &str) -> Result<Vec<u8>, PlotError> {
     let page = svg2pdf::PageOptions { dpi: SVG_DPI };
     svg2pdf::to_pdf(&tree(svg)?, svg2pdf::ConversionOptions::default(), page)
-        .map_err(|e| format!("cannot make a PDF: {e}"))
+        .map_err(|e| PlotError::Render(format!("cannot make a PDF: {e}")))
 }
 
 /// The drawing as a PNG at `dpi` (its resolution stored in a pHYs chunk), and the pixels.
-pub fn png(svg: &str, dpi: f32) -> Result<(Vec<u8>, resvg::tiny_skia::Pixmap), String> {
+pub fn png(svg: &str, dpi: f32) -> Result<(Vec<u8>, resvg::tiny_skia::Pixmap), PlotError> {
     let tree = tree(svg)?;
     let scale = dpi / SVG_DPI;
-    let size = tree.size().to_int_size().scale_by(scale).ok_or("empty drawing")?;
-    let mut pixmap = resvg::tiny_skia::Pixmap::new(size.width(), size.height()).ok_or("empty drawing")?;
+    let size = tree.size().to_int_size().scale_by(scale).ok_or_else(|| PlotError::Render("empty drawing".into()))?;
+    let mut pixmap = resvg::tiny_skia::Pixmap::new(size.width(), size.height())
+        .ok_or_else(|| PlotError::Render("empty drawing".into()))?;
     pixmap.fill(resvg::tiny_skia::Color::WHITE);
     resvg::render(&tree, resvg::tiny_skia::Transform::from_scale(scale, scale), &mut pixmap.as_mut());
-    let bytes = pixmap.encode_png().map_err(|e| format!("cannot encode the PNG: {e}"))?;
+    let bytes = pixmap.encode_png().map_err(|e| PlotError::Render(format!("cannot encode the PNG: {e}")))?;
     Ok((with_resolution(bytes, dpi), pixmap))
 }
 
@@ -276,17 +300,17 @@ fn figure(
     path: &Path,
     style: &FigureStyle,
     size: (u32, u32),
-    draw: impl FnOnce(&DrawingArea<SVGBackend, plotters::coord::Shift>) -> Result<Drawn, String>,
-) -> Result<Drawn, String> {
+    draw: impl FnOnce(&DrawingArea<SVGBackend, plotters::coord::Shift>) -> Result<Drawn, PlotError>,
+) -> Result<Drawn, PlotError> {
     let mut svg = String::new();
     let drawn = {
         let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        root.fill(&WHITE).map_err(drawing)?;
         let drawn = draw(&root)?;
-        root.present().map_err(|e| e.to_string())?;
+        root.present().map_err(drawing)?;
         drawn
     };
-    style.write(path, &svg).map_err(|e| format!("{}: {e}", path.display()))?;
+    style.write(path, &svg)?;
     Ok(drawn)
 }
 
@@ -295,12 +319,12 @@ fn title_block<DB: DrawingBackend>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
     lines: &[String],
     l: &Layout,
-) -> Result<DrawingArea<DB, plotters::coord::Shift>, String> {
+) -> Result<DrawingArea<DB, plotters::coord::Shift>, PlotError> {
     let font = sans(l.title).into_font().color(&BLACK).pos(Pos::new(HPos::Center, VPos::Top));
     let centre = area.dim_in_pixel().0 as i32 / 2;
     for (k, line) in lines.iter().enumerate() {
         let y = 5 + (k as f64 * l.title * 1.3) as i32;
-        area.draw(&Text::new(line.clone(), (centre, y), font.clone())).map_err(|e| e.to_string())?;
+        area.draw(&Text::new(line.clone(), (centre, y), font.clone())).map_err(drawing)?;
     }
     Ok(area.split_vertically(l.title_height(lines.len())).1)
 }
@@ -360,13 +384,12 @@ pub fn scatter_grid(
     title: &str,
     panels: &[ScatterPanel],
     cols: usize,
-) -> Result<Drawn, String> {
+) -> Result<Drawn, PlotError> {
     let l = style.layout();
     let (cols, rows, ph) = l.grid(panels.len(), cols, 0.85, 250.0..=f64::INFINITY);
     let lines = Layout::wrap(title, l.width, l.title);
     figure(path, style, (l.width, l.title_height(lines.len()) + ph * rows as u32), |root| {
         let body = title_block(root, &lines, &l)?;
-        let err = |e: &dyn std::fmt::Display| e.to_string();
         let mut drawn = Drawn::default();
         for (panel, area) in panels.iter().zip(body.split_evenly((rows, cols))) {
             let xs = range(panel.groups.iter().flat_map(|g| g.points.iter().map(|p| p.0)));
@@ -379,12 +402,12 @@ pub fn scatter_grid(
                 .x_label_formatter(&|x| tick_label(*x, x_span))
                 .y_label_formatter(&|y| tick_label(*y, y_span))
                 .draw()
-                .map_err(|e| err(&e))?;
+                .map_err(drawing)?;
             for (k, g) in panel.groups.iter().enumerate() {
                 let colour = PALETTE[k % PALETTE.len()];
                 chart
                     .draw_series(g.points.iter().map(|&p| Circle::new(p, 2, colour.mix(0.6).filled())))
-                    .map_err(|e| err(&e))?
+                    .map_err(drawing)?
                     .label(g.name)
                     .legend(move |(x, y)| Circle::new((x + 8, y), 3, colour.filled()));
             }
@@ -405,7 +428,7 @@ fn chart_on<'a, DB: DrawingBackend>(
     caption: Option<&str>,
     x: std::ops::Range<f64>,
     y: std::ops::Range<f64>,
-) -> Result<AnyChart<'a, DB>, String> {
+) -> Result<AnyChart<'a, DB>, PlotError> {
     let mut builder = ChartBuilder::on(area);
     if let Some(caption) = caption {
         builder.caption(caption, sans(l.caption));
@@ -415,7 +438,7 @@ fn chart_on<'a, DB: DrawingBackend>(
         .x_label_area_size(l.x_area())
         .y_label_area_size(l.y_area)
         .build_cartesian_2d(x, y)
-        .map_err(|e| e.to_string())
+        .map_err(drawing)
 }
 
 /// The axes' style every chart shares: faint major grid lines, no minor ones, the
@@ -438,7 +461,7 @@ fn mesh<'a, 'b, DB: DrawingBackend>(
 }
 
 /// The legend inside a chart, at its top right: framed, on a translucent white background.
-fn legend<'a, DB: DrawingBackend + 'a>(chart: &mut AnyChart<'a, DB>, l: &Layout) -> Result<(), String> {
+fn legend<'a, DB: DrawingBackend + 'a>(chart: &mut AnyChart<'a, DB>, l: &Layout) -> Result<(), PlotError> {
     chart
         .configure_series_labels()
         .position(SeriesLabelPosition::UpperRight)
@@ -448,7 +471,7 @@ fn legend<'a, DB: DrawingBackend + 'a>(chart: &mut AnyChart<'a, DB>, l: &Layout)
         .background_style(WHITE.mix(0.8))
         .border_style(BLACK)
         .draw()
-        .map_err(|e| e.to_string())
+        .map_err(drawing)
 }
 
 /// One line of a line plot: (x, mean, half-width of its band) points.
@@ -500,7 +523,7 @@ fn tick_label(v: f64, span: f64) -> String {
 
 /// Means with shaded bands against integer x, one line per series (as the paper's Fig. 2, 8
 /// and 10): ticks at the integers, the legend above the data, the band named in it.
-pub fn mean_se_plot(path: &Path, style: &FigureStyle, plot: &LinePlot) -> Result<Drawn, String> {
+pub fn mean_se_plot(path: &Path, style: &FigureStyle, plot: &LinePlot) -> Result<Drawn, PlotError> {
     let l = style.layout();
     let lines = Layout::wrap(plot.title, l.width, l.title);
     let height = (l.width as f64 * 0.6).max(260.0) as u32;
@@ -521,7 +544,7 @@ pub fn line_grid(
     plots: &[LinePlot],
     cols: usize,
     y_groups: Option<&[usize]>,
-) -> Result<Drawn, String> {
+) -> Result<Drawn, PlotError> {
     let l = style.layout();
     let (cols, rows, ph) = l.grid(plots.len(), cols, 0.8, 260.0..=f64::INFINITY);
     let lines = Layout::wrap(title, l.width, l.title);
@@ -549,8 +572,7 @@ fn draw_lines<DB: DrawingBackend>(
     caption: bool,
     y_range: Option<(f64, f64)>,
     l: &Layout,
-) -> Result<PixelRect, String> {
-    let err = |e: &dyn std::fmt::Display| e.to_string();
+) -> Result<PixelRect, PlotError> {
     let finite = || plot.series.iter().flat_map(|s| &s.points).filter(|p| p.1.is_finite() && p.2.is_finite());
     let x_min = finite().map(|p| p.0).fold(f64::INFINITY, f64::min);
     let x_max = finite().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
@@ -578,7 +600,7 @@ fn draw_lines<DB: DrawingBackend>(
         .y_labels(if l.narrow { 6 } else { 9 })
         .y_label_formatter(&|y| tick_label(*y, top - bottom))
         .draw()
-        .map_err(|e| err(&e))?;
+        .map_err(drawing)?;
     for (k, s) in plot.series.iter().enumerate() {
         let pts: Vec<_> = s
             .points
@@ -591,7 +613,7 @@ fn draw_lines<DB: DrawingBackend>(
     let grey = RGBColor(120, 120, 120);
     // One legend entry a line (plotters draws an entry on one line), the mark on the first.
     for (k, line) in band.into_iter().enumerate() {
-        let entry = chart.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>()).map_err(|e| err(&e))?.label(line);
+        let entry = chart.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>()).map_err(drawing)?.label(line);
         if k == 0 {
             entry.legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], grey.mix(0.3).filled()));
         }
@@ -607,17 +629,16 @@ fn draw_band_line<DB: DrawingBackend>(
     name: &str,
     colour: RGBColor,
     pts: &[(f64, f64, f64, f64)],
-) -> Result<(), String> {
-    let err = |e: &dyn std::fmt::Display| e.to_string();
+) -> Result<(), PlotError> {
     let mut band: Vec<(f64, f64)> = pts.iter().map(|p| (p.0, p.3)).collect();
     band.extend(pts.iter().rev().map(|p| (p.0, p.2)));
-    chart.draw_series(std::iter::once(Polygon::new(band, colour.mix(0.15).filled()))).map_err(|e| err(&e))?;
+    chart.draw_series(std::iter::once(Polygon::new(band, colour.mix(0.15).filled()))).map_err(drawing)?;
     chart
         .draw_series(LineSeries::new(pts.iter().map(|p| (p.0, p.1)), colour.stroke_width(2)))
-        .map_err(|e| err(&e))?
+        .map_err(drawing)?
         .label(name)
         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2)));
-    chart.draw_series(pts.iter().map(|p| Circle::new((p.0, p.1), 3, colour.filled()))).map_err(|e| err(&e))?;
+    chart.draw_series(pts.iter().map(|p| Circle::new((p.0, p.1), 3, colour.filled()))).map_err(drawing)?;
     Ok(())
 }
 
@@ -646,8 +667,8 @@ fn chart_with_legend(
     style: &FigureStyle,
     title: &str,
     entries: &[(Mark, String)],
-    draw: impl FnOnce(&DrawingArea<SVGBackend, plotters::coord::Shift>, &Layout) -> Result<PixelRect, String>,
-) -> Result<Drawn, String> {
+    draw: impl FnOnce(&DrawingArea<SVGBackend, plotters::coord::Shift>, &Layout) -> Result<PixelRect, PlotError>,
+) -> Result<Drawn, PlotError> {
     let l = style.layout();
     let lines = Layout::wrap(title, l.width, l.title);
     let chart_height = if l.narrow { 260 } else { 370 };
@@ -678,8 +699,7 @@ fn legend_block<DB: DrawingBackend>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
     entries: &[(Mark, String)],
     l: &Layout,
-) -> Result<PixelRect, String> {
-    let err = |e: &dyn std::fmt::Display| e.to_string();
+) -> Result<PixelRect, PlotError> {
     let font = sans(l.legend).into_font().color(&BLACK).pos(Pos::new(HPos::Left, VPos::Center));
     let width = area.dim_in_pixel().0;
     let line = (l.legend * 1.45) as i32;
@@ -695,9 +715,9 @@ fn legend_block<DB: DrawingBackend>(
             Mark::Bar(c) => area.draw(&Rectangle::new([(x0 + 6, y - 6), (x1 - 6, y + 6)], c.filled())),
             Mark::Triangle(c) => area.draw(&TriangleMarker::new(((x0 + x1) / 2, y), 6, c.filled())),
         }
-        .map_err(|e| err(&e))?;
+        .map_err(drawing)?;
         for text in legend_lines(text, width, l) {
-            area.draw(&Text::new(text, (x1 + 8, y), font.clone())).map_err(|e| err(&e))?;
+            area.draw(&Text::new(text, (x1 + 8, y), font.clone())).map_err(drawing)?;
             y += line;
         }
         y += (l.legend * 0.6) as i32;
@@ -714,7 +734,7 @@ pub fn power_plot(
     title: &str,
     band: &str,
     series: &[PowerSeries],
-) -> Result<Drawn, String> {
+) -> Result<Drawn, PlotError> {
     let grey = RGBColor(120, 120, 120);
     let mut entries = vec![
         (Mark::Dashed(grey), "80 % (a common target)".into()),
@@ -725,7 +745,6 @@ pub fn power_plot(
     }
     entries.push((Mark::Band(grey), format!("shaded: {band}")));
     chart_with_legend(path, style, title, &entries, |area, l| {
-        let err = |e: &dyn std::fmt::Display| e.to_string();
         // The sizes planned, equally spaced (they usually double), labelled with their values.
         let mut sizes: Vec<f64> = series.iter().flat_map(|s| s.points.iter().map(|p| p.0)).collect();
         sizes.sort_by(f64::total_cmp);
@@ -747,11 +766,11 @@ pub fn power_plot(
             .y_labels(if l.narrow { 6 } else { 11 })
             .y_label_formatter(&|y| format!("{:.0} %", y * 100.0))
             .draw()
-            .map_err(|e| err(&e))?;
+            .map_err(drawing)?;
         for level in [0.8, 0.05] {
             chart
                 .draw_series(DashedLineSeries::new([(-0.4, level), (last + 0.4, level)], 6, 4, grey.stroke_width(1)))
-                .map_err(|e| err(&e))?;
+                .map_err(drawing)?;
         }
         for (k, s) in series.iter().enumerate() {
             let pts: Vec<_> = s
@@ -774,11 +793,10 @@ pub fn bar_chart(
     y_label: &str,
     categories: &[String],
     groups: &[(String, Vec<f64>)],
-) -> Result<Drawn, String> {
+) -> Result<Drawn, PlotError> {
     let entries: Vec<(Mark, String)> =
         groups.iter().enumerate().map(|(k, (name, _))| (Mark::Bar(PALETTE[k % PALETTE.len()]), name.clone())).collect();
     chart_with_legend(path, style, title, &entries, |area, l| {
-        let err = |e: &dyn std::fmt::Display| e.to_string();
         // The axis ends at the data's range (1 for shares).
         let max = groups.iter().flat_map(|g| g.1.iter().copied()).fold(1.0f64, f64::max);
         let n = categories.len().max(1);
@@ -794,7 +812,7 @@ pub fn bar_chart(
             })
             .y_label_formatter(&|y| tick_label(*y, top))
             .draw()
-            .map_err(|e| err(&e))?;
+            .map_err(drawing)?;
         let width = 0.8 / groups.len().max(1) as f64;
         for (gi, (_, values)) in groups.iter().enumerate() {
             let colour = PALETTE[gi % PALETTE.len()];
@@ -803,7 +821,7 @@ pub fn bar_chart(
                     let x0 = k as f64 + 0.1 + gi as f64 * width;
                     Rectangle::new([(x0, 0.0), (x0 + width * 0.95, v)], colour.filled())
                 }))
-                .map_err(|e| err(&e))?;
+                .map_err(drawing)?;
         }
         Ok(pixel_rect(chart.plotting_area()))
     })
@@ -828,7 +846,7 @@ pub fn alpha_plot(
     pooled: Option<&PooledEvidence>,
     protocol: &[f64],
     drop: f64,
-) -> Result<Drawn, String> {
+) -> Result<Drawn, PlotError> {
     let grey = RGBColor(150, 150, 150);
     // One session: its curve is the bold one, named for what it is.
     let single = sessions.len() == 1;
@@ -845,7 +863,6 @@ pub fn alpha_plot(
         entries.push((Mark::Line(PALETTE[1]), format!("protocol α = {a}")));
     }
     chart_with_legend(path, style, title, &entries, |area, l| {
-        let err = |e: &dyn std::fmt::Display| e.to_string();
         let xs: Vec<f64> =
             sessions.iter().flatten().chain(pooled.iter().flat_map(|p| &p.curve)).map(|p| p.0.log2()).collect();
         let (x0, x1) =
@@ -866,27 +883,27 @@ pub fn alpha_plot(
                 if a < 1.0 { format!("{a:.2}") } else { format!("{a:.0}") }
             })
             .draw()
-            .map_err(|e| err(&e))?;
+            .map_err(drawing)?;
         if let Some(p) = pooled {
             let (lo, hi) = (p.low.log2().max(x0), p.high.log2().min(x1));
             chart
                 .draw_series(std::iter::once(Rectangle::new([(lo, floor), (hi, 0.0)], PALETTE[0].mix(0.12).filled())))
-                .map_err(|e| err(&e))?;
+                .map_err(drawing)?;
         }
         for s in sessions.iter().filter(|_| !single) {
-            chart.draw_series(LineSeries::new(clip(s), grey.mix(0.6).stroke_width(1))).map_err(|e| err(&e))?;
+            chart.draw_series(LineSeries::new(clip(s), grey.mix(0.6).stroke_width(1))).map_err(drawing)?;
         }
         let dashes: Vec<(f64, f64)> = (0..=60).map(|k| x0 + (x1 - x0) * k as f64 / 60.0).map(|x| (x, -drop)).collect();
         chart
             .draw_series(dashes.chunks(2).map(|c| PathElement::new(c.to_vec(), BLACK.stroke_width(1))))
-            .map_err(|e| err(&e))?;
+            .map_err(drawing)?;
         if let Some(p) = pooled {
-            chart.draw_series(LineSeries::new(clip(&p.curve), PALETTE[0].stroke_width(3))).map_err(|e| err(&e))?;
+            chart.draw_series(LineSeries::new(clip(&p.curve), PALETTE[0].stroke_width(3))).map_err(drawing)?;
         }
         for a in protocol.iter().map(|a| a.log2()).filter(|x| (x0..=x1).contains(x)) {
             chart
                 .draw_series(std::iter::once(PathElement::new(vec![(a, floor), (a, 0.3)], PALETTE[1].stroke_width(2))))
-                .map_err(|e| err(&e))?;
+                .map_err(drawing)?;
         }
         Ok(pixel_rect(chart.plotting_area()))
     })
@@ -909,7 +926,7 @@ pub struct FrontPanel {
 /// The comfort–accuracy front: per panel, gain against cost ratio for each line, active
 /// and passive marked, the random mix of the two as a dashed line, the target shaded. The
 /// panels share their axes and one legend, under them.
-pub fn front_plot(path: &Path, style: &FigureStyle, title: &str, panels: &[FrontPanel]) -> Result<Drawn, String> {
+pub fn front_plot(path: &Path, style: &FigureStyle, title: &str, panels: &[FrontPanel]) -> Result<Drawn, PlotError> {
     let l = style.layout();
     let (cols, rows, ph) = l.grid(panels.len(), panels.len(), 0.75, 240.0..=420.0);
     let lines = Layout::wrap(title, l.width, l.title);
@@ -937,7 +954,6 @@ pub fn front_plot(path: &Path, style: &FigureStyle, title: &str, panels: &[Front
     }
     let legend_h = legend_block_height(&entries, l.width, &l);
     figure(path, style, (l.width, l.title_height(lines.len()) + ph * rows as u32 + legend_h), |root| {
-        let err = |e: &dyn std::fmt::Display| e.to_string();
         let body = title_block(root, &lines, &l)?;
         let (charts, under) = body.split_vertically(ph * rows as u32);
         let mut drawn = Drawn::default();
@@ -947,40 +963,36 @@ pub fn front_plot(path: &Path, style: &FigureStyle, title: &str, panels: &[Front
                 .y_labels(if l.narrow { 6 } else { 8 })
                 .y_label_formatter(&|y| format!("{:.0} %", 100.0 * y))
                 .draw()
-                .map_err(|e| err(&e))?;
+                .map_err(drawing)?;
             let (tx, ty) = panel.target;
             chart
                 .draw_series(std::iter::once(Rectangle::new(
                     [(0.8, ty.clamp(y_min, y_max)), (tx.min(x_max), y_max)],
                     PALETTE[2].mix(0.15).filled(),
                 )))
-                .map_err(|e| err(&e))?;
+                .map_err(drawing)?;
             if let (Some(a), Some(p)) = (panel.active, panel.passive) {
                 let dashes: Vec<(f64, f64)> =
                     (0..=40).map(|k| k as f64 / 40.0).map(|t| (p.0 + t * (a.0 - p.0), p.1 + t * (a.1 - p.1))).collect();
                 chart
                     .draw_series(dashes.chunks(2).map(|c| PathElement::new(c.to_vec(), BLACK.stroke_width(1))))
-                    .map_err(|e| err(&e))?;
+                    .map_err(drawing)?;
             }
             for (k, (_, pts)) in panel.lines.iter().enumerate() {
                 let colour = PALETTE[k % 2];
                 chart
                     .draw_series(LineSeries::new(pts.iter().map(|p| (p.0, p.1)), colour.stroke_width(2)))
-                    .map_err(|e| err(&e))?;
-                chart
-                    .draw_series(pts.iter().map(|p| Circle::new((p.0, p.1), 3, colour.filled())))
-                    .map_err(|e| err(&e))?;
+                    .map_err(drawing)?;
+                chart.draw_series(pts.iter().map(|p| Circle::new((p.0, p.1), 3, colour.filled()))).map_err(drawing)?;
                 chart
                     .draw_series(
                         pts.iter().map(|p| Text::new(p.2.clone(), (p.0, p.1), sans(l.tick).into_font().color(&colour))),
                     )
-                    .map_err(|e| err(&e))?;
+                    .map_err(drawing)?;
             }
             for (point, colour) in [(panel.active, active), (panel.passive, passive)] {
                 if let Some(pt) = point {
-                    chart
-                        .draw_series(std::iter::once(TriangleMarker::new(pt, 7, colour.filled())))
-                        .map_err(|e| err(&e))?;
+                    chart.draw_series(std::iter::once(TriangleMarker::new(pt, 7, colour.filled()))).map_err(drawing)?;
                 }
             }
             drawn.axes.push(pixel_rect(chart.plotting_area()));

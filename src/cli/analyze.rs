@@ -314,7 +314,7 @@ fn write_outputs(
             floor: None,
             series,
         };
-        mean_se_plot(&dir.join(file), style, &plot).map_err(anyhow::Error::msg)?;
+        mean_se_plot(&dir.join(file), style, &plot)?;
     }
     let objects: Vec<String> = {
         let mut v: Vec<String> = s.objects.values().flat_map(|m| m.keys().cloned()).collect();
@@ -338,7 +338,7 @@ fn write_outputs(
         if s.sessions == 1 { "" } else { "s" }
     );
     let y_label = "share of the condition's training offers";
-    bar_chart(&dir.join("objects.svg"), style, &title, y_label, &objects, &groups).map_err(anyhow::Error::msg)?;
+    bar_chart(&dir.join("objects.svg"), style, &title, y_label, &objects, &groups)?;
     handover::private_files::write_output(
         &dir.join("table1.md"),
         format!("# Table I — {} sessions\n\n{}", s.sessions, table1_markdown(s)).as_bytes(),
@@ -358,8 +358,7 @@ fn write_alpha_plot(dir: &Path, style: &FigureStyle, a: &AlphaSummary, kind: &st
     let protocol: Vec<f64> = a.protocol_alphas.iter().map(|(x, _)| *x).collect();
     let n = a.sessions.len();
     let title = format!("α by maximum marginal likelihood — {n} {kind} session{}", if n == 1 { "" } else { "s" });
-    alpha_plot(&dir.join("alpha.svg"), style, &title, &sessions, pooled.as_ref(), &protocol, SUPPORT_DROP)
-        .map_err(anyhow::Error::msg)?;
+    alpha_plot(&dir.join("alpha.svg"), style, &title, &sessions, pooled.as_ref(), &protocol, SUPPORT_DROP)?;
     Ok(())
 }
 

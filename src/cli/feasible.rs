@@ -167,7 +167,7 @@ pub fn run(args: FeasibleArgs) -> Result<()> {
         for q in &queries {
             let path = dir.join(format!("{}.svg", q.query.id));
             let style = args.figures.style();
-            plot_query(&study, q, &path, &style).map_err(anyhow::Error::msg)?;
+            plot_query(&study, q, &path, &style)?;
             errln!("wrote {}", dir.join(style.file_names(&q.query.id)).display());
         }
     }
@@ -200,7 +200,12 @@ fn print_table(study: &Study, queries: &[&ResolvedQuery]) -> Result<()> {
 /// Joint pairs drawn for each query (indices into the joint order).
 const PROJECTIONS: [(usize, usize); 4] = [(0, 1), (0, 2), (3, 4), (5, 6)];
 
-fn plot_query(study: &Study, q: &ResolvedQuery, path: &std::path::Path, style: &FigureStyle) -> Result<(), String> {
+fn plot_query(
+    study: &Study,
+    q: &ResolvedQuery,
+    path: &std::path::Path,
+    style: &FigureStyle,
+) -> Result<(), handover::plot::PlotError> {
     let object = study.object(q);
     let labels: Vec<String> = q.regions.iter().map(|&r| object.regions[r].label.clone()).collect();
     let axis: Vec<String> = JOINT_NAMES.iter().map(|n| format!("{} (deg)", n.replace('_', " "))).collect();

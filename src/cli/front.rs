@@ -116,7 +116,7 @@ pub fn run(a: FrontArgs) -> Result<()> {
             .collect();
         let title =
             format!("Comfort–accuracy front: {} seeds × {} trials, mean over seeds", a.sweep.seeds, a.sweep.trials);
-        front_plot(&dir.join("front.svg"), &a.figures.style(), &title, &panels).map_err(anyhow::Error::msg)?;
+        front_plot(&dir.join("front.svg"), &a.figures.style(), &title, &panels)?;
         errln!("wrote {}/front.csv and {}", dir.display(), a.figures.style().file_names("front"));
     }
     Ok(())

@@ -136,8 +136,7 @@ pub fn run(a: ObservationsArgs) -> Result<()> {
         // The panels of one scenario and measure (a row: one per algorithm) share a y axis.
         let groups: Vec<usize> = (0..plots.len()).map(|k| k / algorithms.len()).collect();
         let style = a.figures.style();
-        line_grid(&dir.join("observations.svg"), &style, &title, &plots, algorithms.len(), Some(&groups))
-            .map_err(anyhow::Error::msg)?;
+        line_grid(&dir.join("observations.svg"), &style, &title, &plots, algorithms.len(), Some(&groups))?;
         errln!("wrote {}/observations.csv and {}", dir.display(), style.file_names("observations"));
     }
     Ok(())

@@ -387,6 +387,6 @@ fn plot(path: &Path, study: &Study, args: &PlanArgs, powers: &[PowerRow]) -> Res
         "Power of {} over {} simulated studies per size (two-sided Wilcoxon, p < {SIGNIFICANCE})",
         study.protocol.name, args.studies
     );
-    power_plot(path, &args.figures.style(), &title, "95 % Wilson interval", &series).map_err(anyhow::Error::msg)?;
+    power_plot(path, &args.figures.style(), &title, "95 % Wilson interval", &series)?;
     Ok(())
 }

@@ -305,7 +305,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
             let x_label = "iteration (queries answered)";
             if series.len() <= 2 {
                 let plot = LinePlot { title: &title, x_label, y_label: label, band, floor, series };
-                mean_se_plot(&path, &args.figures.style(), &plot).map_err(anyhow::Error::msg)?;
+                mean_se_plot(&path, &args.figures.style(), &plot)?;
                 continue;
             }
             // More bands than one axis can show apart: small multiples, each algorithm beside
@@ -327,8 +327,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
                     ],
                 })
                 .collect();
-            line_grid(&path, &args.figures.style(), &title, &plots, 2, Some(&vec![0; plots.len()]))
-                .map_err(anyhow::Error::msg)?;
+            line_grid(&path, &args.figures.style(), &title, &plots, 2, Some(&vec![0; plots.len()]))?;
         }
         errln!(
             "wrote {}/{{metrics,summary,tests}}.csv and {} per measure",
