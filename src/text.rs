@@ -14,31 +14,43 @@ pub const PROGRAM_LABEL_BYTES: usize = 100;
 /// The most bytes of an id in a protocol (objects, regions, queries, questionnaire items).
 pub const ID_BYTES: usize = 64;
 
+/// Why a text breaks the rule; its message completes "FIELD …" ("name has 300 bytes, …").
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum TextProblem {
+    #[error("has {bytes} bytes, expected at most {max} bytes of UTF-8 text")]
+    TooLong { bytes: usize, max: usize },
+    #[error(
+        "has the control character U+{code:04X} at byte {at}, expected printable text{}",
+        if *newlines { " (line breaks allowed)" } else { "" }
+    )]
+    Control { code: u32, at: usize, newlines: bool },
+    #[error(
+        "'{shown}' is not an id: expected 1 to {ID_BYTES} characters from A–Z, a–z, 0–9, '-' and '_', starting with a letter or digit"
+    )]
+    NotAnId { shown: String },
+}
+
 /// Checks a label: at most `max` bytes (UTF-8, as stored) and no control character (no
 /// tab, newline, escape or other C0/C1 code), so it fits a log and prints on one line.
-pub fn check_label(v: &str, max: usize) -> Result<(), String> {
+pub fn check_label(v: &str, max: usize) -> Result<(), TextProblem> {
     if v.len() > max {
-        return Err(format!("has {} bytes, expected at most {max} bytes of UTF-8 text", v.len()));
+        return Err(TextProblem::TooLong { bytes: v.len(), max });
     }
     check_no_control(v, false)
 }
 
 /// Checks a long text: at most `max` bytes, control characters other than a line break
 /// refused.
-pub fn check_long(v: &str, max: usize) -> Result<(), String> {
+pub fn check_long(v: &str, max: usize) -> Result<(), TextProblem> {
     if v.len() > max {
-        return Err(format!("has {} bytes, expected at most {max} bytes of UTF-8 text", v.len()));
+        return Err(TextProblem::TooLong { bytes: v.len(), max });
     }
     check_no_control(v, true)
 }
 
-fn check_no_control(v: &str, newlines: bool) -> Result<(), String> {
+fn check_no_control(v: &str, newlines: bool) -> Result<(), TextProblem> {
     match v.char_indices().find(|&(_, c)| c.is_control() && !(newlines && c == '\n')) {
-        Some((at, c)) => Err(format!(
-            "has the control character U+{:04X} at byte {at}, expected printable text{}",
-            c as u32,
-            if newlines { " (line breaks allowed)" } else { "" }
-        )),
+        Some((at, c)) => Err(TextProblem::Control { code: c as u32, at, newlines }),
         None => Ok(()),
     }
 }
@@ -46,18 +58,11 @@ fn check_no_control(v: &str, newlines: bool) -> Result<(), String> {
 /// Checks an id that can become a file name (a query's plot, a CSV key): 1 to
 /// [`ID_BYTES`] characters from A–Z, a–z, 0–9, '-' and '_', starting with a letter or a digit
 /// — no dots, slashes or spaces, so never a path.
-pub fn check_id(v: &str) -> Result<(), String> {
+pub fn check_id(v: &str) -> Result<(), TextProblem> {
     let ok = (1..=ID_BYTES).contains(&v.len())
         && v.as_bytes()[0].is_ascii_alphanumeric()
         && v.bytes().all(|b| b.is_ascii_alphanumeric() || matches!(b, b'-' | b'_'));
-    if ok {
-        Ok(())
-    } else {
-        Err(format!(
-            "'{}' is not an id: expected 1 to {ID_BYTES} characters from A–Z, a–z, 0–9, '-' and '_', starting with a letter or digit",
-            printable(v)
-        ))
-    }
+    if ok { Ok(()) } else { Err(TextProblem::NotAnId { shown: printable(v).into_owned() }) }
 }
 
 /// A text as it may be printed on a terminal: every control character (an escape sequence's
@@ -94,9 +99,10 @@ mod tests {
     fn labels_are_counted_in_bytes_and_refuse_control_characters() {
         assert!(check_label(&"ü".repeat(100), 200).is_ok());
         let e = check_label(&"ü".repeat(150), 200).unwrap_err();
-        assert!(e.contains("300 bytes"), "{e}");
+        assert_eq!(e, TextProblem::TooLong { bytes: 300, max: 200 });
+        assert!(e.to_string().contains("300 bytes"), "{e}");
         let e = check_label("a\tb", 200).unwrap_err();
-        assert!(e.contains("U+0009 at byte 1"), "{e}");
+        assert!(e.to_string().contains("U+0009 at byte 1"), "{e}");
         assert!(check_label("line\nbreak", 200).is_err());
         assert!(check_long("line\nbreak", 200).is_ok());
         assert!(check_long("\u{1b}]0;x\u{7}", 200).is_err());

@@ -144,21 +144,21 @@ impl Problems {
     /// A name or label: at most `max` bytes, no control character.
     fn text(&mut self, path: &str, v: &str, max: usize) {
         if let Err(e) = crate::text::check_label(v, max) {
-            self.add(path, e);
+            self.add(path, e.to_string());
         }
     }
 
     /// A long text: at most `max` bytes, no control character but a line break.
     fn long(&mut self, path: &str, v: &str) {
         if let Err(e) = crate::text::check_long(v, limits::LONG_TEXT) {
-            self.add(path, e);
+            self.add(path, e.to_string());
         }
     }
 
     /// An id that may become a file name (the id rule of `crate::text`).
     fn id(&mut self, path: &str, v: &str) {
         if let Err(e) = crate::text::check_id(v) {
-            self.add(path, e);
+            self.add(path, e.to_string());
         }
     }
 }
