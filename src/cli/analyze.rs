@@ -150,14 +150,7 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
         errln!("{note}");
     }
     let (real, pilot) = (collected.summary(false), collected.summary(true));
-    let bar = indicatif::ProgressBar::new(collected.analysed.len() as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "α evidence [{bar:40}] {pos}/{len} sessions, {elapsed} elapsed, ETA {eta}",
-        )
-        .map_err(|e| anyhow::anyhow!("{e}"))?
-        .progress_chars("=> "),
-    );
+    let bar = super::progress::bar("α evidence", collected.analysed.len() as u64, "sessions");
     let alpha_of = |pilot: bool| -> Result<Option<AlphaSummary>> {
         let group: Vec<&SessionAnalysis> = collected.group(pilot).into_iter().map(|a| &a.analysis).collect();
         if group.is_empty() {

@@ -124,15 +124,7 @@ pub fn run(args: DryRunArgs) -> Result<()> {
     let dirs = args.folders.resolve();
     let protocols = 1 + u64::from(versus.is_some());
     let bar = if args.seeds > 1 || versus.is_some() {
-        let bar = indicatif::ProgressBar::new(protocols * args.seeds * args.participants as u64);
-        bar.set_style(
-            indicatif::ProgressStyle::with_template(
-                "dry runs [{bar:40}] {pos}/{len} sessions, {elapsed} elapsed, ETA {eta}",
-            )
-            .map_err(|e| anyhow::anyhow!("{e}"))?
-            .progress_chars("=> "),
-        );
-        bar
+        super::progress::bar("dry runs", protocols * args.seeds * args.participants as u64, "sessions")
     } else {
         indicatif::ProgressBar::hidden()
     };

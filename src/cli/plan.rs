@@ -112,8 +112,7 @@ fn check(a: &PlanArgs) -> Result<usize> {
 pub fn run(args: PlanArgs) -> Result<()> {
     let largest = check(&args)?;
     let (text, study) = load_protocol(args.protocol.as_deref())?;
-    let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start worker threads")?;
+    let (pool, threads) = super::progress::worker_pool(args.threads)?;
     let fingerprint =
         format!("plan protocol {} sizes {:?} studies {} seed {}", study.sha256, args.sizes, args.studies, args.seed);
     for dir in args.out.iter() {
@@ -189,15 +188,7 @@ fn run_studies(
     indices: &[usize],
     largest: usize,
 ) -> Result<(Vec<StudyRow>, Vec<StudyObjectRow>)> {
-    let bar = indicatif::ProgressBar::new((indices.len() * largest) as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "plan [{bar:40}] {pos}/{len} simulated sessions, {elapsed} elapsed, ETA {eta}",
-        )
-        .map_err(|e| anyhow::anyhow!("{e}"))?
-        .progress_chars("=> "),
-    );
-    super::progress::lines_when_batch(&bar, "plan");
+    let bar = super::progress::bar("plan", (indices.len() * largest) as u64, "simulated sessions");
     let object_ids: Vec<String> = study.protocol.objects.iter().map(|o| o.id.clone()).collect();
     let per_study: Vec<_> = pool.install(|| {
         indices

@@ -7,6 +7,30 @@ use std::time::{Duration, Instant};
 
 use indicatif::ProgressBar;
 
+/// The one progress bar of a long run: `NAME [====>   ] pos/len UNIT, elapsed, ETA`, on
+/// standard error; where no terminal shows it, a plain line every interval instead
+/// ([`lines_when_batch`]).
+pub fn bar(name: &str, len: u64, unit: &str) -> ProgressBar {
+    let bar = ProgressBar::new(len);
+    // Braces in a name or unit would be read as template keys: they are left out.
+    let plain = |s: &str| s.replace(['{', '}'], "");
+    let template =
+        format!("{} [{{bar:40}}] {{pos}}/{{len}} {}, {{elapsed}} elapsed, ETA {{eta}}", plain(name), plain(unit));
+    if let Ok(style) = indicatif::ProgressStyle::with_template(&template) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    lines_when_batch(&bar, name);
+    bar
+}
+
+/// The worker threads of a run (`--threads`, else every core), and their number.
+pub fn worker_pool(threads: Option<usize>) -> anyhow::Result<(rayon::ThreadPool, usize)> {
+    use anyhow::Context as _;
+    let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start worker threads")?;
+    Ok((pool, threads))
+}
+
 /// The interval of progress lines, from `HANDOVER_PROGRESS_S` (0.1 s to a day), else 60 s.
 fn interval() -> Duration {
     std::env::var("HANDOVER_PROGRESS_S")

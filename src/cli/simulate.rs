@@ -13,7 +13,6 @@ use handover::experiment::{
 };
 use handover::plot::{LinePlot, Series, line_grid, mean_se_plot};
 use handover::select::{DEFAULT_BUDGET_EPSILON, DEFAULT_HYBRID_BETA, SelectorKind, Tradeoff};
-use indicatif::{ProgressBar, ProgressStyle};
 
 use super::input::{bad, count};
 
@@ -196,8 +195,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     {
         return Err(bad("--observation measured and --sigma-deg are for planar2 and arm7, not two-sets"));
     }
-    let threads = args.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start worker threads")?;
+    let (pool, threads) = super::progress::worker_pool(args.threads)?;
     if args.scenario == ScenarioName::TwoSets {
         return pool.install(|| run_two_sets(&args));
     }
@@ -205,14 +203,11 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     if let Some(dir) = &args.out {
         handover::private_files::create_dir(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
-    let bar = ProgressBar::new(settings.trials as u64 * args.seeds);
-    bar.set_style(
-        ProgressStyle::with_template("{prefix} [{bar:40}] {pos}/{len} trials × seeds, {elapsed} elapsed, ETA {eta}")
-            .expect("valid template")
-            .progress_chars("=> "),
+    let bar = super::progress::bar(
+        &format!("simulate {} {}", scenario.name(), settings.learn),
+        settings.trials as u64 * args.seeds,
+        "trials × seeds",
     );
-    bar.set_prefix(format!("{} {}", scenario.name(), settings.learn));
-    super::progress::lines_when_batch(&bar, &format!("simulate {} {}", scenario.name(), settings.learn));
     let started = Instant::now();
     let fingerprint = format!("{} {settings:?} seeds {}", scenario.name(), args.seeds);
     if let Some(text) = &args.shard {

@@ -1,7 +1,7 @@
 //! The options and checks shared by the commands that sweep a setting over seeds on the
 //! simulated scenarios (`front`, `observations`).
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Args, ValueEnum};
 use handover::belief::Estimate;
 use handover::ergo::LearnMask;
@@ -59,24 +59,12 @@ pub struct SweepArgs {
 impl SweepArgs {
     /// The worker threads, and their number.
     pub fn pool(&self) -> Result<(rayon::ThreadPool, usize)> {
-        let threads = self.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-        let pool =
-            rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start worker threads")?;
-        Ok((pool, threads))
+        super::progress::worker_pool(self.threads)
     }
 
     /// The progress bar of `runs` runs of every seed's trials, named `name`.
     pub fn progress(&self, name: &str, runs: u64) -> indicatif::ProgressBar {
-        let bar = indicatif::ProgressBar::new(runs * self.seeds * self.trials as u64);
-        bar.set_style(
-            indicatif::ProgressStyle::with_template(&format!(
-                "{name} [{{bar:40}}] {{pos}}/{{len}} trials, {{elapsed}} elapsed, ETA {{eta}}"
-            ))
-            .expect("a valid template with a plain name")
-            .progress_chars("=> "),
-        );
-        super::progress::lines_when_batch(&bar, name);
-        bar
+        super::progress::bar(name, runs * self.seeds * self.trials as u64, "trials")
     }
 
     /// A scenario's settings for this sweep, with its default α and iterations.

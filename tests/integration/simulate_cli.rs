@@ -52,6 +52,7 @@ fn active_learns_faster_and_passive_is_more_comfortable_over_seeds() {
     let dir = std::env::temp_dir().join(format!("handover-sim-seeds-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let (code, out, err) = handover(&[
+        "research",
         "simulate",
         "planar2",
         "--trials",
@@ -220,6 +221,7 @@ fn bad_arguments_exit_2() {
 fn the_front_anchors_passive_and_active_and_writes_csv_and_svg() {
     let dir = tmp("front");
     let (code, out, err) = handover(&[
+        "research",
         "front",
         "--scenarios",
         "planar2",
@@ -464,6 +466,7 @@ fn a_run_without_a_terminal_prints_progress_lines() {
 #[test]
 fn an_algorithm_named_twice_runs_once() {
     let (code, out, err) = handover(&[
+        "research",
         "simulate",
         "planar2",
         "--seeds",
