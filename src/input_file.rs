@@ -132,22 +132,31 @@ pub fn read_csv_rows<T: serde::de::DeserializeOwned>(path: &Path, max_rows: usiz
     Ok(out)
 }
 
-/// Checks that JSON text does not start with a byte-order mark (named, since a parser would
-/// only say "expected value at line 1 column 1").
-pub fn check_no_bom(text: &str) -> Result<(), String> {
-    if text.starts_with('\u{feff}') {
-        Err("starts with a UTF-8 byte-order mark (EF BB BF), expected JSON text without one: save it as UTF-8 without BOM".into())
-    } else {
-        Ok(())
-    }
+/// Why a JSON file's text cannot be read.
+#[derive(Debug, thiserror::Error)]
+pub enum JsonTextError {
+    #[error("is not UTF-8 text ({0})")]
+    NotUtf8(#[from] std::str::Utf8Error),
+    /// Named, since a parser would only say "expected value at line 1 column 1".
+    #[error(
+        "starts with a UTF-8 byte-order mark (EF BB BF), expected JSON text without one: save it as UTF-8 without BOM"
+    )]
+    ByteOrderMark,
+    #[error("{0}")]
+    Json(#[from] serde_json::Error),
+}
+
+/// Checks that JSON text does not start with a byte-order mark.
+pub fn check_no_bom(text: &str) -> Result<(), JsonTextError> {
+    if text.starts_with('\u{feff}') { Err(JsonTextError::ByteOrderMark) } else { Ok(()) }
 }
 
 /// Parses one JSON document from UTF-8 bytes: no byte-order mark, nothing after the document
 /// but white space.
-pub fn parse_json_bytes<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> Result<T, String> {
-    let text = std::str::from_utf8(bytes).map_err(|e| format!("is not UTF-8 text ({e})"))?;
+pub fn parse_json_bytes<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> Result<T, JsonTextError> {
+    let text = std::str::from_utf8(bytes)?;
     check_no_bom(text)?;
-    serde_json::from_str(text).map_err(|e| e.to_string())
+    Ok(serde_json::from_str(text)?)
 }
 
 #[cfg(all(test, unix))]
@@ -186,9 +195,9 @@ mod tests {
     #[test]
     fn json_with_a_bom_or_a_second_document_is_refused() {
         assert!(parse_json_bytes::<serde_json::Value>(b"{} ").is_ok());
-        assert!(parse_json_bytes::<serde_json::Value>(b"{} {}").unwrap_err().contains("trailing"));
-        assert!(
-            parse_json_bytes::<serde_json::Value>("\u{feff}{}".as_bytes()).unwrap_err().contains("byte-order mark")
-        );
+        assert!(parse_json_bytes::<serde_json::Value>(b"{} {}").unwrap_err().to_string().contains("trailing"));
+        let bom = parse_json_bytes::<serde_json::Value>("\u{feff}{}".as_bytes()).unwrap_err();
+        assert!(matches!(bom, JsonTextError::ByteOrderMark) && bom.to_string().contains("byte-order mark"));
+        assert!(matches!(parse_json_bytes::<serde_json::Value>(b"\xff"), Err(JsonTextError::NotUtf8(_))));
     }
 }

@@ -189,7 +189,7 @@ impl ParticipantRecord {
         let io = |source| RecordFileError::Io { path: path.clone(), source };
         let invalid = |message: String| RecordFileError::Invalid { path: path.clone(), message };
         let bytes = crate::input_file::read_regular(&path, MAX_RECORD_BYTES).map_err(io)?;
-        let rec: Self = crate::input_file::parse_json_bytes(&bytes).map_err(invalid)?;
+        let rec: Self = crate::input_file::parse_json_bytes(&bytes).map_err(|e| invalid(e.to_string()))?;
         rec.validate().map_err(invalid)?;
         if rec.id != id {
             return Err(invalid(format!("id is '{}', expected '{id}'", crate::text::printable(&rec.id))));
@@ -240,7 +240,7 @@ impl Tombstone {
         let invalid = |message: String| RecordFileError::Invalid { path: path.clone(), message };
         let bytes = crate::input_file::read_regular(&path, MAX_RECORD_BYTES)
             .map_err(|e| RecordFileError::Io { path: path.clone(), source: e })?;
-        let t: Self = crate::input_file::parse_json_bytes(&bytes).map_err(invalid)?;
+        let t: Self = crate::input_file::parse_json_bytes(&bytes).map_err(|e| invalid(e.to_string()))?;
         if t.id != id {
             return Err(invalid(format!("id is '{}', expected '{id}'", crate::text::printable(&t.id))));
         }

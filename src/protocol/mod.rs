@@ -394,7 +394,7 @@ impl Study {
             ));
         }
         let whole = |message: String| ProtocolError::new(name, vec![Problem { path: String::new(), message }]);
-        crate::input_file::check_no_bom(text).map_err(whole)?;
+        crate::input_file::check_no_bom(text).map_err(|e| whole(e.to_string()))?;
         let de = &mut serde_json::Deserializer::from_str(text);
         let protocol: Protocol = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
             let path = e.path().to_string();
