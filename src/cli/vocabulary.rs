@@ -193,9 +193,6 @@ pub struct Renamed {
     pub new: &'static str,
 }
 
-/// The commands moved under `research`, by their old name.
-const MOVED: [&str; 4] = ["simulate", "front", "observations", "score"];
-
 /// Every renamed spelling.
 pub const RENAMED: &[Renamed] = &[
     Renamed { command: "", old: "simulate", new: "research simulate" },
@@ -214,9 +211,11 @@ pub fn renamed_in(args: &[OsString]) -> Vec<String> {
     let words: Vec<String> = args.iter().skip(1).map(|a| a.to_string_lossy().into_owned()).collect();
     let mut path: Vec<&str> = words.iter().map(String::as_str).take_while(|w| !w.starts_with('-')).take(2).collect();
     let mut warnings = Vec::new();
-    if let Some(first) = path.first().copied().filter(|w| MOVED.contains(w)) {
-        warnings.push(format!("`handover {first}` is now `handover research {first}`; the old name works until 0.3.0"));
-        path = vec!["research", first];
+    // A moved command: warned about, and its flags looked up under its new name.
+    if let Some(moved) = RENAMED.iter().find(|r| r.command.is_empty() && path.first() == Some(&r.old)) {
+        warnings
+            .push(format!("`handover {}` is now `handover {}`; the old name works until 0.3.0", moved.old, moved.new));
+        path = moved.new.split(' ').collect();
     }
     let flags = words.iter().take_while(|w| *w != "--").filter(|w| w.starts_with("--"));
     for word in flags {
