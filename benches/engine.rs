@@ -129,6 +129,7 @@ fn session_step_default_protocol(c: &mut Criterion) {
             started_at: String::new(),
             simulated_truth: None,
             resumed_from: None,
+            selection: None,
         };
         let mut session = Session::new(study, start).unwrap();
         // The session at its k-th grasp (1-based): present the suggested query, and the grip to take.

@@ -103,6 +103,7 @@ pub fn plan_from(
         started_at,
         simulated_truth: Some(truth.clone()),
         resumed_from: None,
+        selection: None,
     };
     let person = SimulatedPerson { truth, alpha: population.alpha };
     DryRunPlan { start, participant: ScriptedParticipant { person } }

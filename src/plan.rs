@@ -56,20 +56,19 @@ pub fn participant(
 /// A simulated participant's whole session, driven by the session's own code and kept in
 /// memory as the log `analyze` would read (stamped as a dry run without a pace stamps it);
 /// `visit` sees every state as a replay of that log would ([`replay_with`]'s order).
-/// Without `map_estimates` the belief summaries leave out the MAP estimate
-/// ([`Session::skip_map_estimates`]), which nothing a plan reports uses.
+/// With `plan_only` the session computes only what a plan reports ([`Session::plan_only`]).
 ///
 /// [`replay_with`]: crate::record::replay_with
 pub(crate) fn drive_in_memory(
     text: String,
     study: Arc<Study>,
     p: &DryRunPlan,
-    map_estimates: bool,
+    plan_only: bool,
     mut visit: impl FnMut(&Session, Option<ReplayStep>),
 ) -> Result<(LogContents, Session), String> {
     let mut session = Session::new(study, p.start.clone()).map_err(|e| e.to_string())?;
-    if !map_estimates {
-        session.skip_map_estimates();
+    if plan_only {
+        session.plan_only();
     }
     visit(&session, None);
     let mut events = Vec::new();
@@ -98,7 +97,7 @@ pub(crate) fn drive_in_memory(
 
 /// [`drive_in_memory`] without looking on: the log alone.
 pub fn session_in_memory(text: String, study: Arc<Study>, p: &DryRunPlan) -> Result<LogContents, String> {
-    drive_in_memory(text, study, p, true, |_, _| {}).map(|(log, _)| log)
+    drive_in_memory(text, study, p, false, |_, _| {}).map(|(log, _)| log)
 }
 
 /// Study `index` of a plan: its first `participants` simulated sessions, each analysed as it
@@ -118,8 +117,7 @@ pub fn simulate_study(
             let (text, fitted, p) = participant(text, study, s, i).map_err(err)?;
             let mut analyser = Analyser::new(START_NS, false, false);
             let (log, session) =
-                drive_in_memory(text, Arc::clone(&fitted), &p, false, |s, step| analyser.visit(s, step))
-                    .map_err(err)?;
+                drive_in_memory(text, Arc::clone(&fitted), &p, true, |s, step| analyser.visit(s, step)).map_err(err)?;
             analyser.finish(&session, &fitted, &log).map_err(|e| err(e.to_string()))
         })
         .collect()
@@ -132,7 +130,7 @@ pub fn session_seconds(log: &LogContents) -> f64 {
 
 /// One study at one size: the paired comparison of the two conditions on one measure at one
 /// iteration (`studies.csv`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
 pub struct StudyRow {
     pub study: usize,
     pub participants: usize,
@@ -149,7 +147,7 @@ pub struct StudyRow {
 
 /// One study at one size: the share of a condition's training offers that were of an object
 /// (`study_objects.csv`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
 pub struct StudyObjectRow {
     pub study: usize,
     pub participants: usize,
@@ -202,7 +200,7 @@ pub fn study_rows(
 pub const SIGNIFICANCE: f64 = 0.05;
 
 /// Power and effect at one size, measure and iteration, over studies (`power.csv`).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Default)]
 pub struct PowerRow {
     pub participants: usize,
     pub measure: String,
@@ -289,7 +287,7 @@ pub fn power(rows: &[StudyRow]) -> Vec<PowerRow> {
 
 /// Mean share of each condition's offers per object at each size, over studies
 /// (`objects.csv`).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Default)]
 pub struct ObjectShareRow {
     pub participants: usize,
     pub condition: String,
@@ -349,7 +347,7 @@ mod tests {
         let (text, fitted, p) = participant(text, &study, study_seed(3, 0), 0).unwrap();
         let mut analyser = Analyser::new(START_NS, false, true);
         let (log, session) =
-            drive_in_memory(text, Arc::clone(&fitted), &p, true, |s, step| analyser.visit(s, step)).unwrap();
+            drive_in_memory(text, Arc::clone(&fitted), &p, false, |s, step| analyser.visit(s, step)).unwrap();
         let driven = analyser.finish(&session, &fitted, &log).unwrap();
         let replayed = crate::analysis::analyse(&log).unwrap();
         assert!(replayed.completed && driven.completed);
@@ -362,5 +360,47 @@ mod tests {
         }
         assert_eq!(driven.trial_rows, replayed.trial_rows);
         assert!(session_seconds(&log) > 60.0);
+    }
+
+    #[test]
+    fn a_plan_only_session_chooses_and_learns_what_a_whole_one_does() {
+        let study = Study::default_study();
+        for index in 0..3 {
+            let (text, fitted, p) =
+                participant(crate::protocol::DEFAULT_PROTOCOL, &study, study_seed(9, 0), index).unwrap();
+            let drive = |plan_only: bool| {
+                let mut analyser = Analyser::new(START_NS, false, false);
+                let (log, session) = drive_in_memory(text.clone(), Arc::clone(&fitted), &p, plan_only, |s, step| {
+                    analyser.visit(s, step)
+                })
+                .unwrap();
+                let analysed = analyser.finish(&session, &fitted, &log).unwrap();
+                (log, session, analysed)
+            };
+            let (whole_log, whole, whole_analysis) = drive(false);
+            let (plan_log, plan, plan_analysis) = drive(true);
+            assert_eq!(plan_log.events, whole_log.events, "the same events, so the same queries chosen");
+            for (a, b) in plan.learners().iter().zip(whole.learners()) {
+                assert_eq!(a.belief, b.belief, "the same beliefs, bit for bit");
+                assert_eq!(a.estimates, b.estimates);
+            }
+            for (a, b) in plan_analysis.runs.iter().zip(&whole_analysis.runs) {
+                assert_eq!(a.test_ll_estimate, b.test_ll_estimate);
+                // Everything but the MAP estimate, which a plan leaves out (its `map` is the mean).
+                let without_map = |v: &[crate::session::BeliefSummary]| {
+                    // The prior's summary is made before the session is told it is a plan's.
+                    v.iter()
+                        .map(|b| match b.iteration {
+                            0 => b.clone(),
+                            _ => crate::session::BeliefSummary { map: b.mean.clone(), ..b.clone() },
+                        })
+                        .collect::<Vec<_>>()
+                };
+                assert_eq!(a.beliefs, without_map(&b.beliefs));
+            }
+            // What was left out: a finished learner's last scores.
+            assert!(plan.learners().iter().all(|l| l.scores.is_empty()));
+            assert!(whole.learners().iter().all(|l| !l.scores.is_empty()));
+        }
     }
 }

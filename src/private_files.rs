@@ -39,6 +39,34 @@ pub fn write_output(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     create_output(path)?.write_all(bytes)
 }
 
+/// Writes a tidy table with [`create_output`]: one row per `Serialize` value under its field
+/// names, and the header even when there are no rows (serde's CSV writer writes it with the
+/// first row, so the header of an empty table comes from a default row). Every table a
+/// command writes goes through here.
+pub fn write_csv<T: serde::Serialize + Default>(path: &Path, rows: impl IntoIterator<Item = T>) -> std::io::Result<()> {
+    let write = || -> Result<(), csv::Error> {
+        let mut w = csv::Writer::from_writer(create_output(path)?);
+        let mut any = false;
+        for r in rows {
+            w.serialize(r)?;
+            any = true;
+        }
+        if !any {
+            let mut header = csv::Writer::from_writer(Vec::new());
+            header.serialize(T::default())?;
+            let bytes = header.into_inner().map_err(|e| csv::Error::from(e.into_error()))?;
+            let text = String::from_utf8_lossy(&bytes);
+            w.write_record(text.lines().next().unwrap_or_default().split(','))?;
+        }
+        w.flush()?;
+        Ok(())
+    };
+    write().map_err(|e| {
+        let e = std::io::Error::from(e);
+        std::io::Error::new(e.kind(), format!("cannot write {}: {e}", path.display()))
+    })
+}
+
 /// Creates `dir` and every missing parent with mode 0700, and gives `dir` itself mode 0700
 /// (an existing parent is left as it is).
 pub fn create_dir(dir: &Path) -> std::io::Result<()> {

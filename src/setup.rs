@@ -166,6 +166,7 @@ pub fn plan_session(c: &SetupConfig) -> Plan {
         started_at,
         simulated_truth: None,
         resumed_from: None,
+        selection: None,
     };
     let log_path = if validate_id(&id).is_ok() { new_log_path(&c.dirs.logs, &id, now) } else { PathBuf::new() };
     Plan {

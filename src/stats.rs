@@ -53,54 +53,82 @@ pub fn mean_ci95(v: &[f64]) -> (f64, f64, f64) {
     (m, m - h, m + h)
 }
 
-/// Paired differences in groups (one group per seed), summarised.
-#[derive(Clone, Debug, PartialEq)]
-pub struct GroupedDifferences {
+/// A paired comparison of two conditions (or algorithms, or protocols) on one measure at one
+/// iteration: the differences (first − second) of the same participants or trials, in groups
+/// (one per seed; a study's sessions are one group). The one shape of every paired result:
+/// `analyze`'s Fig. 10 tests, `dry-run --seeds`/`--versus`, the simulations' `tests.csv`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, Default)]
+pub struct Paired {
+    pub measure: &'static str,
+    pub iteration: usize,
+    /// Whose values the differences start from, and whose are subtracted.
+    pub first: String,
+    pub second: String,
     /// Pairs in all groups.
     pub n: usize,
-    pub mean: f64,
-    /// 95 % confidence interval of the mean difference: over the groups' means when there
-    /// are several groups, else over the pairs.
+    /// Mean of (first − second).
+    pub mean_difference: f64,
+    /// 95 % t-interval of the mean difference: over the groups' means when there are several
+    /// groups, else over the pairs (NaN below two).
     pub ci_low: f64,
     pub ci_high: f64,
-    /// Two-sided Wilcoxon signed-rank p over every pair (none when every difference is 0).
+    /// The median difference over every pair, and the share of pairs with the first higher:
+    /// beside the mean, whether an effect is everyone's or a few's.
+    pub median_difference: f64,
+    pub share_first_higher: f64,
+    /// Two-sided Wilcoxon signed-rank p over every pair (none when every difference is zero:
+    /// the test is not defined).
     pub p_value: Option<f64>,
-    /// Non-empty groups.
-    pub groups: usize,
-    /// Groups whose pairs alone give p < .05, with a positive and a negative mean difference.
-    pub significant_positive: usize,
-    pub significant_negative: usize,
+    /// Non-empty groups (seeds).
+    pub seeds: usize,
+    /// Groups whose pairs alone give p < .05, with first > second and with first < second.
+    pub seeds_first_higher: usize,
+    pub seeds_first_lower: usize,
 }
 
-/// Summarises paired differences given per group; `None` when there are none.
-pub fn grouped_differences(groups: &[Vec<f64>]) -> Option<GroupedDifferences> {
-    let groups: Vec<&Vec<f64>> = groups.iter().filter(|g| !g.is_empty()).collect();
-    let all: Vec<f64> = groups.iter().flat_map(|g| g.iter().copied()).collect();
-    if all.is_empty() {
-        return None;
-    }
-    let means: Vec<f64> = groups.iter().map(|g| mean(g)).collect();
-    let (mut positive, mut negative) = (0, 0);
-    for (g, m) in groups.iter().zip(&means) {
-        if wilcoxon_signed_rank(g).is_some_and(|w| w.p_value < 0.05) {
-            if *m > 0.0 {
-                positive += 1;
-            } else if *m < 0.0 {
-                negative += 1;
+impl Paired {
+    /// Summarises the differences given per group; `None` when there are none.
+    pub fn over_groups(
+        measure: &'static str,
+        iteration: usize,
+        first: impl Into<String>,
+        second: impl Into<String>,
+        groups: &[Vec<f64>],
+    ) -> Option<Paired> {
+        let groups: Vec<&Vec<f64>> = groups.iter().filter(|g| !g.is_empty()).collect();
+        let all: Vec<f64> = groups.iter().flat_map(|g| g.iter().copied()).collect();
+        if all.is_empty() {
+            return None;
+        }
+        let means: Vec<f64> = groups.iter().map(|g| mean(g)).collect();
+        let (mut higher, mut lower) = (0, 0);
+        for (g, m) in groups.iter().zip(&means) {
+            if wilcoxon_signed_rank(g).is_some_and(|w| w.p_value < 0.05) {
+                if *m > 0.0 {
+                    higher += 1;
+                } else if *m < 0.0 {
+                    lower += 1;
+                }
             }
         }
+        let (_, ci_low, ci_high) = if means.len() > 1 { mean_ci95(&means) } else { mean_ci95(&all) };
+        Some(Paired {
+            measure,
+            iteration,
+            first: first.into(),
+            second: second.into(),
+            n: all.len(),
+            mean_difference: mean(&all),
+            ci_low,
+            ci_high,
+            median_difference: median(&all),
+            share_first_higher: all.iter().filter(|x| **x > 0.0).count() as f64 / all.len() as f64,
+            p_value: wilcoxon_signed_rank(&all).map(|w| w.p_value),
+            seeds: means.len(),
+            seeds_first_higher: higher,
+            seeds_first_lower: lower,
+        })
     }
-    let (_, ci_low, ci_high) = if means.len() > 1 { mean_ci95(&means) } else { mean_ci95(&all) };
-    Some(GroupedDifferences {
-        n: all.len(),
-        mean: mean(&all),
-        ci_low,
-        ci_high,
-        p_value: wilcoxon_signed_rank(&all).map(|w| w.p_value),
-        groups: means.len(),
-        significant_positive: positive,
-        significant_negative: negative,
-    })
 }
 
 /// The result of a Wilcoxon signed-rank test on paired differences.

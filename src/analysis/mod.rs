@@ -29,10 +29,10 @@ pub use measured::{
 };
 pub use rows::{NoteRow, RobotRow, RobotTimings, TrialRow, TrialStatus, rfc3339_ms, robot_timings, trial_columns};
 pub use seeds::{
-    HEIGHT_BANDS_M, ObjectsByBody, OverSeeds, Paired, SEED_MEASURES, SeedRun, measure_unit, object_shares,
-    objects_by_body, over_seeds, paired_across, paired_over_seeds,
+    HEIGHT_BANDS_M, ObjectsByBody, OverSeeds, SEED_MEASURES, SeedRun, measure_unit, object_shares, objects_by_body,
+    over_seeds, paired_across, paired_over_seeds,
 };
-pub use summary::{CurvePoint, ItemTest, IterationTest, LikertSummary, StudySummary, distinct_q_star, summarise};
+pub use summary::{CurvePoint, ItemTest, LikertSummary, StudySummary, distinct_q_star, summarise};
 pub use tables::write_tables;
 pub use verify::Difference;
 use verify::Verifier;

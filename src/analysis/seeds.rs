@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::SessionAnalysis;
-use crate::stats::{grouped_differences, mean, mean_ci95};
+use crate::stats::{Paired, mean, mean_ci95};
 
 /// The sessions of one seed's dry run.
 #[derive(Clone, Debug)]
@@ -28,32 +28,6 @@ pub struct OverSeeds {
     pub mean: f64,
     pub ci_low: f64,
     pub ci_high: f64,
-}
-
-/// A paired comparison of two conditions on one measure at one iteration.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Paired {
-    pub measure: &'static str,
-    pub iteration: usize,
-    /// (first − second) per participant.
-    pub first: String,
-    pub second: String,
-    pub n: usize,
-    pub mean_difference: f64,
-    /// 95 % confidence interval of the mean difference over the seeds' means.
-    pub ci_low: f64,
-    pub ci_high: f64,
-    /// The median difference over every participant of every seed, and the share of them
-    /// with the first higher: whether an effect is everyone's or a few's.
-    pub median_difference: f64,
-    pub share_first_higher: f64,
-    /// Two-sided Wilcoxon signed-rank p over every participant of every seed (none when
-    /// every difference is zero: the test is not defined).
-    pub p_value: Option<f64>,
-    pub seeds: usize,
-    /// Seeds whose participants alone give p < .05, with first > second and with first < second.
-    pub seeds_first_higher: usize,
-    pub seeds_first_lower: usize,
 }
 
 /// The per-participant value of a measure at an iteration, for one condition.
@@ -125,34 +99,6 @@ pub fn over_seeds(runs: &[SeedRun]) -> Vec<OverSeeds> {
     out
 }
 
-/// A paired comparison from per-seed groups of differences (None without any difference).
-fn paired(
-    measure: &'static str,
-    iteration: usize,
-    first: String,
-    second: String,
-    groups: &[Vec<f64>],
-) -> Option<Paired> {
-    let g = grouped_differences(groups)?;
-    let all: Vec<f64> = groups.iter().flatten().copied().collect();
-    Some(Paired {
-        measure,
-        iteration,
-        first,
-        second,
-        n: g.n,
-        mean_difference: g.mean,
-        ci_low: g.ci_low,
-        ci_high: g.ci_high,
-        median_difference: crate::stats::median(&all),
-        share_first_higher: all.iter().filter(|x| **x > 0.0).count() as f64 / all.len().max(1) as f64,
-        p_value: g.p_value,
-        seeds: g.groups,
-        seeds_first_higher: g.significant_positive,
-        seeds_first_lower: g.significant_negative,
-    })
-}
-
 /// The first condition against the second on every measure at every iteration.
 pub fn paired_over_seeds(runs: &[SeedRun]) -> Vec<Paired> {
     let cs = conditions(runs);
@@ -169,7 +115,7 @@ pub fn paired_over_seeds(runs: &[SeedRun]) -> Vec<Paired> {
                         .collect()
                 })
                 .collect();
-            if let Some(p) = paired(measure, it, first.clone(), second.clone(), &groups) {
+            if let Some(p) = Paired::over_groups(measure, it, first.clone(), second.clone(), &groups) {
                 out.push(p);
             }
         }
@@ -199,7 +145,9 @@ pub fn paired_across(a: &[SeedRun], b: &[SeedRun], labels: (&str, &str), measure
                         .collect()
                 })
                 .collect();
-            if let Some(p) = paired(measure, it, format!("{} {c}", labels.0), format!("{} {c}", labels.1), &groups) {
+            if let Some(p) =
+                Paired::over_groups(measure, it, format!("{} {c}", labels.0), format!("{} {c}", labels.1), &groups)
+            {
                 out.push(p);
             }
         }
@@ -325,7 +273,7 @@ pub fn objects_by_body(sessions: &[&SessionAnalysis]) -> Vec<ObjectsByBody> {
                 let b: Vec<f64> = group.iter().filter_map(|s| share(s, second, object)).collect();
                 let d: Vec<f64> =
                     group.iter().filter_map(|s| Some(share(s, first, object)? - share(s, second, object)?)).collect();
-                let Some(g) = grouped_differences(&[d]) else { continue };
+                let Some(g) = Paired::over_groups("share", 0, first, second, &[d]) else { continue };
                 out.push(ObjectsByBody {
                     band: band.clone(),
                     hand: hand.name(),
@@ -335,7 +283,7 @@ pub fn objects_by_body(sessions: &[&SessionAnalysis]) -> Vec<ObjectsByBody> {
                     first_share: mean_ci95(&a),
                     second: second.to_string(),
                     second_share: mean_ci95(&b),
-                    difference: (g.mean, g.ci_low, g.ci_high),
+                    difference: (g.mean_difference, g.ci_low, g.ci_high),
                     p_value: g.p_value,
                 });
             }

@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::SessionAnalysis;
-use crate::stats::{Wilcoxon, mean, median, quantile, standard_error, wilcoxon_signed_rank};
+use crate::stats::{Paired, Wilcoxon, mean, median, quantile, standard_error, wilcoxon_signed_rank};
 
 /// Groups of learned q*: two participants are "the same" when their 90 % credible intervals
 /// overlap in every joint (a definition that resampling noise does not move, unlike the
@@ -47,26 +47,6 @@ pub struct CurvePoint {
     pub predictive_se: f64,
 }
 
-/// Fig. 10's comparison at one iteration: the first condition − the second in the test
-/// log-likelihood of the posterior mean, paired per participant.
-#[derive(Clone, Debug, Serialize)]
-pub struct IterationTest {
-    pub iteration: usize,
-    pub first: String,
-    pub second: String,
-    pub pairs: usize,
-    pub mean_difference: f64,
-    /// 95 % t-interval of the mean difference over participants (NaN below 2 pairs).
-    pub ci_low: f64,
-    pub ci_high: f64,
-    /// The median difference, and the share of participants whose difference is positive
-    /// (first higher): beside the mean, they say whether an effect is everyone's or a few's.
-    pub median_difference: f64,
-    pub share_first_higher: f64,
-    /// Two-sided Wilcoxon signed-rank test (None when every difference is zero).
-    pub test: Option<Wilcoxon>,
-}
-
 /// Descriptive statistics of one Likert item for one condition.
 #[derive(Clone, Debug, Serialize)]
 pub struct LikertSummary {
@@ -100,7 +80,7 @@ pub struct StudySummary {
     pub completed: usize,
     pub fig10: Vec<CurvePoint>,
     /// Paired tests of Fig. 10 per iteration (two conditions only).
-    pub fig10_tests: Vec<IterationTest>,
+    pub fig10_tests: Vec<Paired>,
     /// condition → distinct learned q* (see [`distinct_q_star`]).
     pub distinct_q_star: BTreeMap<String, usize>,
     /// condition → object → times offered in training.
@@ -164,19 +144,15 @@ pub fn summarise(sessions: &[SessionAnalysis], conditions: &[String], items: &[(
             if d.is_empty() {
                 continue;
             }
-            let (m, lo, hi) = crate::stats::mean_ci95(&d);
-            fig10_tests.push(IterationTest {
-                iteration: it,
-                first: conditions[0].clone(),
-                second: conditions[1].clone(),
-                pairs: d.len(),
-                mean_difference: m,
-                ci_low: lo,
-                ci_high: hi,
-                median_difference: crate::stats::median(&d),
-                share_first_higher: d.iter().filter(|x| **x > 0.0).count() as f64 / d.len() as f64,
-                test: wilcoxon_signed_rank(&d),
-            });
+            // Fig. 10's comparison: the first condition − the second in the test
+            // log-likelihood of the posterior mean, paired per participant (one group).
+            fig10_tests.extend(Paired::over_groups(
+                "test_log_likelihood",
+                it,
+                conditions[0].clone(),
+                conditions[1].clone(),
+                &[d],
+            ));
         }
     }
     // Likert answers per (item, condition), and paired differences per participant.

@@ -7,32 +7,12 @@ use serde::Serialize;
 
 use super::{AlphaFit, AlphaSummary, Analysed, StudySummary, objects_by_body, rfc3339_ms, trial_columns};
 use crate::kinematics::JOINT_NAMES;
+use crate::private_files::write_csv;
 use crate::session::program_letter;
 
 /// A number that is written only when it is one (an empty field otherwise).
 fn finite(x: f64) -> Option<f64> {
     x.is_finite().then_some(x)
-}
-
-/// Writes the rows, and the header even when there are none (serde's CSV writer writes it
-/// with the first row: the header of an empty table is taken from a default row).
-fn write_rows<T: Serialize + Default>(path: &Path, rows: impl IntoIterator<Item = T>) -> Result<(), csv::Error> {
-    let mut w = csv::Writer::from_writer(crate::private_files::create_output(path)?);
-    let mut any = false;
-    for r in rows {
-        w.serialize(r)?;
-        any = true;
-    }
-    if !any {
-        let mut header = csv::Writer::from_writer(Vec::new());
-        header.serialize(T::default())?;
-        let bytes = header.into_inner().map_err(|e| csv::Error::from(e.into_error()))?;
-        let text = String::from_utf8_lossy(&bytes);
-        let first = text.lines().next().unwrap_or_default();
-        w.write_record(first.split(','))?;
-    }
-    w.flush()?;
-    Ok(())
 }
 
 /// `sessions.csv`.
@@ -206,11 +186,11 @@ fn condition_order(a: &Analysed) -> String {
 }
 
 /// Writes every table of a group of sessions (all real or all pilot) into `dir`.
-pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &AlphaSummary) -> Result<(), csv::Error> {
+pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &AlphaSummary) -> std::io::Result<()> {
     fn ids<'a>(a: &&'a Analysed) -> (&'a str, &'a str) {
         (a.analysis.start.session_id.as_str(), a.analysis.start.participant.as_str())
     }
-    write_rows(
+    write_csv(
         &dir.join("sessions.csv"),
         group.iter().map(|a| {
             let x = &a.analysis;
@@ -250,7 +230,7 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
         }
     }
     w.flush()?;
-    write_rows(
+    write_csv(
         &dir.join("notes.csv"),
         group.iter().flat_map(|a| {
             let (session_id, participant) = ids(a);
@@ -265,7 +245,7 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
     )?;
     // Only sessions with a robot have commands: without one, no file rather than a header.
     if group.iter().any(|a| !a.analysis.robot.is_empty()) {
-        write_rows(
+        write_csv(
             &dir.join("robot.csv"),
             group.iter().flat_map(|a| {
                 let (session_id, participant) = ids(a);
@@ -292,7 +272,7 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
             }),
         )?;
     }
-    write_rows(
+    write_csv(
         &dir.join("test_log_likelihood.csv"),
         group.iter().flat_map(|a| {
             let (session_id, participant) = ids(a);
@@ -311,19 +291,19 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
             })
         }),
     )?;
-    write_rows(
+    write_csv(
         &dir.join("fig10_tests.csv"),
         s.fig10_tests.iter().map(|t| Fig10TestRow {
             iteration: t.iteration,
             first: &t.first,
             second: &t.second,
-            pairs: t.pairs,
+            pairs: t.n,
             mean_difference: t.mean_difference,
             ci_low: finite(t.ci_low),
             ci_high: finite(t.ci_high),
             median_difference: t.median_difference,
             share_first_higher: t.share_first_higher,
-            p_value: t.test.as_ref().map(|w| w.p_value),
+            p_value: t.p_value,
         }),
     )?;
     let runs = || {
@@ -332,7 +312,7 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
             a.analysis.runs.iter().flat_map(move |r| r.beliefs.iter().map(move |b| (session_id, participant, r, b)))
         })
     };
-    write_rows(
+    write_csv(
         &dir.join("beliefs.csv"),
         runs().flat_map(|(session_id, participant, r, b)| {
             let estimates = [
@@ -360,7 +340,7 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
             })
         }),
     )?;
-    write_rows(
+    write_csv(
         &dir.join("belief_summary.csv"),
         runs().map(|(session_id, participant, r, b)| BeliefSummaryRow {
             session_id,
@@ -372,7 +352,7 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
             ess: b.ess,
         }),
     )?;
-    write_rows(
+    write_csv(
         &dir.join("questionnaire.csv"),
         group.iter().flat_map(|a| {
             let (session_id, participant) = ids(a);
@@ -389,7 +369,7 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
         }),
     )?;
     let sessions: Vec<_> = group.iter().map(|a| &a.analysis).collect();
-    write_rows(
+    write_csv(
         &dir.join("objects_by_body.csv"),
         objects_by_body(&sessions).into_iter().flat_map(|r| {
             let rows = [
@@ -437,13 +417,13 @@ fn alpha_row<'a>(
 }
 
 /// `alpha.csv` (one row per session and one pooled) and `alpha_curve.csv`.
-fn write_alpha_tables(dir: &Path, a: &AlphaSummary) -> Result<(), csv::Error> {
+fn write_alpha_tables(dir: &Path, a: &AlphaSummary) -> std::io::Result<()> {
     let pooled_alpha = match a.protocol_alphas.as_slice() {
         [(x, _)] => Some(*x),
         _ => None,
     };
     let supported = a.protocol_alphas.iter().try_fold(true, |acc, (_, ok)| ok.map(|b| acc && b));
-    write_rows(
+    write_csv(
         &dir.join("alpha.csv"),
         a.sessions
             .iter()
@@ -463,7 +443,7 @@ fn write_alpha_tables(dir: &Path, a: &AlphaSummary) -> Result<(), csv::Error> {
         .iter()
         .filter_map(|s| Some((s.participant.as_str(), Some(s.session_id.as_str()), s.fit.as_ref()?)))
         .chain(a.pooled.as_ref().map(|f| ("pooled", None, f)));
-    write_rows(
+    write_csv(
         &dir.join("alpha_curve.csv"),
         curves.flat_map(|(participant, session_id, f)| {
             f.curve.iter().map(move |&(alpha, log_evidence)| AlphaCurveRow {

@@ -57,7 +57,7 @@ pub struct RefitReport {
 }
 
 /// One component of one program's posterior under one fit (measured_fit.csv).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Default)]
 pub struct FitRow {
     pub session_id: String,
     pub participant: String,
@@ -286,15 +286,10 @@ pub fn write_csv(dir: &Path, reports: &[RefitReport]) -> Result<()> {
         }
         let d = if pilot { dir.join("pilot") } else { dir.to_path_buf() };
         handover::private_files::create_dir(&d).with_context(|| format!("cannot create {}", d.display()))?;
-        let path = d.join("measured_fit.csv");
-        let mut w = csv::Writer::from_writer(
-            handover::private_files::create_output(&path)
-                .with_context(|| format!("cannot write {}", path.display()))?,
-        );
-        for row in group.iter().flat_map(|r| &r.rows) {
-            w.serialize(row)?;
-        }
-        w.flush()?;
+        handover::private_files::write_csv(
+            &d.join("measured_fit.csv"),
+            group.iter().flat_map(|r| r.rows.iter().cloned()),
+        )?;
     }
     Ok(())
 }

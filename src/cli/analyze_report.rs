@@ -135,8 +135,8 @@ pub(super) fn table(label: &str, group: &[&Analysed], s: &StudySummary, alpha: &
             }
         }
         if let Some(t) = s.fig10_tests.iter().find(|t| t.iteration == it) {
-            let p = t.test.as_ref().map_or("no difference".to_string(), |w| {
-                if w.p_value < 0.001 { "p<0.001".to_string() } else { format!("p={:.3}", w.p_value) }
+            let p = t.p_value.map_or("no difference".to_string(), |p| {
+                if p < 0.001 { "p<0.001".to_string() } else { format!("p={p:.3}") }
             });
             let ci =
                 if t.ci_low.is_finite() { format!(" [{:+.1}, {:+.1}]", t.ci_low, t.ci_high) } else { String::new() };
@@ -145,7 +145,7 @@ pub(super) fn table(label: &str, group: &[&Analysed], s: &StudySummary, alpha: &
                 t.mean_difference,
                 t.median_difference,
                 100.0 * t.share_first_higher,
-                t.pairs
+                t.n
             );
         }
         o += "\n";

@@ -283,7 +283,7 @@ fn print_across(a: &[SeedRun], b: &[SeedRun], same_observation: bool, seeds: u64
 
 /// Beside a paired difference's mean: its median and the share of participants with the
 /// first higher.
-fn spread(t: &handover::analysis::Paired) -> String {
+fn spread(t: &handover::stats::Paired) -> String {
     format!(
         "median {:+.2}, {:.0} % of {} participants with the first higher",
         t.median_difference,
@@ -293,7 +293,7 @@ fn spread(t: &handover::analysis::Paired) -> String {
 }
 
 /// "mean [low, high] (p)" of a paired difference.
-fn paired_cell(t: &handover::analysis::Paired) -> String {
+fn paired_cell(t: &handover::stats::Paired) -> String {
     let p = t
         .p_value
         .map_or("no difference".to_string(), |p| if p < 0.001 { "p<0.001".to_string() } else { format!("p={p:.3}") });

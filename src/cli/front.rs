@@ -75,15 +75,7 @@ pub fn run(a: FrontArgs) -> Result<()> {
     bar.finish_and_clear();
     print_table(&points, &panels_meta, &a, started.elapsed().as_secs_f64(), threads)?;
     if let Some(dir) = &a.out {
-        let path = dir.join("front.csv");
-        let mut w = csv::Writer::from_writer(
-            handover::private_files::create_output(&path)
-                .with_context(|| format!("cannot write {}", path.display()))?,
-        );
-        for p in &points {
-            w.serialize(p)?;
-        }
-        w.flush()?;
+        super::simulate::write_csv(&dir.join("front.csv"), &points)?;
         let panels: Vec<FrontPanel> = panels_meta
             .iter()
             .map(|(scenario, learn, alpha, iterations)| {

@@ -76,15 +76,7 @@ pub fn run(a: ObservationsArgs) -> Result<()> {
     bar.finish_and_clear();
     print_table(&rows, &meta, &a, started.elapsed().as_secs_f64(), threads)?;
     if let Some(dir) = &a.out {
-        let path = dir.join("observations.csv");
-        let mut w = csv::Writer::from_writer(
-            handover::private_files::create_output(&path)
-                .with_context(|| format!("cannot write {}", path.display()))?,
-        );
-        for r in &rows {
-            w.serialize(r)?;
-        }
-        w.flush()?;
+        super::simulate::write_csv(&dir.join("observations.csv"), &rows)?;
         let labels: Vec<String> = observations.iter().map(|o| observation_label(*o).2).collect();
         let mut panels: Vec<(String, &str, &str, &str)> = Vec::new();
         for (scenario, alpha, _) in &meta {

@@ -81,11 +81,12 @@ impl RobotArgs {
     /// `ROS_DOMAIN_ID` is refused before anything starts).
     pub fn settings(&self) -> Result<RobotSettings> {
         let settings = match &self.robot_config {
-            Some(path) => RobotSettings::from_json(&read_text(path)?, &path.display().to_string()).map_err(bad)?,
+            Some(path) => RobotSettings::from_json(&read_text(path)?, &path.display().to_string())
+                .map_err(|e| bad(e.to_string()))?,
             None => RobotSettings::default(),
         };
         if self.robot.is_some() || self.measure.is_some() {
-            settings.ros2.domain().map_err(bad)?;
+            settings.ros2.domain().map_err(|e| bad(e.to_string()))?;
         }
         Ok(settings)
     }

@@ -9,7 +9,7 @@ use clap::{Args, ValueEnum};
 use handover::belief::Estimate;
 use handover::ergo::LearnMask;
 use handover::experiment::{
-    self, Arm7, PairedTest, Planar2, Scenario, Settings, SimObservation, SummaryRow, paired_tests, summarise,
+    self, Arm7, Planar2, Scenario, Settings, SimObservation, SummaryRow, paired_tests, summarise,
 };
 use handover::plot::{LinePlot, Series, line_grid, mean_se_plot};
 use handover::select::{DEFAULT_BUDGET_EPSILON, DEFAULT_HYBRID_BETA, SelectorKind, Tradeoff};
@@ -180,9 +180,7 @@ fn check(a: &SimulateArgs) -> Result<Checked> {
         algorithms,
         seed: a.seed,
         tradeoff: Tradeoff { beta: a.beta, epsilon: a.epsilon },
-        grid_boxes: 10,
-        jitter_fraction: 0.01,
-        bandwidth_fraction: 0.05,
+        numerics: Default::default(),
         estimate: a.estimate,
         observation,
     };
@@ -358,15 +356,9 @@ fn merge_shards(
     Ok((rows, manifests))
 }
 
-pub(super) fn write_csv<T: serde::Serialize>(path: &Path, rows: &[T]) -> Result<()> {
-    let mut w = csv::Writer::from_writer(
-        handover::private_files::create_output(path).with_context(|| format!("cannot write {}", path.display()))?,
-    );
-    for r in rows {
-        w.serialize(r)?;
-    }
-    w.flush()?;
-    Ok(())
+/// Writes `rows` as a tidy table (owner-only; the header also when there are none).
+pub(super) fn write_csv<T: serde::Serialize + Default + Clone>(path: &Path, rows: &[T]) -> Result<()> {
+    Ok(handover::private_files::write_csv(path, rows.iter().cloned())?)
 }
 
 /// The measures compared with `active` by paired tests at the last iteration.
@@ -388,7 +380,7 @@ fn print_table(
     s: &Settings,
     seeds: u64,
     summary: &[SummaryRow],
-    tests: &[PairedTest],
+    tests: &[handover::stats::Paired],
     timing: &str,
 ) -> Result<()> {
     let seed_text =
@@ -431,7 +423,7 @@ fn print_table(
     let p = |alg: &str, m: &str| {
         tests
             .iter()
-            .find(|t| t.algorithm == alg && t.measure == m)
+            .find(|t| t.first == alg && t.measure == m)
             .map_or("".to_string(), |t| t.p_value.map_or("—".to_string(), format_p))
     };
     let iterations = s.iterations;
@@ -477,11 +469,11 @@ fn print_table(
         for k in s.algorithms.iter().filter(|k| k.name() != "active") {
             let alg = k.name();
             let part = |m: &str, lower_is_better: bool| {
-                tests.iter().find(|t| t.algorithm == alg && t.measure == m).map_or("—".to_string(), |t| {
+                tests.iter().find(|t| t.first == alg && t.measure == m).map_or("—".to_string(), |t| {
                     let (better, worse) = if lower_is_better {
-                        (t.seeds_significant_negative, t.seeds_significant_positive)
+                        (t.seeds_first_lower, t.seeds_first_higher)
                     } else {
-                        (t.seeds_significant_positive, t.seeds_significant_negative)
+                        (t.seeds_first_higher, t.seeds_first_lower)
                     };
                     format!("{better}/{worse} of {}", t.seeds)
                 })
@@ -521,39 +513,14 @@ fn run_two_sets(args: &SimulateArgs) -> Result<()> {
             s.information_gain_a,
             s.information_gain_b,
             s.chosen,
-            format!("({:.2}, {:.2})", s.response[0], s.response[1]),
-            format!("({:.2}, {:.2})", s.mean_q_star[0], s.mean_q_star[1]),
+            format!("({:.2}, {:.2})", s.response_1, s.response_2),
+            format!("({:.2}, {:.2})", s.mean_q_star_1, s.mean_q_star_2),
             s.entropy
         );
     }
     if let Some(dir) = &args.out {
         handover::private_files::create_dir(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        let mut w = csv::Writer::from_writer(handover::private_files::create_output(&dir.join("two_sets.csv"))?);
-        w.write_record([
-            "iteration",
-            "information_gain_a",
-            "information_gain_b",
-            "chosen",
-            "response_1",
-            "response_2",
-            "mean_q_star_1",
-            "mean_q_star_2",
-            "entropy",
-        ])?;
-        for s in &steps {
-            w.write_record([
-                s.iteration.to_string(),
-                s.information_gain_a.to_string(),
-                s.information_gain_b.to_string(),
-                s.chosen.to_string(),
-                s.response[0].to_string(),
-                s.response[1].to_string(),
-                s.mean_q_star[0].to_string(),
-                s.mean_q_star[1].to_string(),
-                s.entropy.to_string(),
-            ])?;
-        }
-        w.flush()?;
+        write_csv(&dir.join("two_sets.csv"), &steps)?;
     }
     Ok(())
 }

@@ -80,9 +80,7 @@ impl SweepArgs {
             algorithms,
             seed: self.seed,
             tradeoff: Tradeoff::default(),
-            grid_boxes: 10,
-            jitter_fraction: 0.01,
-            bandwidth_fraction: 0.05,
+            numerics: Default::default(),
             estimate: Estimate::Mean,
             observation: SimObservation::Configuration,
         }

@@ -127,6 +127,13 @@ impl SetPass {
         dispatch(Pass { set, q_star, w, alpha, scratch })
     }
 
+    /// min_q C(q; λ) over the set: [`SetPass::run`]'s `min_cost`, the same bits, without the
+    /// weights (`scratch` then holds the costs only).
+    pub fn min_cost(set: &ConfigSet, q_star: &[f64], w: &[f64], scratch: &mut Scratch) -> f64 {
+        scratch.prepare(set.len());
+        dispatch(MinCost { set, q_star, w, scratch })
+    }
+
     /// The maximum-likelihood configuration: the lowest index of minimal cost.
     pub fn argmin(&self, scratch: &Scratch) -> usize {
         scratch.costs().iter().position(|&c| c == self.min_cost).unwrap_or(0)
@@ -166,6 +173,28 @@ impl SetPass {
                 let s: f64 = (0..g.len()).map(|j| exp_nonpositive(term(j) - max)).sum();
                 max + s.ln() - self.sum.ln()
             }
+        }
+    }
+}
+
+/// The costs' minimum alone: what `passive` needs of a particle.
+struct MinCost<'a> {
+    set: &'a ConfigSet,
+    q_star: &'a [f64],
+    w: &'a [f64],
+    scratch: &'a mut Scratch,
+}
+
+impl WithLanes for MinCost<'_> {
+    type Output = f64;
+
+    #[inline(always)]
+    fn run<V: Lanes>(self) -> f64 {
+        let MinCost { set, q_star, w, scratch } = self;
+        match set.dim() {
+            7 => costs_and_min::<V, 7>(set, q_star, w, &mut scratch.costs, &mut scratch.terms),
+            2 => costs_and_min::<V, 2>(set, q_star, w, &mut scratch.costs, &mut scratch.terms),
+            _ => costs_and_min::<V, 0>(set, q_star, w, &mut scratch.costs, &mut scratch.terms),
         }
     }
 }

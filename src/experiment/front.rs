@@ -16,7 +16,7 @@ use crate::select::{SelectorKind, Tradeoff};
 use crate::stats::mean_ci95;
 
 /// One selector setting on the front.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Default)]
 pub struct FrontPoint {
     pub scenario: &'static str,
     pub learn: String,

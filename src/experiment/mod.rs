@@ -27,7 +27,7 @@ pub use observations::{
 };
 pub use planar2::Planar2;
 pub use shards::{SHARD_MANIFEST, ShardManifest, merge_order, read_metrics, shard_units};
-pub use summary::{MEASURES, PairedTest, SummaryRow, paired_tests, summarise};
+pub use summary::{MEASURES, SummaryRow, paired_tests, summarise};
 
 pub use two_sets::{TwoSetsStep, two_sets};
 
@@ -61,16 +61,30 @@ pub struct Settings {
     pub seed: u64,
     /// β of `hybrid` and ε of `budgeted`.
     pub tradeoff: Tradeoff,
+    /// The grid, jitter and kernel of the belief (the same in every simulation).
+    pub numerics: BeliefNumerics,
+    /// The point estimate that distance and test log-likelihood are measured on.
+    pub estimate: Estimate,
+    /// What the learner observes of each choice.
+    pub observation: SimObservation,
+}
+
+/// How a simulated belief is gridded, jittered and smoothed; one value for every
+/// simulation command (`Default`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BeliefNumerics {
     /// Cells per prior range for the gridded entropy and the mode.
     pub grid_boxes: usize,
     /// Jitter after resampling, as a fraction of each learned component's prior range.
     pub jitter_fraction: f64,
     /// Kernel bandwidth of the density at λ*, as a fraction of each prior range.
     pub bandwidth_fraction: f64,
-    /// The point estimate that distance and test log-likelihood are measured on.
-    pub estimate: Estimate,
-    /// What the learner observes of each choice.
-    pub observation: SimObservation,
+}
+
+impl Default for BeliefNumerics {
+    fn default() -> Self {
+        Self { grid_boxes: 10, jitter_fraction: 0.01, bandwidth_fraction: 0.05 }
+    }
 }
 
 /// What a simulated learner observes of the person's choice.
@@ -90,7 +104,7 @@ pub enum SimObservation {
 }
 
 /// The measures of one algorithm in one trial after one iteration (0 = the prior).
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, Default)]
 pub struct MetricRow {
     pub algorithm: &'static str,
     /// The run's seed (`simulate --seeds N` runs N seeds).
@@ -161,11 +175,11 @@ fn setup(scenario: &dyn Scenario, s: &Settings, prior: &Prior, trial: usize) -> 
 fn run_trial(scenario: &dyn Scenario, s: &Settings, prior: &Prior, trial: usize) -> Vec<MetricRow> {
     let t = setup(scenario, s, prior, trial);
     let sup = supports(prior);
-    let grid = Grid::over_supports(&sup, s.grid_boxes);
+    let grid = Grid::over_supports(&sup, s.numerics.grid_boxes);
     let jitter: Vec<f64> =
-        sup.iter().map(|(lo, hi)| if hi > lo { (hi - lo) * s.jitter_fraction } else { 0.0 }).collect();
+        sup.iter().map(|(lo, hi)| if hi > lo { (hi - lo) * s.numerics.jitter_fraction } else { 0.0 }).collect();
     let bandwidth: Vec<f64> =
-        sup.iter().map(|(lo, hi)| if hi > lo { (hi - lo) * s.bandwidth_fraction } else { 1.0 }).collect();
+        sup.iter().map(|(lo, hi)| if hi > lo { (hi - lo) * s.numerics.bandwidth_fraction } else { 1.0 }).collect();
     let person = SimulatedPerson { truth: t.truth.clone(), alpha: s.alpha };
     let mut rows = Vec::with_capacity(s.algorithms.len() * (s.iterations + 1));
     for &kind in &s.algorithms {

@@ -10,7 +10,7 @@
 use serde::Serialize;
 
 use super::{MetricRow, Scenario, Settings, SimObservation, simulate};
-use crate::stats::{grouped_differences, mean, mean_ci95};
+use crate::stats::{Paired, mean, mean_ci95};
 
 /// The measures compared, as named in metrics.csv.
 pub const OBSERVATION_MEASURES: [&str; 2] = ["distance_to_truth", "test_log_likelihood"];
@@ -37,7 +37,7 @@ pub fn observation_label(o: SimObservation) -> (&'static str, Option<f64>, Strin
 
 /// One measure of one observation model and selector at one iteration (tidy: one measure per
 /// row).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Default)]
 pub struct ObservationRow {
     pub scenario: &'static str,
     pub learn: String,
@@ -121,7 +121,7 @@ pub fn observation_sweep(
                                     .collect()
                             })
                             .collect();
-                        grouped_differences(&groups)
+                        Paired::over_groups(measure, iteration, name, "region", &groups)
                     });
                     out.push(ObservationRow {
                         scenario: scenario.name(),
@@ -136,7 +136,7 @@ pub fn observation_sweep(
                         mean: mean(&all),
                         ci_low,
                         ci_high,
-                        minus_region: paired.as_ref().map(|g| g.mean),
+                        minus_region: paired.as_ref().map(|g| g.mean_difference),
                         minus_region_ci_low: paired.as_ref().map(|g| g.ci_low),
                         minus_region_ci_high: paired.as_ref().map(|g| g.ci_high),
                         minus_region_p: paired.as_ref().and_then(|g| g.p_value),
@@ -187,9 +187,7 @@ mod tests {
             algorithms: vec![SelectorKind::Active, SelectorKind::Passive],
             seed: 5,
             tradeoff: Default::default(),
-            grid_boxes: 10,
-            jitter_fraction: 0.01,
-            bandwidth_fraction: 0.05,
+            numerics: Default::default(),
             estimate: crate::belief::Estimate::Mean,
             observation: SimObservation::Configuration,
         };

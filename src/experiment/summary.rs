@@ -1,7 +1,7 @@
 //! Mean and standard error per algorithm × iteration × measure.
 
 use super::MetricRow;
-use crate::stats::{grouped_differences, mean, mean_ci95, standard_error};
+use crate::stats::{Paired, mean, mean_ci95, standard_error};
 
 /// The measures summarised, as named in metrics.csv.
 pub const MEASURES: [&str; 6] =
@@ -20,7 +20,7 @@ fn value(row: &MetricRow, measure: &str) -> Option<f64> {
 }
 
 /// One line of summary.csv (tidy: one measure per row).
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, Default)]
 pub struct SummaryRow {
     pub algorithm: &'static str,
     pub iteration: usize,
@@ -98,40 +98,13 @@ pub fn summarise(rows: &[MetricRow]) -> Vec<SummaryRow> {
     out
 }
 
-/// A paired comparison of one algorithm with another on one measure at one iteration: the
-/// same truth, menu and test set (trial and seed), so the differences are paired.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct PairedTest {
-    pub measure: &'static str,
-    pub iteration: usize,
-    pub algorithm: &'static str,
-    /// The algorithm it is compared with (its values are subtracted).
-    pub against: &'static str,
-    /// Pairs: trials × seeds.
-    pub n: usize,
-    /// Mean of (algorithm − against).
-    pub mean_difference: f64,
-    /// 95 % confidence interval of the mean difference (over seeds when several, else over
-    /// trials).
-    pub ci_low: f64,
-    pub ci_high: f64,
-    /// Two-sided Wilcoxon signed-rank p over every pair (none when every difference is zero:
-    /// the test is not defined).
-    pub p_value: Option<f64>,
-    pub seeds: usize,
-    /// Seeds in which the difference alone is significant (per-seed Wilcoxon p < .05), with
-    /// a positive and with a negative mean difference.
-    pub seeds_significant_positive: usize,
-    pub seeds_significant_negative: usize,
-}
-
 /// Paired tests of every algorithm against `against` on `measures` at `iteration`.
 pub fn paired_tests(
     rows: &[MetricRow],
     against: &'static str,
     iteration: usize,
     measures: &[&'static str],
-) -> Vec<PairedTest> {
+) -> Vec<Paired> {
     let seeds = seeds_of(rows);
     let mut algorithms: Vec<&'static str> = Vec::new();
     for r in rows {
@@ -158,21 +131,10 @@ pub fn paired_tests(
                         .collect()
                 })
                 .collect();
-            let Some(g) = grouped_differences(&groups) else { continue };
-            out.push(PairedTest {
-                measure,
-                iteration,
-                algorithm,
-                against,
-                n: g.n,
-                mean_difference: g.mean,
-                ci_low: g.ci_low,
-                ci_high: g.ci_high,
-                p_value: g.p_value,
-                seeds: g.groups,
-                seeds_significant_positive: g.significant_positive,
-                seeds_significant_negative: g.significant_negative,
-            });
+            // The same truth, menu and test set (trial and seed): the differences are paired.
+            if let Some(p) = Paired::over_groups(measure, iteration, algorithm, against, &groups) {
+                out.push(p);
+            }
         }
     }
     out

@@ -10,7 +10,7 @@ use crate::participant::SimulatedPerson;
 use crate::select::{OutcomeModel, query_value};
 
 /// One iteration of the two-sets experiment.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct TwoSetsStep {
     pub iteration: usize,
     /// Exact information gain of set A and of set B before the choice.
@@ -18,10 +18,12 @@ pub struct TwoSetsStep {
     pub information_gain_b: f64,
     /// The set the active selector offered ("A" or "B").
     pub chosen: &'static str,
-    /// The configuration the simulated person took.
-    pub response: [f64; 2],
+    /// The configuration the simulated person took (joints 1 and 2).
+    pub response_1: f64,
+    pub response_2: f64,
     /// The belief's mean q* and gridded entropy after the update.
-    pub mean_q_star: [f64; 2],
+    pub mean_q_star_1: f64,
+    pub mean_q_star_2: f64,
     pub entropy: f64,
 }
 
@@ -66,8 +68,10 @@ pub fn two_sets(seed: u64, iterations: usize, particles: usize, alpha: f64) -> V
             information_gain_a: ig[0],
             information_gain_b: ig[1],
             chosen: ["A", "B"][k],
-            response: [q[0], q[1]],
-            mean_q_star: [mean.q_star[0], mean.q_star[1]],
+            response_1: q[0],
+            response_2: q[1],
+            mean_q_star_1: mean.q_star[0],
+            mean_q_star_2: mean.q_star[1],
             entropy: belief.entropy(&grid),
         });
     }
@@ -87,6 +91,6 @@ mod tests {
         assert!(switches >= 3, "alternates: {chosen:?}");
         // It learns both coordinates.
         let last = steps.last().unwrap();
-        assert!((last.mean_q_star[0] - 0.4).abs() < 0.3 && (last.mean_q_star[1] + 0.7).abs() < 0.3, "{last:?}");
+        assert!((last.mean_q_star_1 - 0.4).abs() < 0.3 && (last.mean_q_star_2 + 0.7).abs() < 0.3, "{last:?}");
     }
 }

@@ -56,11 +56,17 @@ impl Follower {
             return Ok(false);
         }
         self.beside = beside;
-        if let Some(newest) = lineage(&self.log).newest {
-            *self = Self::open(&newest.path)?;
-            return Ok(true);
+        let Some(newest) = lineage(&self.log).newest else { return Ok(false) };
+        // A continuation first copies every event of the log it continues, one synced
+        // event at a time: until it holds them all it shows an older state (an earlier
+        // trial's pose), so the screen stays on this log (and "console lost") until then.
+        // It grows with each copied event, so the next look at it comes with the next poll.
+        let next = Self::open(&newest.path)?;
+        if !next.log.events.starts_with(&self.log.events) {
+            return Ok(false);
         }
-        Ok(false)
+        *self = next;
+        Ok(true)
     }
 
     pub fn session(&self) -> &Session {

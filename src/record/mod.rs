@@ -49,10 +49,12 @@ pub use writer::{McapWriter, Sink};
 /// 2: one chunk and its message indexes per event, schemas in the viewers' subset,
 ///    `/test/log_likelihood/<condition>`, `/session/transition`, the body in every
 ///    `/human/arm`, seeds below 2^53.
-pub const LOG_FORMAT: u32 = 2;
+/// 3: `/session/start`'s `selection`: a session that learns from the measured arm scores
+///    its queries' measured outcomes (format 2 scored regions).
+pub const LOG_FORMAT: u32 = 3;
 
 /// What `handover --version` says: the software's version and the log format it writes.
-pub const VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), " (writes log format 2, reads 1 and 2)");
+pub const VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), " (writes log format 3, reads 1 to 3)");
 
 /// Name of the attachment that holds the protocol text.
 pub const PROTOCOL_ATTACHMENT: &str = "protocol.json";

@@ -111,7 +111,7 @@ fn validate_event(event: &Event) -> Result<(), String> {
         Event::TrialVoided { detail, .. } => long("detail", detail),
         Event::Aborted { reason } => long("reason", reason),
         Event::RobotReported { detail, .. } => long("detail", detail),
-        Event::RobotCommanded { pose, .. } => crate::session::validate_sent_pose(pose),
+        Event::RobotCommanded { pose, .. } => crate::session::validate_sent_pose(pose).map_err(|e| e.to_string()),
         Event::GraspRecorded { measured: Some(m), .. } if m.source == crate::session::MeasurementSource::File => {
             Err("measured.source is 'file', expected 'simulated' or 'ros2' (a file is aligned after a session, never logged)"
                 .into())
@@ -222,8 +222,12 @@ pub fn read_log_bytes(path: &Path, bytes: &[u8]) -> Result<LogContents, RecordEr
             }
         },
     };
-    let start: SessionStart =
+    let mut start: SessionStart =
         serde_json::from_value(start_value).map_err(|e| not_log(&format!("/session/start: {e}")))?;
+    if format <= 2 {
+        // Sessions of formats 1 and 2 scored region outcomes, whatever they learned from.
+        start.selection.get_or_insert(crate::session::SelectionOutcome::Region);
+    }
     validate_start(&start).map_err(|e| not_log(&format!("/session/start: {e}")))?;
     // Logs before the text seed lack it; when present it must be the seed.
     if let Some(d) = seed_decimal

@@ -16,7 +16,10 @@ use std::time::{Duration, Instant};
 use nalgebra::UnitQuaternion;
 use serde::Serialize;
 
-pub use settings::{BaseFrame, Domain, MAX_DOMAIN_ID, PresentOn, RobotSettings, Ros2Settings, validate_topic};
+pub use settings::{
+    BaseFrame, Domain, FieldProblem, MAX_DOMAIN_ID, PresentOn, RobotSettings, Ros2Settings, SettingsError,
+    TopicNameError, validate_topic,
+};
 
 use crate::session::{Event, Phase, Prompt, RobotLinkKind, RobotState, SentPose, Session};
 

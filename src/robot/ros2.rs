@@ -136,7 +136,7 @@ struct Endpoints {
 /// A node of its own DDS participant in the settings' domain, on the settings' networks, its
 /// spinner (discovery, matching) on a thread of its own.
 pub(super) fn start_node(r: &Ros2Settings, node_name: &str) -> Result<Started, String> {
-    let domain = r.domain()?;
+    let domain = r.domain().map_err(|e| e.to_string())?;
     let mut builder = DomainParticipantBuilder::new(domain.id);
     if !r.networks.is_empty() {
         builder = builder.with_only_networks(r.networks.clone());

@@ -97,13 +97,13 @@ impl std::fmt::Display for Domain {
 impl Ros2Settings {
     /// The DDS domain, as ROS 2 nodes choose theirs: the settings' `domain_id` when given,
     /// else the environment's `ROS_DOMAIN_ID`, else 0.
-    pub fn domain(&self) -> Result<Domain, String> {
+    pub fn domain(&self) -> Result<Domain, SettingsError> {
         self.domain_with(std::env::var_os("ROS_DOMAIN_ID"))
     }
 
     /// [`Self::domain`] with `env` as `ROS_DOMAIN_ID`'s value. An empty value counts as unset
     /// (as in rcl).
-    pub fn domain_with(&self, env: Option<std::ffi::OsString>) -> Result<Domain, String> {
+    pub fn domain_with(&self, env: Option<std::ffi::OsString>) -> Result<Domain, SettingsError> {
         if let Some(id) = self.domain_id {
             return Ok(Domain { id, from: "ros2.domain_id" });
         }
@@ -111,10 +111,9 @@ impl Ros2Settings {
         let text = value.to_string_lossy();
         match text.trim().parse::<u16>() {
             Ok(id) if id <= MAX_DOMAIN_ID => Ok(Domain { id, from: "ROS_DOMAIN_ID" }),
-            _ => Err(format!(
-                "ROS_DOMAIN_ID is '{}', expected a whole number from 0 to {MAX_DOMAIN_ID} (or set ros2.domain_id in the robot settings)",
-                crate::text::printable(&text.chars().take(40).collect::<String>())
-            )),
+            _ => Err(SettingsError::DomainEnvironment {
+                value: crate::text::printable(&text.chars().take(40).collect::<String>()).into_owned(),
+            }),
         }
     }
 }
@@ -159,9 +158,39 @@ impl Default for RobotSettings {
     }
 }
 
+/// Why robot settings cannot be used.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SettingsError {
+    #[error("{file}: {bytes} bytes, over the budget of {MAX_SETTINGS_BYTES} for robot settings")]
+    TooLarge { file: String, bytes: usize },
+    /// Not JSON of the settings' shape: where the reading stopped and why.
+    #[error("{file}: {path}: {message}")]
+    Shape { file: String, path: String, message: String },
+    #[error("{file}: {problem}")]
+    Field { file: String, problem: FieldProblem },
+    /// The environment's `ROS_DOMAIN_ID` (printable, cut to 40 characters) is not a domain.
+    #[error(
+        "ROS_DOMAIN_ID is '{value}', expected a whole number from 0 to {MAX_DOMAIN_ID} (or set ros2.domain_id in the robot settings)"
+    )]
+    DomainEnvironment { value: String },
+}
+
+/// A settings field out of its range: its path and what it is against what was expected.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{field}: {problem}")]
+pub struct FieldProblem {
+    pub field: String,
+    pub problem: String,
+}
+
+/// A name that is not a ROS 2 topic name (shown escaped).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("'{0}' is not a ROS 2 topic name: expected '/' and segments of A–Z, a–z, 0–9, '_' (not starting with a digit)")]
+pub struct TopicNameError(pub String);
+
 /// A ROS 2 topic name as ROS 2 takes it: absolute, segments of letters, digits and `_`
 /// not starting with a digit, at most 200 characters.
-pub fn validate_topic(name: &str) -> Result<(), String> {
+pub fn validate_topic(name: &str) -> Result<(), TopicNameError> {
     let segment_ok = |s: &str| {
         !s.is_empty()
             && !s.starts_with(|c: char| c.is_ascii_digit())
@@ -170,61 +199,66 @@ pub fn validate_topic(name: &str) -> Result<(), String> {
     if name.len() <= 200 && name.starts_with('/') && name[1..].split('/').all(segment_ok) {
         Ok(())
     } else {
-        Err(format!(
-            "'{}' is not a ROS 2 topic name: expected '/' and segments of A–Z, a–z, 0–9, '_' (not starting with a digit)",
-            name.escape_debug()
-        ))
+        Err(TopicNameError(name.escape_debug().to_string()))
     }
 }
 
 impl RobotSettings {
     /// Parses and checks a settings file's text (`name` names it in errors).
-    pub fn from_json(text: &str, name: &str) -> Result<Self, String> {
+    pub fn from_json(text: &str, name: &str) -> Result<Self, SettingsError> {
+        let file = name.to_string();
         if text.len() as u64 > MAX_SETTINGS_BYTES {
-            return Err(format!(
-                "{name}: {} bytes, over the budget of {MAX_SETTINGS_BYTES} for robot settings",
-                text.len()
-            ));
+            return Err(SettingsError::TooLarge { file, bytes: text.len() });
         }
         let de = &mut serde_json::Deserializer::from_str(text);
-        let settings: Self =
-            serde_path_to_error::deserialize(de).map_err(|e| format!("{name}: {}: {}", e.path(), e.inner()))?;
-        settings.validate().map_err(|e| format!("{name}: {e}"))?;
+        let settings: Self = serde_path_to_error::deserialize(de).map_err(|e| SettingsError::Shape {
+            file: file.clone(),
+            path: e.path().to_string(),
+            message: e.inner().to_string(),
+        })?;
+        settings.validate().map_err(|problem| SettingsError::Field { file, problem })?;
         Ok(settings)
     }
 
     /// Checks every field against its range.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), FieldProblem> {
+        let problem = |field: &str, problem: String| Err(FieldProblem { field: field.to_string(), problem });
         if !(self.timeout_s.is_finite() && (1.0..=600.0).contains(&self.timeout_s)) {
-            return Err(format!("timeout_s is {}, expected 1 to 600 seconds", self.timeout_s));
+            return problem("timeout_s", format!("is {}, expected 1 to 600 seconds", self.timeout_s));
         }
-        validate_frame_id(&self.shoulder_frame_id).map_err(|e| format!("shoulder_frame_id: {e}"))?;
+        if let Err(e) = validate_frame_id(&self.shoulder_frame_id) {
+            return problem("shoulder_frame_id", e.to_string());
+        }
         if let Some(b) = &self.base_frame {
-            validate_frame_id(&b.frame_id).map_err(|e| format!("base_frame.frame_id: {e}"))?;
+            if let Err(e) = validate_frame_id(&b.frame_id) {
+                return problem("base_frame.frame_id", e.to_string());
+            }
             if !b.shoulder_position.iter().all(|v| v.is_finite() && v.abs() <= 5.0) {
-                return Err("base_frame.shoulder_position: expected 3 finite numbers within 5 m".into());
+                return problem("base_frame.shoulder_position", "expected 3 finite numbers within 5 m".into());
             }
             if !b.shoulder_rpy_deg.iter().all(|v| v.is_finite() && v.abs() <= 360.0) {
-                return Err("base_frame.shoulder_rpy_deg: expected 3 finite angles within ±360°".into());
+                return problem("base_frame.shoulder_rpy_deg", "expected 3 finite angles within ±360°".into());
             }
         }
         let r = &self.ros2;
         if let Some(id) = r.domain_id.filter(|&id| id > MAX_DOMAIN_ID) {
-            return Err(format!("ros2.domain_id is {id}, expected 0 to {MAX_DOMAIN_ID}"));
+            return problem("ros2.domain_id", format!("is {id}, expected 0 to {MAX_DOMAIN_ID}"));
         }
         for (field, topic) in [
-            ("pose_topic", &r.pose_topic),
-            ("trial_topic", &r.trial_topic),
-            ("status_topic", &r.status_topic),
-            ("joint_states_topic", &r.joint_states_topic),
+            ("ros2.pose_topic", &r.pose_topic),
+            ("ros2.trial_topic", &r.trial_topic),
+            ("ros2.status_topic", &r.status_topic),
+            ("ros2.joint_states_topic", &r.joint_states_topic),
         ] {
-            validate_topic(topic).map_err(|e| format!("ros2.{field}: {e}"))?;
+            if let Err(e) = validate_topic(topic) {
+                return problem(field, e.to_string());
+            }
         }
         if r.networks.len() > 16 {
-            return Err(format!("ros2.networks has {} addresses, expected at most 16", r.networks.len()));
+            return problem("ros2.networks", format!("has {} addresses, expected at most 16", r.networks.len()));
         }
         if !(r.resend_s.is_finite() && (0.1..=60.0).contains(&r.resend_s)) {
-            return Err(format!("ros2.resend_s is {}, expected 0.1 to 60 seconds", r.resend_s));
+            return problem("ros2.resend_s", format!("is {}, expected 0.1 to 60 seconds", r.resend_s));
         }
         Ok(())
     }

@@ -25,46 +25,55 @@ struct Partial {
 /// I = H[Σ_i ω_i L_i(·)] − Σ_i ω_i H[L_i(·)], where L_i is the distribution of the outcome
 /// (the configuration, or the region with [`OutcomeModel::Region`]) under particle i.
 /// O(N·|Q|); particles are reduced in fixed chunks so the result does not depend on the
-/// number of threads.
+/// number of threads. A measured outcome's information is estimated
+/// ([`measured_information`] with [`MEASURED_POINTS`] points).
 pub fn query_value(belief: &Belief, set: &FeasibleSet, alpha: f64, outcomes: OutcomeModel) -> QueryValue {
-    let d = belief.dim();
-    let s = 2 * d;
-    let k = match outcomes {
-        OutcomeModel::Configuration => set.len(),
-        OutcomeModel::Region => set.regions().len(),
+    let region = match outcomes {
+        OutcomeModel::Configuration => false,
+        OutcomeModel::Region => true,
+        OutcomeModel::Measured { sigma } => {
+            let m = measured_information(belief, set, alpha, sigma, MEASURED_POINTS);
+            return QueryValue { information_gain: m.estimate, expected_cost: m.expected_cost };
+        }
     };
-    let partials: Vec<Partial> = belief
-        .particles()
-        .par_chunks(PARTICLE_CHUNK * s)
-        .zip(belief.weights().par_chunks(PARTICLE_CHUNK))
-        .map(|(ps, ws)| {
+    let pass = discrete_pass(belief, set, alpha, region);
+    QueryValue { information_gain: pass.information_gain, expected_cost: pass.expected_cost }
+}
+
+/// What one pass over a belief yields for a discrete outcome (the configuration or the
+/// region): the marginal of the outcome, I(λ; outcome) and eq. 10's expected cost.
+struct DiscretePass {
+    marginal: Vec<f64>,
+    information_gain: f64,
+    expected_cost: f64,
+}
+
+fn discrete_pass(belief: &Belief, set: &FeasibleSet, alpha: f64, region: bool) -> DiscretePass {
+    let d = belief.dim();
+    let k = if region { set.regions().len() } else { set.len() };
+    let partials: Vec<Partial> = chunks(belief)
+        .map(|chunk| {
             let mut scratch = SetPass::scratch(set.len());
             let mut part = Partial { marginal: vec![0.0; k], conditional_entropy: 0.0, expected_cost: 0.0 };
             let mut region_p = vec![0.0; set.regions().len()];
-            for (p, &w) in ps.chunks_exact(s).zip(ws) {
-                if w <= 0.0 {
-                    continue;
-                }
+            for (p, w) in chunk {
                 let pass = SetPass::run(set.configs(), &p[..d], &p[d..], alpha, &mut scratch);
                 part.expected_cost += w * pass.min_cost;
                 let scale = w / pass.sum;
-                match outcomes {
-                    OutcomeModel::Configuration => {
-                        scratch.add_scaled_weights(scale, &mut part.marginal);
-                        part.conditional_entropy += w * pass.config_entropy();
+                if region {
+                    scratch.range_sums(set.regions(), &mut region_p);
+                    let mut h = 0.0;
+                    for pr in region_p.iter_mut() {
+                        *pr /= pass.sum;
+                        h -= xlogx(*pr);
                     }
-                    OutcomeModel::Region => {
-                        scratch.range_sums(set.regions(), &mut region_p);
-                        let mut h = 0.0;
-                        for pr in region_p.iter_mut() {
-                            *pr /= pass.sum;
-                            h -= xlogx(*pr);
-                        }
-                        for (m, pr) in part.marginal.iter_mut().zip(&region_p) {
-                            *m += w * pr;
-                        }
-                        part.conditional_entropy += w * h;
+                    for (m, pr) in part.marginal.iter_mut().zip(&region_p) {
+                        *m += w * pr;
                     }
+                    part.conditional_entropy += w * h;
+                } else {
+                    scratch.add_scaled_weights(scale, &mut part.marginal);
+                    part.conditional_entropy += w * pass.config_entropy();
                 }
             }
             part
@@ -82,5 +91,207 @@ pub fn query_value(belief: &Belief, set: &FeasibleSet, alpha: f64, outcomes: Out
     let marginal_entropy = -marginal.iter().map(|&m| xlogx(m)).sum::<f64>();
     // Rounding can push the difference a hair outside [0, log K]; the true value is inside.
     let information_gain = (marginal_entropy - conditional).clamp(0.0, (k as f64).ln());
-    QueryValue { information_gain, expected_cost: cost }
+    DiscretePass { marginal, information_gain, expected_cost: cost }
+}
+
+/// Points a measured outcome's information is averaged over in selection: 32 strata of the
+/// configurations' marginal, two antithetic measurements each. Its error against a
+/// brute-force integral is in docs/engine.md ("Measured outcomes").
+pub const MEASURED_POINTS: usize = 64;
+
+/// A measurement's density relative to the point's largest below e^-35 (≈ 6e-16) is left
+/// out of the likelihoods: each likelihood is then low by less than 6e-16 of the largest
+/// term, for any belief.
+const KERNEL_CUT: f64 = -35.0;
+
+/// The fixed noise draws of the measurement points (the same for every belief and query,
+/// so that selection draws nothing from a session's random streams and queries are compared
+/// on common random numbers).
+const NOISE_SEED: u64 = 0x6d65_6173_7572_6564;
+
+/// The information about λ in a measured arm, estimated, beside what bounds it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeasuredInformation {
+    /// I(λ; q_m) in nats: the mean of the points' values, within [0, `configuration`].
+    pub estimate: f64,
+    /// The estimate's Monte Carlo standard error (over the strata's antithetic pairs).
+    pub standard_error: f64,
+    /// I(λ; q), exact: the information of a noise-free measurement, an upper bound
+    /// (q_m is q with independent noise: the data-processing inequality).
+    pub configuration: f64,
+    /// Σ_i ω_i min_q C(q; λ_i) (eq. 10, without α).
+    pub expected_cost: f64,
+}
+
+/// I(λ; q_m) for a measurement q_m = q + ε of the configuration q the person chooses,
+/// ε ~ N(0, diag σ²) (σ in rad per joint). With L_i(x) = Σ_k P(q_k | Q, λ_i) N(x; q_k, Σ)
+/// and M(x) = Σ_i ω_i L_i(x),
+///
+///   I = E_{x∼M} [ Σ_i ω_i (L_i(x)/M(x)) ln(L_i(x)/M(x)) ],
+///
+/// the expected divergence of the posterior from the belief. The expectation is over
+/// `points` measurements drawn from M by strata — configuration j of the marginal's
+/// quantile (s + ½)/S, s < S = points/2, measured as q_j ± σ⊙e_s with fixed normal draws
+/// e_s — and each point's value is exact over the particles. Deterministic, and the same
+/// for any number of threads. O(N·(|Q| + points·k̄)), k̄ the configurations within
+/// about 8σ of a point.
+pub fn measured_information(
+    belief: &Belief,
+    set: &FeasibleSet,
+    alpha: f64,
+    sigma: &[f64],
+    points: usize,
+) -> MeasuredInformation {
+    let configs = set.configs();
+    let dim = configs.dim();
+    assert_eq!(sigma.len(), dim, "one noise level per joint");
+    assert!(points >= 2 && points.is_multiple_of(2), "points come in antithetic pairs");
+    let exact = discrete_pass(belief, set, alpha, false);
+    let strata = points / 2;
+    // The measurement points: strata of the marginal, antithetic noise.
+    let total: f64 = exact.marginal.iter().sum();
+    let mut noise = <crate::SeededRng as rand::SeedableRng>::seed_from_u64(NOISE_SEED);
+    let mut xs = vec![0.0; points * dim];
+    let mut origin = vec![0; points];
+    let (mut j, mut cum) = (0, exact.marginal[0]);
+    for s in 0..strata {
+        let u = (s as f64 + 0.5) / strata as f64 * total;
+        while cum <= u && j + 1 < configs.len() {
+            j += 1;
+            cum += exact.marginal[j];
+        }
+        origin[2 * s] = j;
+        origin[2 * s + 1] = j;
+        for d in 0..dim {
+            let e: f64 = rand_distr::Distribution::sample(&rand_distr::StandardNormal, &mut noise);
+            let q = configs.joint(d)[j];
+            xs[2 * s * dim + d] = q + sigma[d] * e;
+            xs[(2 * s + 1) * dim + d] = q - sigma[d] * e;
+        }
+    }
+    // Each point's measurement density under every configuration, relative to the point's
+    // largest, kept by configuration: column k lists (point, density).
+    let mut log_g = vec![0.0; configs.len()];
+    let mut columns: Vec<Vec<(u32, f64)>> = vec![Vec::new(); configs.len()];
+    let mut reach = vec![0.0; points];
+    for (t, x) in xs.chunks_exact(dim).enumerate() {
+        log_g.fill(0.0);
+        for d in 0..dim {
+            for (g, &q) in log_g.iter_mut().zip(configs.joint(d)) {
+                let z = (x[d] - q) / sigma[d];
+                *g -= 0.5 * z * z;
+            }
+        }
+        let top = log_g.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        for (k, &g) in log_g.iter().enumerate() {
+            if g - top > KERNEL_CUT {
+                let density = (g - top).exp();
+                columns[k].push((t as u32, density));
+                reach[t] += exact.marginal[k] * density;
+            }
+        }
+    }
+    // Σ_i ω_i L_i(x_t) ln L_i(x_t) per point, over the particles in fixed chunks.
+    let d = belief.dim();
+    let partials: Vec<Vec<f64>> = chunks(belief)
+        .map(|chunk| {
+            let mut scratch = SetPass::scratch(configs.len());
+            let mut acc = vec![0.0; 2 * points];
+            let mut l = vec![0.0; points];
+            for (p, w) in chunk {
+                let pass = SetPass::run(configs, &p[..d], &p[d..], alpha, &mut scratch);
+                // The control: the point's configuration j_t, ω p ln p (p = exps[j] / sum).
+                for (a, &j) in acc[points..].iter_mut().zip(&origin) {
+                    let e = scratch.exps()[j];
+                    if e > 0.0 {
+                        *a += w / pass.sum * e * (e.ln() - pass.sum.ln());
+                    }
+                }
+                l.fill(0.0);
+                for (column, &e) in columns.iter().zip(scratch.exps()) {
+                    if e > 0.0 {
+                        for &(t, g) in column {
+                            l[t as usize] += e * g;
+                        }
+                    }
+                }
+                // L = l / sum: ω L ln L = (ω / sum) · l · (ln l − ln sum).
+                let (scale, ln_sum) = (w / pass.sum, pass.sum.ln());
+                for (a, &v) in acc[..points].iter_mut().zip(&l) {
+                    if v > 0.0 {
+                        *a += scale * v * (v.ln() - ln_sum);
+                    }
+                }
+            }
+            acc
+        })
+        .collect();
+    let mut acc = vec![0.0; 2 * points];
+    for part in &partials {
+        for (a, v) in acc.iter_mut().zip(part) {
+            *a += v;
+        }
+    }
+    // A point's value: Σ_i ω_i r_i ln r_i with r_i = L_i / M, = acc / M − ln M; its
+    // control, the same divergence for the noise-free configuration j_t the point measures,
+    // Σ_i ω_i (p_ij/m_j) ln(p_ij/m_j), whose mean over j ∼ m is I(λ; q), known exactly.
+    let (values, controls): (Vec<f64>, Vec<f64>) = (0..points)
+        .map(|t| {
+            let (a, m) = (acc[t], reach[t]);
+            let value = if m > 0.0 { (a / m - m.ln()).max(0.0) } else { 0.0 };
+            let mj = exact.marginal[origin[t]];
+            let control = if mj > 0.0 { (acc[points + t] / mj - mj.ln()).max(0.0) } else { 0.0 };
+            (value, control)
+        })
+        .unzip();
+    let pair = |v: &[f64]| -> Vec<f64> { v.chunks_exact(2).map(|p| 0.5 * (p[0] + p[1])).collect() };
+    let (v, c) = (pair(&values), pair(&controls));
+    let (mv, mc) = (crate::stats::mean(&v), crate::stats::mean(&c));
+    // The regression estimator: the controls' error against their known mean, scaled by
+    // the slope of the values on the controls, is taken off.
+    let (mut cov, mut var) = (0.0, 0.0);
+    for (a, b) in v.iter().zip(&c) {
+        cov += (a - mv) * (b - mc);
+        var += (b - mc) * (b - mc);
+    }
+    let slope = if var > 0.0 { cov / var } else { 0.0 };
+    let estimate = mv - slope * (mc - exact.information_gain);
+    let residuals: Vec<f64> = v.iter().zip(&c).map(|(a, b)| a - slope * (b - mc)).collect();
+    let standard_error = crate::stats::standard_error(&residuals);
+    MeasuredInformation {
+        estimate: estimate.clamp(0.0, exact.information_gain),
+        standard_error,
+        configuration: exact.information_gain,
+        expected_cost: exact.expected_cost,
+    }
+}
+
+/// Σ_i ω_i min_q C(q; λ_i) (eq. 10, without α): [`query_value`]'s `expected_cost`, the same
+/// bits (the same chunks, in the same order), without the weights' exponentials: all that
+/// `passive` decides from.
+pub fn expected_cost(belief: &Belief, set: &FeasibleSet) -> f64 {
+    let d = belief.dim();
+    let partials: Vec<f64> = chunks(belief)
+        .map(|chunk| {
+            let mut scratch = SetPass::scratch(set.len());
+            let mut cost = 0.0;
+            for (p, w) in chunk {
+                cost += w * SetPass::min_cost(set.configs(), &p[..d], &p[d..], &mut scratch);
+            }
+            cost
+        })
+        .collect();
+    partials.iter().fold(0.0, |a, c| a + c)
+}
+
+/// The belief's particles (λ as q* then w) with their weights, in fixed chunks of
+/// [`PARTICLE_CHUNK`] so that a sum over chunks does not depend on the number of threads;
+/// particles of weight 0 are left out.
+fn chunks(belief: &Belief) -> impl IndexedParallelIterator<Item = impl Iterator<Item = (&[f64], f64)>> {
+    let s = 2 * belief.dim();
+    belief
+        .particles()
+        .par_chunks(PARTICLE_CHUNK * s)
+        .zip(belief.weights().par_chunks(PARTICLE_CHUNK))
+        .map(move |(ps, ws)| ps.chunks_exact(s).zip(ws.iter().copied()).filter(|(_, w)| *w > 0.0))
 }

@@ -13,25 +13,30 @@ use crate::SeededRng;
 use crate::belief::{Belief, Grid};
 use crate::ergo::FeasibleSet;
 
-pub use information::{QueryValue, query_value};
+pub use information::{
+    MEASURED_POINTS, MeasuredInformation, QueryValue, expected_cost, measured_information, query_value,
+};
 pub use paper::information_gain_paper;
 
 /// What the robot observes of the person's choice, and so what an outcome is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum OutcomeModel {
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum OutcomeModel<'a> {
     /// The configuration (measured, or mapped from the handle by a label model).
     Configuration,
     /// Only the region (handle) grabbed.
     Region,
+    /// The arm's joint angles measured with Gaussian noise of σ per joint (rad, in the
+    /// arm model's order): q_m = q + ε, ε ~ N(0, diag σ²).
+    Measured { sigma: &'a [f64] },
 }
 
-impl OutcomeModel {
+impl OutcomeModel<'_> {
     /// The protocol's name for it (`"observation"` in the protocol).
     pub fn name(self) -> &'static str {
         match self {
             OutcomeModel::Configuration => "configuration",
             OutcomeModel::Region => "region",
+            OutcomeModel::Measured { .. } => "measured",
         }
     }
 }
@@ -42,7 +47,7 @@ pub struct Problem<'a> {
     pub belief: &'a Belief,
     pub menu: &'a [FeasibleSet],
     pub alpha: f64,
-    pub outcomes: OutcomeModel,
+    pub outcomes: OutcomeModel<'a>,
 }
 
 /// A selector's choice and the criterion it maximised, for every menu item (`passive`

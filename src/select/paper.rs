@@ -17,6 +17,12 @@ pub fn information_gain_paper(
     outcomes: OutcomeModel,
     grid: &Grid,
 ) -> f64 {
+    // A measurement's most likely value is the most likely configuration: the paper's
+    // substitution of the maximum-likelihood outcome takes it noise-free.
+    let outcomes = match outcomes {
+        OutcomeModel::Measured { .. } => OutcomeModel::Configuration,
+        o => o,
+    };
     let d = belief.dim();
     let s = 2 * d;
     // Each particle's maximum-likelihood outcome and log normaliser.
@@ -30,7 +36,7 @@ pub fn information_gain_paper(
                 .map(|p| {
                     let pass = SetPass::run(set.configs(), &p[..d], &p[d..], alpha, &mut scratch);
                     let outcome = match outcomes {
-                        OutcomeModel::Configuration => pass.argmin(&scratch),
+                        OutcomeModel::Configuration | OutcomeModel::Measured { .. } => pass.argmin(&scratch),
                         OutcomeModel::Region => {
                             scratch.range_sums(set.regions(), &mut region_sums);
                             let mut best = (0, f64::NEG_INFINITY);
@@ -58,7 +64,7 @@ pub fn information_gain_paper(
         .par_iter()
         .map(|&o| {
             let chosen: Vec<Vec<f64>> = match outcomes {
-                OutcomeModel::Configuration => vec![set.configs().config(o)],
+                OutcomeModel::Configuration | OutcomeModel::Measured { .. } => vec![set.configs().config(o)],
                 OutcomeModel::Region => set.regions()[o].clone().map(|j| set.configs().config(j)).collect(),
             };
             let mut logits = vec![0.0; chosen.len()];

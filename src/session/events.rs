@@ -35,6 +35,20 @@ pub struct SessionStart {
     /// The log this one continues after a crash or a quit (its file name).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub resumed_from: Option<String>,
+    /// The outcome the selectors score queries by. A new session takes it from its
+    /// protocol ([`Session::new`](super::Session::new)); logs of formats 1 and 2 lack it and
+    /// scored regions, which their reader fills in.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub selection: Option<SelectionOutcome>,
+}
+
+/// What the selectors score a query's outcomes as: the grip region taken, or the arm
+/// measured (a protocol whose sessions learn from the measured arm, log format 3 on).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "kebab-case")]
+pub enum SelectionOutcome {
+    Region,
+    Measured,
 }
 
 /// Why a trial was voided.
@@ -126,31 +140,36 @@ pub struct SentPose {
     pub orientation: [f64; 4],
 }
 
+/// Why a pose cannot be sent to a robot.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum PoseProblem {
+    /// Not a frame id (the id shown escaped).
+    #[error("frame '{0}' is not a frame id: expected 1 to 64 characters from A–Z, a–z, 0–9, '_', '/', '.', '-'")]
+    FrameId(String),
+    #[error("position {0:?} is not finite within 10 m of the frame's origin")]
+    Position([f64; 3]),
+    #[error("orientation {0:?} is not a unit quaternion (x, y, z, w)")]
+    Orientation([f64; 4]),
+}
+
 /// Checks a frame id as ROS 2 and Foxglove take one: 1 to 64 characters from A–Z, a–z, 0–9,
 /// `_`, `/`, `.` and `-`.
-pub fn validate_frame_id(frame: &str) -> Result<(), String> {
+pub fn validate_frame_id(frame: &str) -> Result<(), PoseProblem> {
     let ok = (1..=64).contains(&frame.len())
         && frame.bytes().all(|b| b.is_ascii_alphanumeric() || matches!(b, b'_' | b'/' | b'.' | b'-'));
-    if ok {
-        Ok(())
-    } else {
-        Err(format!(
-            "frame '{}' is not a frame id: expected 1 to 64 characters from A–Z, a–z, 0–9, '_', '/', '.', '-'",
-            frame.escape_debug()
-        ))
-    }
+    if ok { Ok(()) } else { Err(PoseProblem::FrameId(frame.escape_debug().to_string())) }
 }
 
 /// Checks a pose sent to a robot: a frame id, a finite position within 10 m of the frame's
 /// origin, and a unit quaternion (to 1e-6).
-pub fn validate_sent_pose(pose: &SentPose) -> Result<(), String> {
+pub fn validate_sent_pose(pose: &SentPose) -> Result<(), PoseProblem> {
     validate_frame_id(&pose.frame)?;
     if !pose.position.iter().all(|v| v.is_finite() && v.abs() <= 10.0) {
-        return Err(format!("position {:?} is not finite within 10 m of the frame's origin", pose.position));
+        return Err(PoseProblem::Position(pose.position));
     }
     let norm = pose.orientation.iter().map(|v| v * v).sum::<f64>().sqrt();
     if !pose.orientation.iter().all(|v| v.is_finite()) || (norm - 1.0).abs() > 1e-6 {
-        return Err(format!("orientation {:?} is not a unit quaternion (x, y, z, w)", pose.orientation));
+        return Err(PoseProblem::Orientation(pose.orientation));
     }
     Ok(())
 }

@@ -25,13 +25,30 @@ pub struct LearningContext {
     pub label_model: Lambda,
     /// The prior (for the MAP estimate, recomputed from it and every observation).
     pub prior: Prior,
-    /// Whether a belief's summary carries its MAP estimate (a pass over every observation so
-    /// far for every particle); without it the summary's `map` is the mean. Only the plan,
-    /// which reports no MAP, leaves it out ([`super::Session::skip_map_estimates`]).
-    pub map_estimates: bool,
+    /// Whether only what a plan reports is computed ([`super::Session::plan_only`]): belief
+    /// summaries without the MAP estimate (a pass over every observation so far for every
+    /// particle; their `map` is then the mean), `passive`'s scores without the information
+    /// gain, and no suggestion after a condition's last training trial. A logged session
+    /// computes everything: its `/trial/query` carries every score.
+    pub plan_only: bool,
+    /// Training trials per condition (when a learner's training is over).
+    pub training_trials: usize,
+    /// What the selectors score ([`SessionStart::selection`](super::SessionStart)).
+    pub selection: super::SelectionOutcome,
 }
 
 impl LearningContext {
+    /// The outcomes the selectors score: the measured arm when the session learns from it
+    /// (its information about λ estimated, `select::measured_information`), else the
+    /// region (what the operator's key records, and the fallback of a trial without a
+    /// measurement). Logs of formats 1 and 2 scored regions whatever they learned from.
+    pub fn selection_outcomes(&self) -> OutcomeModel<'_> {
+        match self.selection {
+            super::SelectionOutcome::Measured => OutcomeModel::Measured { sigma: &self.sigma },
+            super::SelectionOutcome::Region => OutcomeModel::Region,
+        }
+    }
+
     /// What the belief learns from a recorded trial of `set`: eq. 1 on the label model's
     /// configuration, eq. 3 on the region, or the measured likelihood
     /// Σ_q P(q | Q, λ) N(q_m; q, Σ) (docs/engine.md) — the region when no measurement came.
@@ -76,7 +93,7 @@ impl BeliefSummary {
             iteration,
             mean: belief.mean(),
             // The history's observations index their own sets (checked when observed).
-            map: if ctx.map_estimates {
+            map: if !ctx.plan_only {
                 belief.map_estimate(&ctx.prior, history, ctx.alpha).unwrap_or_else(|_| belief.mean())
             } else {
                 belief.mean()
@@ -149,16 +166,61 @@ impl Learner {
         l
     }
 
+    /// A learner of another condition starting from this one's belief (a session's
+    /// conditions start from the same draw of the prior): the prior's summary and the
+    /// menu's scores are the same numbers, so they are this one's, computed once; only the
+    /// choice is its own.
+    pub(super) fn sibling(
+        &self,
+        condition: SelectorKind,
+        rng: SeededRng,
+        menu: &[FeasibleSet],
+        ctx: &LearningContext,
+    ) -> Self {
+        assert!(self.history.is_empty() && self.scores.len() == menu.len(), "a sibling of a new learner");
+        let mut l = Self {
+            condition,
+            belief: self.belief.clone(),
+            rng,
+            iteration: 0,
+            suggestion: 0,
+            scores: self.scores.clone(),
+            entropies: self.entropies.clone(),
+            estimates: self.estimates.clone(),
+            summary: self.summary.clone(),
+            history: Vec::new(),
+            generation: next_generation(),
+        };
+        l.choose(menu, ctx);
+        l
+    }
+
     fn suggest(&mut self, menu: &[FeasibleSet], ctx: &LearningContext) {
-        // Selection scores the information and cost of region outcomes, whatever the
-        // observation model: the region is what every trial yields (the operator's key, and
-        // the fallback of a trial without a measurement). For a measurement it is an
-        // approximation: I(λ; q_m) ≤ I(λ; q) always, and tends to it as σ → 0 (docs/engine.md).
-        let problem = Problem { belief: &self.belief, menu, alpha: ctx.alpha, outcomes: OutcomeModel::Region };
-        self.scores = menu_values(&problem);
+        self.scores = if ctx.plan_only && self.condition == SelectorKind::Passive {
+            // Passive decides from the expected costs alone (the same bits as the whole
+            // scores'); the information gain is not computed.
+            menu.iter()
+                .map(|set| QueryValue {
+                    information_gain: f64::NAN,
+                    expected_cost: crate::select::expected_cost(&self.belief, set),
+                })
+                .collect()
+        } else {
+            let problem = Problem { belief: &self.belief, menu, alpha: ctx.alpha, outcomes: ctx.selection_outcomes() };
+            menu_values(&problem)
+        };
+        self.choose(menu, ctx);
+    }
+
+    /// The next query from the scores (or by the selector's own rule).
+    fn choose(&mut self, menu: &[FeasibleSet], ctx: &LearningContext) {
         self.suggestion = match crate::select::choose_from_values(self.condition, &self.scores, ctx.tradeoff) {
             Some(i) => i,
-            None => self.condition.build(&ctx.grid, ctx.tradeoff).select(&problem, &mut self.rng).index,
+            None => {
+                let problem =
+                    Problem { belief: &self.belief, menu, alpha: ctx.alpha, outcomes: ctx.selection_outcomes() };
+                self.condition.build(&ctx.grid, ctx.tradeoff).select(&problem, &mut self.rng).index
+            }
         };
     }
 
@@ -181,7 +243,11 @@ impl Learner {
         self.summary = BeliefSummary::of(&self.belief, self.iteration, ctx, &history);
         self.entropies.push(self.summary.entropy);
         self.estimates.push(self.summary.mean.clone());
-        self.suggest(menu, ctx);
+        if !ctx.plan_only || self.iteration < ctx.training_trials {
+            self.suggest(menu, ctx);
+        } else {
+            self.scores.clear();
+        }
         self.generation = next_generation();
         Ok(())
     }

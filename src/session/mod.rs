@@ -16,13 +16,13 @@ use rand::seq::SliceRandom;
 use crate::belief::{Belief, Grid, TestExample, test_log_likelihood};
 use crate::ergo::{ConfigSet, FeasibleSet};
 use crate::kinematics::ArmFeasibleSet;
-use crate::protocol::{ResolvedQuery, Study};
+use crate::protocol::{ObservationModel, ResolvedQuery, Study};
 use crate::select::{QueryValue, SelectorKind};
 use crate::{SeededRng, derive_seed};
 
 pub use events::{
-    ArmMeasurement, Event, MeasurementSource, RobotLinkKind, RobotState, SentPose, SessionStart, Stamped, VoidReason,
-    program_letter, validate_frame_id, validate_sent_pose,
+    ArmMeasurement, Event, MeasurementSource, RobotLinkKind, RobotState, SelectionOutcome, SentPose, SessionStart,
+    Stamped, VoidReason, program_letter, validate_frame_id, validate_sent_pose,
 };
 pub use learner::{BeliefSummary, Learner, LearningContext};
 
@@ -301,7 +301,9 @@ mod purpose {
 
 impl Session {
     /// A new session at its first prompt.
-    pub fn new(study: Arc<Study>, start: SessionStart) -> Result<Self, SessionError> {
+    /// A session without a `selection` scores what its protocol's sessions learn from (the
+    /// measured arm, or the region); one with it (a log's) scores what it says.
+    pub fn new(study: Arc<Study>, mut start: SessionStart) -> Result<Self, SessionError> {
         let spec = &study.protocol.session;
         if start.condition_order.len() != spec.conditions.len()
             || spec.conditions.iter().any(|c| !start.condition_order.contains(c))
@@ -312,6 +314,17 @@ impl Session {
             )));
         }
         let learning = &study.protocol.learning;
+        let measured = learning.observation == ObservationModel::Measured && learning.measurement.is_some();
+        let selection = *start.selection.get_or_insert(if measured {
+            SelectionOutcome::Measured
+        } else {
+            SelectionOutcome::Region
+        });
+        if selection == SelectionOutcome::Measured && !measured {
+            return Err(SessionError::BadStart(
+                "selection is measured, but the protocol's sessions do not learn from a measured arm".into(),
+            ));
+        }
         let prior = study.prior.clone();
         let supports: Vec<(f64, f64)> = prior.components().iter().map(|c| c.support()).collect();
         let ctx = LearningContext {
@@ -324,7 +337,9 @@ impl Session {
             tradeoff: crate::select::Tradeoff { beta: learning.hybrid_beta, epsilon: learning.budget_epsilon },
             label_model: learning.label_model.to_lambda(),
             prior: prior.clone(),
-            map_estimates: true,
+            plan_only: false,
+            training_trials: spec.trials_per_condition,
+            selection,
         };
         let menu: Arc<Vec<FeasibleSet>> = Arc::new(study.training.iter().map(|q| choice_set(&q.feasible)).collect());
         let tests: Arc<Vec<FeasibleSet>> = Arc::new(study.test.iter().map(|q| choice_set(&q.feasible)).collect());
@@ -332,15 +347,15 @@ impl Session {
         let mut particle_rng = SeededRng::seed_from_u64(derive_seed(start.seed, 0, purpose::PARTICLES));
         let belief = Belief::from_prior(&prior, learning.particles, &mut particle_rng)
             .map_err(|e| SessionError::BadStart(e.to_string()))?;
-        let learners = start
-            .condition_order
-            .iter()
-            .enumerate()
-            .map(|(run, &c)| {
-                let rng = SeededRng::seed_from_u64(derive_seed(start.seed, run as u64, purpose::LEARNER));
-                Learner::new(c, belief.clone(), rng, &menu, &ctx)
-            })
-            .collect();
+        let mut learners: Vec<Learner> = Vec::with_capacity(start.condition_order.len());
+        for (run, &c) in start.condition_order.iter().enumerate() {
+            let rng = SeededRng::seed_from_u64(derive_seed(start.seed, run as u64, purpose::LEARNER));
+            let learner = match learners.first() {
+                Some(first) => first.sibling(c, rng, &menu, &ctx),
+                None => Learner::new(c, belief.clone(), rng, &menu, &ctx),
+            };
+            learners.push(learner);
+        }
         let mut test_order: Vec<usize> = (0..study.test.len()).collect();
         if spec.shuffle_test {
             test_order.shuffle(&mut SeededRng::seed_from_u64(derive_seed(start.seed, 0, purpose::TEST_ORDER)));
@@ -382,10 +397,13 @@ impl Session {
         &self.learners
     }
 
-    /// From now on, belief summaries leave out the MAP estimate (their `map` is the mean):
-    /// for a plan, which reports none; a logged session always carries it.
-    pub fn skip_map_estimates(&mut self) {
-        self.ctx.map_estimates = false;
+    /// From now on, compute only what a plan reports: belief summaries without the MAP
+    /// estimate (their `map` is the mean), `passive`'s expected costs without the
+    /// information gain, and no suggestion once a condition's training is over. The same
+    /// queries are chosen and the same beliefs learned; a logged session computes everything
+    /// (its `/trial/query` carries every score).
+    pub fn plan_only(&mut self) {
+        self.ctx.plan_only = true;
     }
 
     pub fn context(&self) -> &LearningContext {
@@ -585,6 +603,7 @@ pub fn check_runs(study: Arc<Study>) -> Result<(), SessionError> {
         started_at: "1970-01-01T00:00:00Z".into(),
         simulated_truth: None,
         resumed_from: None,
+        selection: None,
     };
     let mut session = Session::new(study, start)?;
     let Prompt::Present(view) = session.prompt() else {

@@ -25,6 +25,7 @@ fn start(study: &Study, slot: usize, seed: u64) -> SessionStart {
         started_at: "2026-11-22T00:00:00Z".into(),
         simulated_truth: None,
         resumed_from: None,
+        selection: None,
     }
 }
 
@@ -272,6 +273,32 @@ fn a_measured_grasp_updates_by_the_measured_likelihood() {
     assert!(g.agrees(t.region));
 }
 
+/// A session that learns from the measured arm scores its queries' measured outcomes and
+/// says so in its start; one whose start says regions (a log of format 2) scores regions;
+/// a start that claims measured selection for a protocol without a measured arm is refused.
+#[test]
+fn selection_scores_what_the_start_says_and_a_new_session_what_it_learns_from() {
+    use crate::select::{OutcomeModel, Problem, menu_values};
+    let s = measured_session(5.0);
+    assert_eq!(s.start().selection, Some(SelectionOutcome::Measured));
+    let menu: Vec<FeasibleSet> = (0..s.study().training.len()).map(|i| s.set(QueryRef::Training(i)).clone()).collect();
+    let score = |outcomes| {
+        menu_values(&Problem { belief: &s.learners()[0].belief, menu: &menu, alpha: s.context().alpha, outcomes })
+    };
+    let sigma = [5f64.to_radians(); 7];
+    assert_eq!(s.learners()[0].scores, score(OutcomeModel::Measured { sigma: &sigma }));
+    let mut old = s.start().clone();
+    old.selection = Some(SelectionOutcome::Region);
+    let replayed = Session::new(Arc::new(s.study().clone()), old).unwrap();
+    assert_eq!(replayed.learners()[0].scores, score(OutcomeModel::Region));
+    assert_ne!(replayed.learners()[0].scores, s.learners()[0].scores);
+    let region = session();
+    assert_eq!(region.start().selection, Some(SelectionOutcome::Region));
+    let mut claimed = region.start().clone();
+    claimed.selection = Some(SelectionOutcome::Measured);
+    assert!(matches!(Session::new(Arc::new(region.study().clone()), claimed), Err(SessionError::BadStart(_))));
+}
+
 #[test]
 fn a_measurement_that_implies_another_grip_is_flagged_and_the_key_kept() {
     let mut s = measured_session(2.0);
@@ -324,4 +351,20 @@ fn bad_measurements_are_refused_and_change_nothing() {
     let region = first_region(&r, &view);
     let e = r.apply(&Event::GraspRecorded { region, measured: Some(measurement(q, 0.0)) }).unwrap_err();
     assert!(e.to_string().contains("expected no measurement"), "{e}");
+}
+
+#[test]
+fn a_second_condition_shares_the_first_ones_scores_and_chooses_as_if_it_had_its_own() {
+    let study = study();
+    let s = Session::new(Arc::clone(&study), start(&study, 0, 21)).unwrap();
+    let first = &s.learners()[0];
+    for kind in SelectorKind::ALL {
+        let rng = || SeededRng::seed_from_u64(5);
+        let shared = first.sibling(kind, rng(), &s.menu, &s.ctx);
+        let own = Learner::new(kind, first.belief.clone(), rng(), &s.menu, &s.ctx);
+        assert_eq!(format!("{:?}", shared.scores), format!("{:?}", own.scores), "{kind:?}");
+        assert_eq!(shared.suggestion, own.suggestion, "{kind:?}");
+        assert_eq!(shared.summary, own.summary, "{kind:?}");
+        assert_eq!(shared.belief, own.belief, "{kind:?}");
+    }
 }

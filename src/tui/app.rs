@@ -1,6 +1,8 @@
-//! The console's state and its update: intents in, events to the session out. Every event
-//! goes through the recorder (durable on disk) before its consequence is shown; that work
-//! runs on a worker thread, and keys pressed meanwhile wait in order.
+//! The console's view: the screen, its dialogs, the questionnaire's cursor and the status
+//! line; keys in, events to the session out through the session driver (`driver.rs`), which
+//! owns the log's worker thread, the robot and the live arm. Every event goes through the
+//! recorder (durable on disk) before its consequence is shown; keys pressed meanwhile wait
+//! in order.
 
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
@@ -9,17 +11,17 @@ use std::time::Duration;
 
 use ratatui::crossterm::event::KeyEvent;
 
+use super::driver::{Driver, Heard};
 use super::keys::{Counts, Mode, action_for, why_not};
-use super::worker::{Done, Failure, Worker};
 use crate::analysis::{SessionAnalysis, analyse};
 use crate::dryrun::now_ns;
 use crate::participant::{ScriptedParticipant, SimulatedPerson};
 use crate::protocol::Study;
 use crate::record::{LogContents, RecordError, RecordedSession, SharedTap, continuation_path, log_folder};
+use crate::robot::Robot;
 use crate::robot::joint_states::JointStateSource;
-use crate::robot::{PresentOn, Report, Robot, RobotCommand, command_for};
-use crate::session::{ArmMeasurement, Event, Prompt, RobotState, Session, Stamped, Transition};
-use crate::setup::{Plan, SetupConfig, SetupError, lock_for, plan_session, start_session};
+use crate::session::{ArmMeasurement, Event, Prompt, RobotState, Session, Transition};
+use crate::setup::{Plan, SetupConfig, plan_session};
 use crate::study_dir::{ParticipantLock, StudyDirs};
 
 /// How the console was started.
@@ -100,15 +102,9 @@ pub struct App {
     pub screen: Screen,
     pub overlay: Option<Overlay>,
     pub plan: Option<Plan>,
-    /// The thread that owns the recorded session while it runs.
-    pub(super) worker: Option<Worker>,
-    /// This console's hold on the participant (one live session per participant).
-    lock: Option<ParticipantLock>,
-    /// The session as last reported by the worker (what the screens show).
-    shown: Option<Session>,
+    /// The session, its log and the lab's devices.
+    pub(super) driver: Driver,
     pending: VecDeque<KeyEvent>,
-    /// The event whose log write failed, waiting for a retry.
-    pub(super) unwritten: Option<Stamped>,
     /// Whether the terminal is large enough to show the screen (keys are ignored otherwise).
     pub visible: bool,
     /// The last message for the operator.
@@ -132,16 +128,8 @@ pub struct App {
     pub session_started_ns: Option<u64>,
     last_simulated_ns: u64,
     pub quit: bool,
-    /// The log finished at a quit: its path, and why it could not be finished.
-    closed: Option<(PathBuf, Option<String>)>,
     /// Printed after the terminal is restored.
     pub exit_message: Option<String>,
-    /// The robot in the loop, if the lab has one.
-    pub(super) robot: Option<Robot>,
-    /// The command whose event is being logged: sent once it is on disk.
-    robot_outbox: Option<RobotCommand>,
-    /// The participant's arm measured live, if the lab measures it.
-    arm: Option<JointStateSource>,
 }
 
 impl App {
@@ -156,7 +144,7 @@ impl App {
     /// taken from the log's content), at the screen where it stopped.
     pub fn resume(config: AppConfig, old: &LogContents) -> Result<Self, ConsoleError> {
         let mut app = Self::empty(config);
-        app.lock = Some(ParticipantLock::acquire(&log_folder(&old.path), &old.start.participant, "console")?);
+        app.driver.hold(ParticipantLock::acquire(&log_folder(&old.path), &old.start.participant, "console")?);
         let path = continuation_path(old, chrono::Utc::now());
         let mut rec = RecordedSession::resume(old, &path, now_ns())?;
         if let Some(tap) = &app.config.tap {
@@ -186,8 +174,7 @@ impl App {
                 balance: None,
             });
         }
-        app.shown = Some(rec.session().clone());
-        app.worker = Some(Worker::spawn(rec));
+        app.driver.run(rec);
         app.screen = Screen::Session;
         // The session's clock runs from its logged start, across the interruption.
         app.session_started_ns = chrono::DateTime::parse_from_rfc3339(&old.start.started_at)
@@ -215,15 +202,12 @@ impl App {
 
     fn empty(config: AppConfig) -> Self {
         Self {
-            lock: None,
             config,
             screen: Screen::Setup,
             overlay: None,
             plan: None,
-            worker: None,
-            shown: None,
+            driver: Driver::default(),
             pending: VecDeque::new(),
-            unwritten: None,
             visible: true,
             status: String::new(),
             joint_pair: 0,
@@ -236,45 +220,35 @@ impl App {
             session_started_ns: None,
             last_simulated_ns: 0,
             quit: false,
-            closed: None,
             exit_message: None,
-            robot: None,
-            arm: None,
-            robot_outbox: None,
         }
     }
 
     /// The console drives `robot` (none: the operator commands the robot by hand).
     pub fn with_robot(mut self, robot: Option<Robot>) -> Self {
-        self.robot = robot;
+        self.driver.set_robot(robot);
         self
     }
 
     pub fn with_arm(mut self, arm: Option<JointStateSource>) -> Self {
-        self.arm = arm;
+        self.driver.set_arm(arm);
         self
     }
 
     /// The live arm measurement, if one is subscribed.
     pub fn arm(&self) -> Option<&JointStateSource> {
-        self.arm.as_ref()
+        self.driver.arm()
     }
 
-    /// A grasp keyed now, measured by the live source when there is one: the latest sample at
-    /// or before now within the protocol's window (none: the trial learns from the handle).
+    /// A grasp keyed now, measured by the live source when there is one.
     pub(super) fn grasp(&mut self, region: String, simulated: Option<ArmMeasurement>) {
-        let now = now_ns();
         let window = self.config.study.protocol.learning.measurement.as_ref().map(|m| m.window_s);
-        let measured = match (&self.arm, window) {
-            (Some(arm), Some(w)) => arm.at(now, w),
-            _ => simulated,
-        };
-        self.submit_stamped(Stamped { time_ns: now, event: Event::GraspRecorded { region, measured } });
+        self.driver.grasp(region, simulated, window);
     }
 
     /// The robot, if one is connected.
     pub fn robot(&self) -> Option<&Robot> {
-        self.robot.as_ref()
+        self.driver.robot()
     }
 
     pub(super) fn make_plan(&self) -> Plan {
@@ -292,24 +266,20 @@ impl App {
 
     /// The session as currently shown.
     pub fn session(&self) -> Option<&Session> {
-        self.shown.as_ref()
+        self.driver.session()
     }
 
     /// The log being written.
     pub fn log_path(&self) -> Option<PathBuf> {
         match &self.screen {
             Screen::Summary(s) => Some(s.log_path.clone()),
-            _ => self
-                .worker
-                .as_ref()
-                .map(|w| w.path().clone())
-                .or_else(|| self.plan.as_ref().map(|p| p.log_path.clone())),
+            _ => self.driver.log_path().or_else(|| self.plan.as_ref().map(|p| p.log_path.clone())),
         }
     }
 
     /// Whether work is under way (the screen shows "computing").
     pub fn busy(&self) -> bool {
-        self.worker.as_ref().is_some_and(Worker::busy)
+        self.driver.busy()
     }
 
     /// What the keyboard drives now.
@@ -445,7 +415,7 @@ impl App {
             regions,
             scale_points: self.config.study.protocol.questionnaire.scale.len(),
             void_reasons: crate::session::VoidReason::ALL.len(),
-            robot: self.robot.is_some(),
+            robot: self.driver.robot().is_some(),
             can_undo: self.session().is_some_and(|s| s.can_undo()),
             joints: matches!(
                 self.session().map(|s| s.prompt()),
@@ -484,7 +454,7 @@ impl App {
             self.key(k);
         }
         if !self.busy() && matches!(self.screen, Screen::Session) {
-            self.hear_robot();
+            self.driver.hear_robot(self.config.simulate);
         }
         if self.busy() || self.overlay.is_some() || !matches!(self.screen, Screen::Session) {
             return;
@@ -507,55 +477,15 @@ impl App {
         if let Some(event) = self.session().and_then(|s| sim.respond(s)) {
             self.last_simulated_ns = now_ns;
             // With a robot, a rehearsal's query is presented when the robot is at the pose.
-            match (&event, self.robot.is_some(), self.session().and_then(Session::robot)) {
-                (Event::QueryPresented { .. }, true, None) => self.send_robot(),
+            match (&event, self.driver.robot().is_some(), self.session().and_then(Session::robot)) {
+                (Event::QueryPresented { .. }, true, None) => self.driver.send_robot(),
                 (Event::QueryPresented { .. }, true, Some(_)) => {}
-                (Event::GraspRecorded { .. }, _, _) if self.arm.is_some() => {
+                (Event::GraspRecorded { .. }, _, _) if self.driver.arm().is_some() => {
                     let Event::GraspRecorded { region, measured } = event else { unreachable!() };
                     self.grasp(region, measured)
                 }
                 _ => self.submit(event),
             }
-        }
-    }
-
-    /// Logs what the robot reported; on `at_pose`, presents the query when the lab says so
-    /// (and in a rehearsal).
-    fn hear_robot(&mut self) {
-        let Some(robot) = self.robot.as_mut() else { return };
-        let present_on_at_pose = robot.settings.present_on == PresentOn::AtPose || self.config.simulate;
-        let Some(report) = robot.next_report(Duration::ZERO) else { return };
-        self.submit(report.event());
-        match report.state {
-            RobotState::AtPose if present_on_at_pose => {
-                if let Some(Prompt::Present(v)) = self.session().map(Session::prompt) {
-                    let id = self.session().map(|s| s.query(v.query).query.id.clone());
-                    if id.as_deref() == Some(report.query.as_str()) {
-                        self.submit(Event::QueryPresented { query: report.query });
-                    }
-                }
-            }
-            _ => {}
-        }
-    }
-
-    /// Sends the waiting query's pose to the robot: its command is logged first and sent
-    /// once on disk.
-    pub(super) fn send_robot(&mut self) {
-        let Some(robot) = self.robot.as_ref() else { return };
-        let Some(command) = self.session().and_then(|s| command_for(s, &robot.settings)) else { return };
-        let event = command.event(robot.kind());
-        self.robot_outbox = Some(command);
-        self.submit(event);
-    }
-
-    /// A logged robot command goes to the robot.
-    fn dispatch_robot(&mut self) {
-        let (Some(robot), Some(command)) = (self.robot.as_mut(), self.robot_outbox.take()) else { return };
-        if let Err(why) = robot.send(&command) {
-            let report = Report { query: command.query.clone(), state: RobotState::Failed, detail: why };
-            self.status = format!("The robot could not be sent the pose: {}", report.detail);
-            self.submit(report.event());
         }
     }
 
@@ -570,11 +500,9 @@ impl App {
 
     /// Takes every report of the worker, waiting for them when `block`.
     fn poll_worker(&mut self, block: bool) {
-        loop {
-            let Some(worker) = self.worker.as_mut() else { return };
-            match worker.poll(block) {
-                Ok(Some(done)) => self.finish_work(done),
-                Ok(None) => return,
+        while let Some(heard) = self.driver.poll(block) {
+            match heard {
+                Ok(heard) => self.react(heard),
                 Err(e) => {
                     self.status = e.to_string();
                     return;
@@ -585,9 +513,9 @@ impl App {
 
     /// Takes the worker's reports that are ready; whether there was one (the screen changed).
     pub fn collect_reports(&mut self) -> bool {
-        let before = self.worker.as_ref().map_or(0, Worker::outstanding);
+        let before = self.driver.outstanding();
         self.collect();
-        self.worker.as_ref().map_or(0, Worker::outstanding) < before
+        self.driver.outstanding() < before
     }
 
     fn wait_worker(&mut self) {
@@ -598,70 +526,50 @@ impl App {
         self.poll_worker(false);
     }
 
-    fn finish_work(&mut self, done: Done) {
-        match done {
-            Done::Submitted(session, result) => {
-                self.shown = Some(*session);
-                match result {
-                    Ok(event) => {
-                        self.unwritten = None;
-                        if matches!(self.overlay, Some(Overlay::WriteFailed { .. })) {
-                            self.overlay = None;
-                        }
-                        self.after_event();
-                        self.say_measurement(&event);
-                        match event {
-                            Event::RobotCommanded { .. } => self.dispatch_robot(),
-                            Event::RobotReported {
-                                state: state @ (RobotState::Failed | RobotState::Timeout),
-                                detail,
-                                ..
-                            } => {
-                                let detail = if detail.is_empty() { String::new() } else { format!(" ({detail})") };
-                                self.status = format!(
-                                    "The robot reported {}{detail}: s sends again, x voids the trial, Enter continues by hand",
-                                    state.name()
-                                );
-                            }
-                            _ => {}
-                        }
-                    }
-                    Err(Failure::Rejected(e)) => self.status = e,
-                    Err(Failure::Log { message, last_event, event }) => {
-                        self.unwritten = Some(*event);
-                        // Keys typed after the failed event must not act on a state that
-                        // does not have it.
-                        self.pending.clear();
-                        self.overlay = Some(Overlay::WriteFailed { message, last_event });
-                    }
+    /// What the screens show of what the session did.
+    fn react(&mut self, heard: Heard) {
+        match heard {
+            Heard::Written { event, robot_failed } => {
+                if matches!(self.overlay, Some(Overlay::WriteFailed { .. })) {
+                    self.overlay = None;
+                }
+                self.after_event();
+                self.say_measurement(&event);
+                if let Some(why) = robot_failed {
+                    self.status = format!("The robot could not be sent the pose: {why}");
+                }
+                if let Event::RobotReported {
+                    state: state @ (RobotState::Failed | RobotState::Timeout), detail, ..
+                } = event
+                {
+                    let detail = if detail.is_empty() { String::new() } else { format!(" ({detail})") };
+                    self.status = format!(
+                        "The robot reported {}{detail}: s sends again, x voids the trial, Enter continues by hand",
+                        state.name()
+                    );
                 }
             }
-            Done::Finished(view) => {
-                self.worker = None;
-                self.screen = Screen::Summary(view);
+            Heard::Rejected(why) => self.status = why,
+            Heard::WriteFailed { message, last_event } => {
+                // Keys typed after the failed event must not act on a state that does not
+                // have it.
+                self.pending.clear();
+                self.overlay = Some(Overlay::WriteFailed { message, last_event });
             }
-            Done::Closed { path, error } => {
-                self.worker = None;
-                self.closed = Some((path, error));
-            }
+            Heard::Finished(view) => self.screen = Screen::Summary(view),
+            Heard::Closed => {}
         }
     }
 
     /// Sends an event to the session through the recorder, off the drawing loop.
     pub(super) fn submit(&mut self, event: Event) {
-        self.submit_stamped(Stamped { time_ns: now_ns(), event });
+        self.driver.submit(event);
     }
 
     /// [`App::submit`], and once the event has taken effect (it is on disk) say `message`.
     pub(super) fn submit_saying(&mut self, event: Event, message: String) {
         self.say_after = Some(message);
         self.submit(event);
-    }
-
-    pub(super) fn submit_stamped(&mut self, stamped: Stamped) {
-        if let Some(w) = self.worker.as_mut() {
-            w.submit(stamped);
-        }
     }
 
     /// After a grasp of a measured protocol: a measurement that implies another grip than the
@@ -685,7 +593,7 @@ impl App {
                 )
             }
             (None, _) => {
-                let why = self.arm.as_ref().and_then(|a| a.diagnose()).map_or_else(String::new, |w| format!(" ({w})"));
+                let why = self.driver.arm().and_then(|a| a.diagnose()).map_or_else(String::new, |w| format!(" ({w})"));
                 format!(
                     "No arm sample in the {} s before the grasp{why}: this trial learned from the handle",
                     m.window_s
@@ -727,14 +635,12 @@ impl App {
     }
 
     fn finish_log(&mut self, completed: bool) {
-        if let Some(w) = self.worker.as_mut() {
-            w.finish(completed);
-        }
+        self.driver.finish_log(completed);
     }
 
     pub(super) fn start(&mut self) {
         let Some(mut plan) = self.plan.take() else { return };
-        let started = self.lock_and_start(&mut plan);
+        let started = self.driver.lock_and_start(&mut plan, &self.config.dirs);
         self.plan = Some(plan);
         match started {
             Ok(mut rec) => {
@@ -742,23 +648,12 @@ impl App {
                     rec.set_tap(tap.clone().0);
                 }
                 self.status = format!("Session started; logging to {}", rec.path().display());
-                self.shown = Some(rec.session().clone());
-                self.worker = Some(Worker::spawn(rec));
+                self.driver.run(rec);
                 self.screen = Screen::Session;
                 self.session_started_ns = Some(self.now_ns);
             }
             Err(e) => self.status = e.to_string(),
         }
-    }
-
-    fn lock_and_start(&mut self, plan: &mut Plan) -> Result<RecordedSession, SetupError> {
-        if let Some(e) = &plan.error {
-            return Err(SetupError::Plan(e.clone()));
-        }
-        if self.lock.is_none() {
-            self.lock = Some(lock_for(plan)?);
-        }
-        start_session(plan, &self.config.dirs)
     }
 
     /// The whole command that continues this session: by participant in a study (the one
@@ -773,14 +668,16 @@ impl App {
     pub(super) fn quit_now(&mut self) {
         // Whatever is under way is written first; then the log is finished.
         self.wait_worker();
-        if let Some(w) = self.worker.as_mut() {
-            let done = self.shown.as_ref().is_some_and(|s| matches!(s.prompt(), Prompt::Done { .. }));
-            w.close();
+        if self.driver.running() {
+            let done = self.session().is_some_and(|s| matches!(s.prompt(), Prompt::Done { .. }));
+            self.driver.close();
             self.wait_worker();
-            let lost = self.unwritten.as_ref().map_or(String::new(), |_| {
+            let lost = if self.driver.has_unwritten() {
                 " (the last event could not be written and is not in it: record it again after resuming)".to_string()
-            });
-            match self.closed.take() {
+            } else {
+                String::new()
+            };
+            match self.driver.take_closed() {
                 Some((path, None)) if !done => {
                     self.exit_message =
                         Some(format!("Session left unfinished; continue it with: {}{lost}", self.resume_command(&path)))

@@ -3,6 +3,7 @@
 //! the backend. The only module that uses ratatui and crossterm.
 
 pub mod app;
+mod driver;
 pub mod follow;
 pub mod keys;
 mod screens;

@@ -38,12 +38,10 @@ impl App {
             }
             (Mode::ConfirmQuit, Action::No) => self.overlay = None,
             (Mode::ConfirmQuit, Action::Abort) => {
-                self.overlay = if self.worker.is_some() { Some(Overlay::AbortReason(String::new())) } else { None };
+                self.overlay = if self.driver.running() { Some(Overlay::AbortReason(String::new())) } else { None };
             }
             (Mode::WriteFailed, Action::Retry) => {
-                if let Some(event) = self.unwritten.clone() {
-                    self.submit_stamped(event);
-                }
+                self.driver.retry();
             }
             (Mode::WriteFailed, Action::Quit) => self.quit_now(),
             (Mode::Setup, Action::Confirm) => self.start(),
@@ -135,7 +133,7 @@ impl App {
                     self.status = super::keys::NOTHING_TO_UNDO.into();
                 }
             }
-            (Mode::Present, Action::SendRobot) => self.send_robot(),
+            (Mode::Present, Action::SendRobot) => self.driver.send_robot(),
             (Mode::Present, Action::Confirm) => {
                 if let Some(Prompt::Present(v)) = self.session().map(|s| s.prompt()) {
                     let id = self.session().expect("a session").query(v.query).query.id.clone();

@@ -1118,6 +1118,51 @@ fn follow_shows_the_current_instruction_from_the_live_log() {
     keys(&mut r, "qy");
 }
 
+/// A continuation copies the interrupted log's events one synced event at a time before
+/// anything new: caught half-copied it shows an earlier trial's pose, so the robot
+/// operator's screen stays on the interrupted log until the continuation holds them all.
+#[test]
+fn follow_moves_to_a_continuation_only_once_it_holds_every_earlier_event() {
+    use handover::record::{Follower, RecordedSession, continuation_path, study_of};
+    use handover::session::Session;
+    use handover::tui::follow::FollowView;
+    let dir = tmpdir("follow-half-copied");
+    let mut a = app(&dir);
+    press(&mut a, KeyCode::Enter);
+    trials(&mut a, 3, '1');
+    let path = a.log_path().unwrap();
+    keys(&mut a, "qy");
+    drop(a);
+    let old = read_log(&path).unwrap();
+    let mut view = FollowView::new(Follower::open(&path).unwrap());
+    view.tick(T0);
+    let before = draw_follow(&view, 80, 24);
+    assert!(before.contains("trial 4/"), "{before}");
+    // A continuation with the first two events copied so far (a resume caught mid-copy).
+    let study = Arc::new(study_of(&old).unwrap());
+    let mut start = old.start.clone();
+    start.resumed_from = Some(path.file_name().unwrap().to_string_lossy().into_owned());
+    let next = continuation_path(&old, chrono::Utc::now() + chrono::TimeDelta::hours(1));
+    let session = Session::new(study, start).unwrap();
+    let mut half = RecordedSession::create(&next, &old.protocol_text, session, old.start_time_ns).unwrap();
+    for e in &old.events[..2] {
+        half.submit(e.clone()).unwrap();
+    }
+    view.tick(T0 + 1);
+    assert_eq!(view.follower.path(), &path, "a half-copied continuation is not followed");
+    let s = draw_follow(&view, 80, 24);
+    assert!(s.contains("trial 4/") && !s.contains("trial 2/"), "{s}");
+    // Every event copied: the follower moves to it (closed here, as no console holds it).
+    for e in &old.events[2..] {
+        half.submit(e.clone()).unwrap();
+    }
+    half.finish().unwrap();
+    view.tick(T0 + 2);
+    assert_eq!(view.follower.path(), &next);
+    let s = draw_follow(&view, 80, 24);
+    assert!(s.contains("trial 4/") && s.contains(&*next.file_name().unwrap().to_string_lossy()), "{s}");
+}
+
 /// A protocol's long pose label wraps inside the instruction, which grows for it: at 80×24
 /// every other line of the instruction is still on screen whole.
 #[test]

@@ -214,7 +214,7 @@ fn a_bad_robot_option_is_bad_input() {
     let (code, err) =
         dry_run(&dir, "logs", &["--robot-command", ok.to_str().unwrap(), "--robot-config", settings.to_str().unwrap()]);
     assert_eq!(code, 2, "{err}");
-    assert!(err.contains("lab.json: ros2.domain_id is 999, expected 0 to 232"), "{err}");
+    assert!(err.contains("lab.json: ros2.domain_id: is 999, expected 0 to 232"), "{err}");
     let (code, err) = dry_run(&dir, "logs", &["--robot-config", settings.to_str().unwrap()]);
     assert_eq!(code, 2);
     assert!(err.contains("--robot-config is given without --robot, --robot-command or --measure"), "{err}");

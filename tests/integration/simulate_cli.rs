@@ -101,7 +101,19 @@ fn active_learns_faster_and_passive_is_more_comfortable_over_seeds() {
     // tests.csv: passive against active, paired over the same trials of every seed.
     let mut t = csv::Reader::from_path(dir.join("tests.csv")).unwrap();
     let th = t.headers().unwrap().clone();
-    for c in ["measure", "algorithm", "against", "n", "mean_difference", "ci_low", "ci_high", "p_value", "seeds"] {
+    for c in [
+        "measure",
+        "first",
+        "second",
+        "n",
+        "mean_difference",
+        "ci_low",
+        "ci_high",
+        "median_difference",
+        "share_first_higher",
+        "p_value",
+        "seeds",
+    ] {
         assert!(th.iter().any(|x| x == c), "{c}");
     }
     let tests: Vec<csv::StringRecord> = t.records().map(|x| x.unwrap()).collect();
