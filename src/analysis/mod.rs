@@ -4,6 +4,7 @@
 mod alpha;
 mod collect;
 mod measured;
+mod population;
 mod rows;
 mod seeds;
 mod summary;
@@ -26,6 +27,9 @@ pub use collect::{Analysed, Collected, WithdrawnLeftOut, collect};
 pub use measured::{
     MAX_MEASUREMENT_BYTES, MAX_MEASUREMENT_SAMPLES, MeasuredRefit, MeasurementFileError, MeasurementSeries, RefitRun,
     refit,
+};
+pub use population::{
+    AVERAGED, BURN_IN, ComponentFit, PersonEvidence, PopulationError, PopulationFit, PopulationSettings, fit_population,
 };
 pub use rows::{NoteRow, RobotRow, RobotTimings, TrialRow, TrialStatus, rfc3339_ms, robot_timings, trial_columns};
 pub use seeds::{
@@ -76,6 +80,9 @@ pub struct SessionAnalysis {
     pub completed: bool,
     /// Every handle taken, with the prior, for estimating α ([`fit_session`]).
     pub alpha_evidence: AlphaEvidence,
+    /// Every handover as the session learned from it, with the prior, for fitting the
+    /// population ([`fit_population`]).
+    pub person: PersonEvidence,
     /// The body the session was run for (from the protocol as logged).
     pub body: crate::protocol::Body,
     /// Every presentation of a query and what became of it, in order.
@@ -226,6 +233,19 @@ impl Analyser {
             choices: session.trials().iter().map(|t| (session.set(t.query).clone(), t.region)).collect(),
             protocol_alpha: ctx.alpha,
         };
+        let person = PersonEvidence {
+            prior: ctx.prior.clone(),
+            alpha: ctx.alpha,
+            seed: log.start.seed,
+            observed: session
+                .trials()
+                .iter()
+                .map(|t| {
+                    let set = session.set(t.query);
+                    (set.clone(), ctx.observation_of(set, t))
+                })
+                .collect(),
+        };
         let items = &study.protocol.questionnaire.items;
         let completed = matches!(session.prompt(), crate::session::Prompt::Done { completed: true });
         Ok(SessionAnalysis {
@@ -248,6 +268,7 @@ impl Analyser {
             choice: session.forced_choice(),
             completed,
             alpha_evidence,
+            person,
         })
     }
 }

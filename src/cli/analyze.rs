@@ -15,6 +15,7 @@ use handover::study_dir::StudyDirs;
 use serde::Serialize;
 
 use super::analyze_measured::{MeasuredArgs, RefitReport};
+use super::analyze_population::{PopulationArgs, PopulationReport};
 use super::analyze_report::{table, table1_markdown};
 use super::figures::FigureArgs;
 use super::input::bad;
@@ -35,8 +36,9 @@ pub struct AnalyzeArgs {
     /// notes.csv, robot.csv (sessions with a robot: every command and its timing),
     /// test_log_likelihood.csv, fig10_tests.csv, beliefs.csv (long),
     /// belief_summary.csv, objects_by_body.csv,
-    /// questionnaire.csv, alpha.csv, alpha_curve.csv, fig10.svg, objects.svg, alpha.svg and
-    /// table1.md here (pilot sessions under DIR/pilot/).
+    /// questionnaire.csv, alpha.csv, alpha_curve.csv, fig10.svg, objects.svg, alpha.svg,
+    /// table1.md (and with --fit-population population.json and population.csv) here
+    /// (pilot sessions under DIR/pilot/).
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
     /// Recompute every derived value in each log (mapped configurations, beliefs, scores)
@@ -62,6 +64,8 @@ pub struct AnalyzeArgs {
     logs: Option<PathBuf>,
     #[command(flatten)]
     measured: MeasuredArgs,
+    #[command(flatten)]
+    population: PopulationArgs,
     #[command(flatten)]
     figures: FigureArgs,
 }
@@ -113,6 +117,9 @@ struct JsonOut<'a> {
     /// With --measurements: each session re-fitted with the measured arm.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     measured_refits: Vec<RefitReport>,
+    /// With --fit-population: the population fitted to the real sessions, and the pilots'.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    populations: Vec<PopulationReport>,
     skipped: &'a [String],
     warnings: &'a [String],
     differences: &'a [String],
@@ -164,12 +171,17 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
     if let Some(dir) = &args.out {
         super::analyze_measured::write_csv(dir, &refits)?;
     }
+    let populations = args.population.run(&collected.group(false), &collected.group(true))?;
     if let Some(dir) = &args.out {
         for (is_pilot, summary, alpha) in [(false, &real, &real_alpha), (true, &pilot, &pilot_alpha)] {
             let (Some(summary), Some(alpha)) = (summary, alpha) else { continue };
             let d = if is_pilot { dir.join("pilot") } else { dir.clone() };
             write_outputs(&d, &args.figures.style(), &collected.group(is_pilot), summary, alpha)
                 .with_context(|| format!("cannot write into {}", d.display()))?;
+            for report in populations.iter().filter(|r| r.pilot == is_pilot) {
+                super::analyze_population::write(&d, report, &collected.group(is_pilot))
+                    .with_context(|| format!("cannot write into {}", d.display()))?;
+            }
             errln!("wrote {}", d.display());
         }
     }
@@ -183,6 +195,7 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
                 pilot_alpha,
                 withdrawn_left_out: collected.left_out,
                 measured_refits: refits,
+                populations,
                 skipped: &collected.skipped,
                 warnings: &collected.warnings,
                 differences: &collected.differences,
@@ -200,6 +213,9 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
             }
             if args.measured.given() {
                 out!("{}", super::analyze_measured::table(&refits));
+            }
+            for report in &populations {
+                out!("{}", super::analyze_population::table(report));
             }
         }
     }

@@ -55,6 +55,7 @@ pub fn for_stdout(text: &str) -> std::borrow::Cow<'_, str> {
 
 mod analyze;
 mod analyze_measured;
+mod analyze_population;
 mod analyze_report;
 mod by_body;
 mod console;

@@ -174,6 +174,7 @@ pub const CONCEPTS: &[Concept] = &[
     c("verify", "", None, "recompute every derived value of each log and report any difference"),
     c("alpha-particles", "N", Some("20000"), "prior draws of λ over which each session's evidence for α is integrated"),
     c("measurements", "FILE", None, "time-stamped joint angles from a measuring system (CSV or C3D)"),
+    c("fit-population", "", None, "also fit the population the participants come from"),
     c("joint-names", "NAME", None, "the measuring system's names of the model's 7 joints"),
     c("c3d-start", "TIME", None, "the wall-clock time of a C3D file's first frame"),
     c("window-s", "S", None, "how long before a grasp its sample may lie, seconds"),

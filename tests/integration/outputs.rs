@@ -336,7 +336,7 @@ fn every_csv_matches_the_data_dictionary() {
     handover(
         &[
             &["analyze", "--alpha-particles", "200", &s(&logs_dir), "--out", &s(&dir.join("analyze"))][..],
-            &["--measurements", &s(&dir.join("mocap.csv")), "--sigma-deg", "5"][..],
+            &["--measurements", &s(&dir.join("mocap.csv")), "--sigma-deg", "5", "--fit-population"][..],
         ]
         .concat(),
     );

@@ -1,0 +1,812 @@
+//! The population of preferences, learned from a study's own sessions.
+//!
+//! A hierarchical model: each participant's λ is drawn from a population g_θ — per learned
+//! component j a normal (mean μ_j, spread σ_j) truncated to the prior's support, the form of
+//! a protocol's `population` section — and each session's observations follow eq. 1/3 (or
+//! the measured arm's likelihood) given that participant's λ, with the protocol's α. θ is
+//! fitted by maximum marginal likelihood over the sessions,
+//!
+//!   log p(D | θ) = Σ_s log ∫ L_s(λ) g_θ(λ) dλ,   L_s(λ) = Π_t P(obs_t | Q_t, λ, α),
+//!
+//! by stochastic-approximation EM (SAEM; Delyon, Lavielle & Moulines 1999): each
+//! participant's λ is a Markov chain targeting its posterior under the current population
+//! L_s g_θ (an independence step drawn from g_θ, then random-walk steps), the population's
+//! sufficient statistics (per component Σ_s x and Σ_s x²) are averaged with step sizes 1
+//! during a burn-in and 1/k after it, and each iteration's M-step is the truncated normal
+//! with the largest likelihood given them. The intervals are Wald intervals from the
+//! observed information by Louis' missing-information principle, I = −∇²Q − Σ_s Cov_s[∇ log
+//! g_θ(λ)], its expectations over each participant's chain at the fit (μ on its scale, σ on
+//! the log scale).
+
+use nalgebra::{DMatrix, DVector};
+use rand::{RngExt, SeedableRng};
+use rand_distr::{Distribution, StandardNormal};
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::belief::{Belief, BeliefError, Prior};
+use crate::ergo::{FeasibleSet, Lambda, Observation, SetPass};
+use crate::protocol::{PopulationSpec, Spread, truncated_normal};
+use crate::{SeededRng, derive_seed};
+
+/// SAEM iterations with step size 1 (the chains and θ find the fit's neighbourhood) …
+pub const BURN_IN: usize = 200;
+/// … then iterations whose statistics are averaged (step size 1/k).
+pub const AVERAGED: usize = 300;
+/// Iterations at the fit whose chains give the observed information.
+const INFORMATION: usize = 600;
+/// Random-walk steps per iteration, after the independence step.
+const WALKS: usize = 2;
+/// The acceptance rate the random walk's scale is adapted to during the burn-in.
+const TARGET_ACCEPTANCE: f64 = 0.3;
+/// The smallest spread fitted, as a share of the support's width (a population of exact
+/// copies is not something finite data can tell from a narrow one).
+const MIN_SD_SHARE: f64 = 0.002;
+/// z of a two-sided 95 % normal interval.
+const Z95: f64 = 1.959_963_984_540_054;
+
+/// Seed purpose of a participant's chain (derived from the fit's seed and the session's).
+const PURPOSE_CHAIN: u64 = 501;
+
+/// What one session says about its participant's λ.
+#[derive(Clone, Debug)]
+pub struct PersonEvidence {
+    /// The session's prior (radians): its support bounds the population.
+    pub prior: Prior,
+    /// The α the session's protocol assumed.
+    pub alpha: f64,
+    /// The session's seed (its chain's draws are derived from it).
+    pub seed: u64,
+    /// Every handover (both training runs and the test phase) as the session learned from
+    /// it: the feasible set and the observation (region, configuration or measured arm).
+    pub observed: Vec<(FeasibleSet, Observation)>,
+}
+
+/// Why a population could not be fitted.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PopulationError {
+    #[error("{found} sessions, expected at least 2 (one person says nothing about a spread)")]
+    TooFewSessions { found: usize },
+    #[error("session {index}'s prior differs from the first session's; a population is fitted over one prior")]
+    PriorsDiffer { index: usize },
+    #[error("the prior learns no component of λ")]
+    NothingLearned,
+    #[error("session {index}: {source}")]
+    Belief { index: usize, source: BeliefError },
+    #[error("session {index}: its observations are impossible at the population's centre")]
+    Unexplained { index: usize },
+}
+
+/// The fit's seed: the chains' draws derive from it and each session's seed.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PopulationSettings {
+    pub seed: u64,
+}
+
+/// One learned component's fitted spread over people (radians for q*).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ComponentFit {
+    /// `q_star` or `w`.
+    pub part: &'static str,
+    pub joint: usize,
+    pub mean: f64,
+    pub sd: f64,
+    /// 95 % Wald intervals (σ's on the log scale), from the observed information; NaN when
+    /// the information does not identify the component.
+    pub mean_low: f64,
+    pub mean_high: f64,
+    pub sd_low: f64,
+    pub sd_high: f64,
+    /// The prior's support, which the population is truncated to.
+    pub min: f64,
+    pub max: f64,
+    /// The fitted spread is at the smallest the fit allows: the data do not tell this
+    /// population from a narrower one.
+    pub sd_at_floor: bool,
+}
+
+/// The fitted population and how well the data determine it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PopulationFit {
+    pub sessions: usize,
+    pub handovers: usize,
+    pub components: Vec<ComponentFit>,
+    pub iterations: usize,
+    /// Every parameter has an interval: none is on the edge of its range, and the observed
+    /// information is positive definite (else the ones it does not identify have none).
+    pub identified: bool,
+    /// The random walk's acceptance rate after the burn-in: the smallest and the median
+    /// over participants.
+    pub min_acceptance: f64,
+    pub median_acceptance: f64,
+    /// The α the sessions' protocols assumed (the population's people are given it).
+    pub alpha: f64,
+}
+
+impl PopulationFit {
+    /// The fit as a protocol's `population` section (q* in degrees); components the prior
+    /// does not learn get their known value with no spread.
+    pub fn spec(&self, prior: &Prior) -> PopulationSpec {
+        let dim = prior.dim();
+        let mut spreads: Vec<Spread> = prior
+            .components()
+            .iter()
+            .map(|c| {
+                let (lo, hi) = c.support();
+                Spread { mean: (lo + hi) / 2.0, sd: 0.0 }
+            })
+            .collect();
+        for c in &self.components {
+            let i = if c.part == "q_star" { c.joint } else { dim + c.joint };
+            spreads[i] = Spread { mean: c.mean, sd: c.sd };
+        }
+        let degrees = |s: &Spread| Spread { mean: s.mean.to_degrees(), sd: s.sd.to_degrees() };
+        PopulationSpec {
+            q_star_deg: spreads[..dim].iter().map(degrees).collect(),
+            w: spreads[dim..].to_vec(),
+            alpha: None,
+        }
+    }
+}
+
+/// One learned component's support.
+#[derive(Clone, Copy, Debug)]
+struct Support {
+    min: f64,
+    max: f64,
+}
+
+impl Support {
+    fn width(self) -> f64 {
+        self.max - self.min
+    }
+    fn min_sd(self) -> f64 {
+        MIN_SD_SHARE * self.width()
+    }
+}
+
+/// A population over the learned components: (μ_j, σ_j).
+type Theta = Vec<(f64, f64)>;
+
+/// One participant's chain: its λ (the learned components), ln L_s there, the random walk's
+/// scale (a multiple of the population's spread) and its acceptance count.
+struct Chain<'a> {
+    evidence: &'a PersonEvidence,
+    observed: Vec<(&'a FeasibleSet, &'a Observation)>,
+    /// The whole λ = [q*, w] with the known components in place.
+    lambda: Vec<f64>,
+    ll: f64,
+    log_scale: f64,
+    walks: usize,
+    accepted: usize,
+    rng: SeededRng,
+    scratch: Vec<crate::ergo::Scratch>,
+}
+
+impl<'a> Chain<'a> {
+    fn new(
+        evidence: &'a PersonEvidence,
+        free: &[usize],
+        theta: &Theta,
+        seed: u64,
+        index: usize,
+    ) -> Result<Self, PopulationError> {
+        let observed: Vec<(&FeasibleSet, &Observation)> = evidence.observed.iter().map(|(s, o)| (s, o)).collect();
+        let mut rng = SeededRng::seed_from_u64(derive_seed(seed, evidence.seed, PURPOSE_CHAIN));
+        let mut lambda = evidence.prior.sample(&mut rng);
+        for (&i, &(m, _)) in free.iter().zip(theta) {
+            lambda[i] = m;
+        }
+        // The observations are checked against their sets once, here.
+        let one = Belief::from_particles(&[Lambda::from_slice(&lambda)], &[1.0])
+            .and_then(|b| b.per_particle_log_likelihoods(&observed, evidence.alpha, |_| 0.0))
+            .map_err(|source| PopulationError::Belief { index, source })?;
+        let ll = one[0];
+        if !ll.is_finite() {
+            return Err(PopulationError::Unexplained { index });
+        }
+        let scratch = observed.iter().map(|(set, _)| SetPass::scratch(set.len())).collect();
+        Ok(Self { evidence, observed, lambda, ll, log_scale: 0.0, walks: 0, accepted: 0, rng, scratch })
+    }
+
+    /// ln L_s at a whole λ.
+    fn log_likelihood(&mut self, lambda: &[f64]) -> f64 {
+        let d = self.evidence.prior.dim();
+        let mut total = 0.0;
+        for ((set, obs), scratch) in self.observed.iter().zip(&mut self.scratch) {
+            let pass = SetPass::run(set.configs(), &lambda[..d], &lambda[d..], self.evidence.alpha, scratch);
+            total += pass.log_likelihood(obs, self.evidence.alpha, scratch);
+            if total == f64::NEG_INFINITY {
+                break;
+            }
+        }
+        total
+    }
+
+    /// One iteration: an independence step from g_θ, then [`WALKS`] random-walk steps
+    /// (adapting their scale while `adapt`). Returns the mean of x and x² per component over
+    /// the states visited.
+    fn step(&mut self, free: &[usize], supports: &[Support], theta: &Theta, adapt: Option<usize>) -> Vec<(f64, f64)> {
+        let mut stats = vec![(0.0, 0.0); free.len()];
+        let record = |lambda: &[f64], stats: &mut Vec<(f64, f64)>| {
+            for ((a, b), &i) in stats.iter_mut().zip(free) {
+                *a += lambda[i] / (WALKS + 1) as f64;
+                *b += lambda[i] * lambda[i] / (WALKS + 1) as f64;
+            }
+        };
+        // Independence: y ~ g_θ; the population's density cancels, L(y)/L(x) remains.
+        let mut y = self.lambda.clone();
+        for ((&i, &(m, sd)), s) in free.iter().zip(theta).zip(supports) {
+            y[i] = truncated_normal(m, sd, (s.min, s.max), &mut self.rng);
+        }
+        let ly = self.log_likelihood(&y);
+        if accept(ly - self.ll, &mut self.rng) {
+            (self.lambda, self.ll) = (y, ly);
+        }
+        record(&self.lambda, &mut stats);
+        for _ in 0..WALKS {
+            let scale = self.log_scale.exp();
+            let mut y = self.lambda.clone();
+            let mut inside = true;
+            let mut log_prior_ratio = 0.0;
+            for ((&i, &(m, sd)), s) in free.iter().zip(theta).zip(supports) {
+                let z: f64 = StandardNormal.sample(&mut self.rng);
+                y[i] = self.lambda[i] + scale * sd * z;
+                inside &= (s.min..=s.max).contains(&y[i]);
+                log_prior_ratio += ((self.lambda[i] - m) / sd).powi(2) / 2.0 - ((y[i] - m) / sd).powi(2) / 2.0;
+            }
+            let taken = inside && {
+                let ly = self.log_likelihood(&y);
+                let ok = accept(ly - self.ll + log_prior_ratio, &mut self.rng);
+                if ok {
+                    (self.lambda, self.ll) = (y, ly);
+                }
+                ok
+            };
+            self.walks += 1;
+            self.accepted += usize::from(taken);
+            if let Some(t) = adapt {
+                let rate = if taken { 1.0 } else { 0.0 };
+                self.log_scale += (rate - TARGET_ACCEPTANCE) / ((t + 1) as f64).powf(0.6);
+            }
+            record(&self.lambda, &mut stats);
+        }
+        stats
+    }
+}
+
+/// Metropolis acceptance of a move with log ratio `log_ratio`.
+fn accept(log_ratio: f64, rng: &mut SeededRng) -> bool {
+    log_ratio >= 0.0 || rng.random::<f64>().ln() < log_ratio
+}
+
+/// Fits the population to the sessions (at least two, one prior).
+pub fn fit_population(
+    evidence: &[PersonEvidence],
+    settings: PopulationSettings,
+) -> Result<PopulationFit, PopulationError> {
+    if evidence.len() < 2 {
+        return Err(PopulationError::TooFewSessions { found: evidence.len() });
+    }
+    let prior = &evidence[0].prior;
+    if let Some(index) = evidence.iter().position(|e| e.prior != *prior) {
+        return Err(PopulationError::PriorsDiffer { index });
+    }
+    let free = prior.free();
+    if free.is_empty() {
+        return Err(PopulationError::NothingLearned);
+    }
+    let supports: Vec<Support> = free
+        .iter()
+        .map(|&i| {
+            let (min, max) = prior.components()[i].support();
+            Support { min, max }
+        })
+        .collect();
+    let n = evidence.len() as f64;
+    let mut theta: Theta = supports.iter().map(|s| ((s.min + s.max) / 2.0, s.width() / 6.0)).collect();
+    let mut chains: Vec<Chain> = evidence
+        .iter()
+        .enumerate()
+        .map(|(index, e)| Chain::new(e, &free, &theta, settings.seed, index))
+        .collect::<Result<_, _>>()?;
+    // The population's sufficient statistics: per component Σ_s E[x], Σ_s E[x²].
+    let mut sums = vec![(0.0, 0.0); free.len()];
+    for t in 0..BURN_IN + AVERAGED {
+        let adapt = (t < BURN_IN).then_some(t);
+        let per_chain: Vec<Vec<(f64, f64)>> =
+            chains.par_iter_mut().map(|c| c.step(&free, &supports, &theta, adapt)).collect();
+        let gamma = if t < BURN_IN { 1.0 } else { 1.0 / (t + 1 - BURN_IN) as f64 };
+        for (j, sum) in sums.iter_mut().enumerate() {
+            let (a, b) = per_chain.iter().fold((0.0, 0.0), |(a, b), c| (a + c[j].0, b + c[j].1));
+            sum.0 += gamma * (a - sum.0);
+            sum.1 += gamma * (b - sum.1);
+        }
+        theta = theta.iter().zip(&supports).zip(&sums).map(|((&old, &s), &(a, b))| m_step(n, a, b, s, old)).collect();
+        if t + 1 == BURN_IN {
+            for c in &mut chains {
+                (c.walks, c.accepted) = (0, 0);
+            }
+        }
+    }
+    let mut acceptance: Vec<f64> = chains.iter().map(|c| c.accepted as f64 / c.walks.max(1) as f64).collect();
+    acceptance.sort_by(f64::total_cmp);
+    let covariance = covariance_at(&mut chains, &free, &supports, &theta, &sums, n);
+    let dim = prior.dim();
+    let components: Vec<ComponentFit> = free
+        .iter()
+        .enumerate()
+        .map(|(j, &i)| {
+            let (mean, sd) = theta[j];
+            let se_log_sd = covariance[(2 * j + 1, 2 * j + 1)].sqrt();
+            // A mean's interval given a spread the data do not determine (collapsed to the
+            // floor, most often) would be too narrow: none is given.
+            let se_mean = if se_log_sd.is_finite() { covariance[(2 * j, 2 * j)].sqrt() } else { f64::NAN };
+            ComponentFit {
+                part: if i < dim { "q_star" } else { "w" },
+                joint: i % dim,
+                mean,
+                sd,
+                // NaN stays NaN (f64::max would drop it).
+                mean_low: if se_mean.is_nan() { f64::NAN } else { (mean - Z95 * se_mean).max(supports[j].min) },
+                mean_high: if se_mean.is_nan() { f64::NAN } else { (mean + Z95 * se_mean).min(supports[j].max) },
+                sd_low: sd * (-Z95 * se_log_sd).exp(),
+                sd_high: sd * (Z95 * se_log_sd).exp(),
+                min: supports[j].min,
+                max: supports[j].max,
+                sd_at_floor: sd <= supports[j].min_sd() * (1.0 + 1e-9),
+            }
+        })
+        .collect();
+    Ok(PopulationFit {
+        sessions: evidence.len(),
+        handovers: evidence.iter().map(|e| e.observed.len()).sum(),
+        components,
+        iterations: BURN_IN + AVERAGED,
+        identified: (0..2 * free.len()).all(|k| covariance[(k, k)].is_finite()),
+        min_acceptance: acceptance[0],
+        median_acceptance: crate::stats::median(&acceptance),
+        alpha: evidence[0].alpha,
+    })
+}
+
+/// The covariance of (μ_j, ln σ_j) at the fit: the inverse of the observed information by
+/// Louis' principle, −∇²Q(θ) − Σ_s Cov_s[∇ ln g_θ(λ_s)], with each participant's posterior
+/// covariance of the score from [`INFORMATION`] further iterations of its chain. NaN for a
+/// parameter on the edge of its range and for one the data do not identify.
+fn covariance_at(
+    chains: &mut [Chain],
+    free: &[usize],
+    supports: &[Support],
+    theta: &Theta,
+    sums: &[(f64, f64)],
+    n: f64,
+) -> DMatrix<f64> {
+    let f = free.len();
+    let p = 2 * f;
+    // The score of ln g_θ(λ) in (μ_j, ln σ_j): ((x − μ)/σ², (x − μ)²/σ²) up to constants
+    // that do not depend on λ (and so do not vary within a participant's posterior).
+    let score = |c: &Chain| -> Vec<f64> {
+        free.iter()
+            .zip(theta)
+            .flat_map(|(&i, &(m, sd))| {
+                let d = c.lambda[i] - m;
+                [d / (sd * sd), d * d / (sd * sd)]
+            })
+            .collect()
+    };
+    let covariances: Vec<DMatrix<f64>> = chains
+        .par_iter_mut()
+        .map(|c| {
+            let (mut mean, mut outer) = (DVector::zeros(p), DMatrix::zeros(p, p));
+            for _ in 0..INFORMATION {
+                c.step(free, supports, theta, None);
+                let v = DVector::from_vec(score(c));
+                outer += &v * v.transpose();
+                mean += v;
+            }
+            let k = INFORMATION as f64;
+            let mean = mean / k;
+            outer / k - &mean * mean.transpose()
+        })
+        .collect();
+    let mut information = DMatrix::zeros(p, p);
+    for (j, (&(m, sd), &s)) in theta.iter().zip(supports).enumerate() {
+        let (a, b) = sums[j];
+        let q = |m: f64, t: f64| -> f64 { -m_step_objective(n, a, b, s, m, t) };
+        let t = sd.ln();
+        let (hm, ht) = (1e-4 * s.width(), 1e-4);
+        let h_mm = (q(m + hm, t) - 2.0 * q(m, t) + q(m - hm, t)) / (hm * hm);
+        let h_tt = (q(m, t + ht) - 2.0 * q(m, t) + q(m, t - ht)) / (ht * ht);
+        let h_mt = (q(m + hm, t + ht) - q(m + hm, t - ht) - q(m - hm, t + ht) + q(m - hm, t - ht)) / (4.0 * hm * ht);
+        information[(2 * j, 2 * j)] += h_mm;
+        information[(2 * j + 1, 2 * j + 1)] += h_tt;
+        information[(2 * j, 2 * j + 1)] += h_mt;
+        information[(2 * j + 1, 2 * j)] += h_mt;
+    }
+    for c in covariances {
+        information -= c;
+    }
+    // A parameter on the edge of its range (σ at the floor or the width, μ at a support's
+    // end) is not a regular maximum: it is left out and the others' covariance given.
+    let mut kept: Vec<usize> = (0..p)
+        .filter(|&k| {
+            let (j, s) = (k / 2, supports[k / 2]);
+            let (m, sd) = theta[j];
+            let near = |a: f64, b: f64| (a - b).abs() <= 1e-6 * s.width();
+            if k % 2 == 0 { !near(m, s.min) && !near(m, s.max) } else { !near(sd, s.min_sd()) && !near(sd, s.width()) }
+        })
+        .collect();
+    // While the information of the parameters kept is not positive definite, the one the
+    // data say least about (the smallest information left after the others) is left out:
+    // the others still get intervals.
+    loop {
+        let sub = DMatrix::from_fn(kept.len(), kept.len(), |a, b| information[(kept[a], kept[b])]);
+        if let Some(c) = sub.clone().cholesky() {
+            let inverse = c.inverse();
+            let mut covariance = DMatrix::from_element(p, p, f64::NAN);
+            for (a, &ka) in kept.iter().enumerate() {
+                for (b, &kb) in kept.iter().enumerate() {
+                    covariance[(ka, kb)] = inverse[(a, b)];
+                }
+            }
+            return covariance;
+        }
+        if kept.len() <= 1 {
+            return DMatrix::from_element(p, p, f64::NAN);
+        }
+        let worst = (0..kept.len())
+            .min_by(|&a, &b| {
+                let own =
+                    |k: usize| sub[(k, k)] / sub.row(k).iter().map(|v| v.abs()).sum::<f64>().max(f64::MIN_POSITIVE);
+                own(a).total_cmp(&own(b))
+            })
+            .unwrap_or(0);
+        kept.remove(worst);
+    }
+}
+
+/// The M-step's objective for one component: Σ_s E ln TN(x_s; μ, e^t) given Σ E x = a and
+/// Σ E x² = b over n participants (up to the constant −n ln √(2π)).
+fn m_step_objective(n: f64, a: f64, b: f64, s: Support, m: f64, t: f64) -> f64 {
+    let sd = t.exp();
+    -(n * t + (b - 2.0 * m * a + m * m * n) / (2.0 * sd * sd) + n * log_truncation_mass(m, sd, s.min, s.max))
+}
+
+/// The M-step of one component: the truncated normal on its support with the largest
+/// weighted log-likelihood given n sessions' weights' Σ r x = a and Σ r x² = b, over μ in
+/// the support and σ from the floor to the width (Nelder–Mead in (μ, ln σ), from `old`; the
+/// old value is kept unless the new one is better).
+fn m_step(n: f64, a: f64, b: f64, s: Support, old: (f64, f64)) -> (f64, f64) {
+    let clamp = |p: [f64; 2]| [p[0].clamp(s.min, s.max), p[1].clamp(s.min_sd().ln(), s.width().ln())];
+    let objective = |p: [f64; 2]| {
+        let [m, t] = clamp(p);
+        m_step_objective(n, a, b, s, m, t)
+    };
+    let start = [old.0, old.1.ln()];
+    let best = clamp(nelder_mead(objective, start, [0.05 * s.width(), 0.2]));
+    if objective(best) > objective(clamp(start)) { (best[0], best[1].exp()) } else { old }
+}
+
+/// Maximises f over two parameters by Nelder–Mead from `start` with initial steps `step`
+/// (a fixed number of iterations at most: it stops when the simplex's values agree).
+fn nelder_mead(f: impl Fn([f64; 2]) -> f64, start: [f64; 2], step: [f64; 2]) -> [f64; 2] {
+    let mut simplex = [start, [start[0] + step[0], start[1]], [start[0], start[1] + step[1]]];
+    let mut values = simplex.map(&f);
+    for _ in 0..200 {
+        let mut order = [0, 1, 2];
+        order.sort_by(|&i, &j| values[j].total_cmp(&values[i]));
+        let (best, mid, worst) = (order[0], order[1], order[2]);
+        if (values[best] - values[worst]).abs() <= 1e-12 * (1.0 + values[best].abs()) {
+            break;
+        }
+        let centroid = [(simplex[best][0] + simplex[mid][0]) / 2.0, (simplex[best][1] + simplex[mid][1]) / 2.0];
+        let towards = |t: f64| {
+            [centroid[0] + t * (simplex[worst][0] - centroid[0]), centroid[1] + t * (simplex[worst][1] - centroid[1])]
+        };
+        let reflected = towards(-1.0);
+        let fr = f(reflected);
+        if fr > values[best] {
+            let expanded = towards(-2.0);
+            let fe = f(expanded);
+            (simplex[worst], values[worst]) = if fe > fr { (expanded, fe) } else { (reflected, fr) };
+        } else if fr > values[mid] {
+            (simplex[worst], values[worst]) = (reflected, fr);
+        } else {
+            let contracted = towards(0.5);
+            let fc = f(contracted);
+            if fc > values[worst] {
+                (simplex[worst], values[worst]) = (contracted, fc);
+            } else {
+                for i in [mid, worst] {
+                    simplex[i] = [
+                        simplex[best][0] + 0.5 * (simplex[i][0] - simplex[best][0]),
+                        simplex[best][1] + 0.5 * (simplex[i][1] - simplex[best][1]),
+                    ];
+                    values[i] = f(simplex[i]);
+                }
+            }
+        }
+    }
+    let best = (0..3).max_by(|&i, &j| values[i].total_cmp(&values[j])).unwrap_or(0);
+    simplex[best]
+}
+
+/// ln(Φ((max − μ)/σ) − Φ((min − μ)/σ)): the share of N(μ, σ²) inside [min, max] (0 for
+/// an unbounded support).
+fn log_truncation_mass(mean: f64, sd: f64, min: f64, max: f64) -> f64 {
+    if !(min.is_finite() && max.is_finite()) {
+        return 0.0;
+    }
+    let phi = |z: f64| 0.5 * statrs::function::erf::erfc(-z / std::f64::consts::SQRT_2);
+    let (lo, hi) = ((min - mean) / sd, (max - mean) / sd);
+    // Subtract in the tail where both terms are small.
+    let mass = if lo > 0.0 { phi(-lo) - phi(-hi) } else { phi(hi) - phi(lo) };
+    mass.max(f64::MIN_POSITIVE).ln()
+}
+
+/// ln of the density of N(μ, σ²) truncated to [min, max] at x (−∞ outside).
+#[cfg(test)]
+fn log_truncated_normal(x: f64, mean: f64, sd: f64, min: f64, max: f64) -> f64 {
+    if !(min..=max).contains(&x) {
+        return f64::NEG_INFINITY;
+    }
+    let z = (x - mean) / sd;
+    -0.5 * z * z - sd.ln() - 0.5 * (2.0 * std::f64::consts::PI).ln() - log_truncation_mass(mean, sd, min, max)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::belief::ComponentPrior;
+    use crate::ergo::ConfigSet;
+    use crate::participant::SimulatedPerson;
+    use crate::protocol::{Population, Study};
+    use crate::session::choice_set;
+    use rand_distr::Normal;
+
+    /// An observation of configuration `j` of `set`: the arm measured with noise σ (degrees),
+    /// or the region it lies in.
+    fn observe(set: &FeasibleSet, j: usize, sigma_deg: Option<f64>, rng: &mut SeededRng) -> Observation {
+        match sigma_deg {
+            Some(s) => {
+                let d = set.dim();
+                let noise = Normal::new(0.0, s.to_radians()).unwrap();
+                let q_m: Vec<f64> = (0..d).map(|k| set.configs().joint(k)[j] + noise.sample(rng)).collect();
+                Observation::measured(set.configs(), &q_m, &vec![s.to_radians(); d]).unwrap()
+            }
+            None => {
+                let r = set.regions().iter().position(|r| r.contains(&j)).unwrap();
+                Observation::Region(set.regions()[r].clone().collect())
+            }
+        }
+    }
+
+    /// People drawn from `population`, each offered `handovers` training queries of the
+    /// default study at random.
+    fn people(
+        population: &Population,
+        n: usize,
+        handovers: usize,
+        sigma_deg: Option<f64>,
+        seed: u64,
+    ) -> Vec<PersonEvidence> {
+        let study = Study::default_study();
+        let sets: Vec<FeasibleSet> = study.training.iter().map(|q| choice_set(&q.feasible)).collect();
+        (0..n)
+            .map(|i| {
+                let person = SimulatedPerson { truth: population.draw(seed, i), alpha: population.alpha };
+                let mut rng = SeededRng::seed_from_u64(derive_seed(seed, i as u64, 9));
+                let observed = (0..handovers)
+                    .map(|_| {
+                        let set = sets[rng.random_range(0..sets.len())].clone();
+                        let j = person.choose(&set, &mut rng);
+                        let obs = observe(&set, j, sigma_deg, &mut rng);
+                        (set, obs)
+                    })
+                    .collect();
+                PersonEvidence { prior: study.prior.clone(), alpha: population.alpha, seed: i as u64, observed }
+            })
+            .collect()
+    }
+
+    fn population(sd_deg: f64) -> (Population, PopulationSpec) {
+        let study = Study::default_study();
+        let spec = PopulationSpec {
+            q_star_deg: [20.0, 15.0, 10.0, 90.0, 10.0, -5.0, -5.0].map(|mean| Spread { mean, sd: sd_deg }).to_vec(),
+            w: vec![Spread { mean: 1.0, sd: 0.0 }; 7],
+            alpha: None,
+        };
+        (Population::new(Some(&spec), &study.prior, study.protocol.learning.alpha), spec)
+    }
+
+    #[test]
+    fn the_fit_and_its_interval_match_the_marginal_likelihood_by_quadrature() {
+        // One learned joint, three configurations in two regions, 40 people from
+        // TN(0.8, 0.5) on [−1, 3], each seen 6 times: the exact log marginal likelihood by a
+        // trapezoid rule over λ, maximised over a fine grid of θ, and its curvature.
+        let set = FeasibleSet::with_regions(ConfigSet::from_rows(&[[0.0], [1.0], [2.5]]).unwrap(), &[0, 1, 1]).unwrap();
+        let prior = Prior::new(
+            vec![ComponentPrior::Uniform { min: -1.0, max: 3.0 }],
+            vec![ComponentPrior::Fixed { value: 1.0 }],
+        )
+        .unwrap();
+        let mut rng = SeededRng::seed_from_u64(5);
+        let evidence: Vec<PersonEvidence> = (0..40)
+            .map(|i| {
+                let truth = Lambda { q_star: vec![truncated_normal(0.8, 0.5, (-1.0, 3.0), &mut rng)], w: vec![1.0] };
+                let person = SimulatedPerson { truth, alpha: 3.0 };
+                let observed = (0..6)
+                    .map(|t| {
+                        let j = person.choose(&set, &mut rng);
+                        (set.clone(), observe(&set, j, (t % 2 == 0).then_some(30.0), &mut rng))
+                    })
+                    .collect();
+                PersonEvidence { prior: prior.clone(), alpha: 3.0, seed: i, observed }
+            })
+            .collect();
+        let n = 2000;
+        let grid: Vec<f64> = (0..=n).map(|i| -1.0 + 4.0 * i as f64 / n as f64).collect();
+        let lambdas: Vec<Lambda> = grid.iter().map(|&q| Lambda { q_star: vec![q], w: vec![1.0] }).collect();
+        let beliefs = Belief::from_particles(&lambdas, &vec![1.0; n + 1]).unwrap();
+        let likelihoods: Vec<Vec<f64>> = evidence
+            .iter()
+            .map(|e| {
+                let pairs: Vec<(&FeasibleSet, &Observation)> = e.observed.iter().map(|(s, o)| (s, o)).collect();
+                beliefs.per_particle_log_likelihoods(&pairs, 3.0, |_| 0.0).unwrap().iter().map(|l| l.exp()).collect()
+            })
+            .collect();
+        let h = 4.0 / n as f64;
+        let log_marginal = |m: f64, t: f64| -> f64 {
+            let g: Vec<f64> = grid.iter().map(|&x| log_truncated_normal(x, m, t.exp(), -1.0, 3.0).exp()).collect();
+            likelihoods
+                .iter()
+                .map(|l| {
+                    let f: Vec<f64> = l.iter().zip(&g).map(|(a, b)| a * b).collect();
+                    (h * (f.iter().sum::<f64>() - 0.5 * (f[0] + f[n]))).ln()
+                })
+                .sum()
+        };
+        let mut best = (f64::NEG_INFINITY, 0.0, 0.0);
+        for i in 0..=160 {
+            for k in 0..=80 {
+                let (m, t) = (0.0 + 0.01 * i as f64, (0.1f64).ln() + 0.025 * k as f64);
+                let v = log_marginal(m, t);
+                if v > best.0 {
+                    best = (v, m, t);
+                }
+            }
+        }
+        let (_, m, t) = best;
+        let (hm, ht) = (0.01, 0.02);
+        let h_mm = -(log_marginal(m + hm, t) - 2.0 * log_marginal(m, t) + log_marginal(m - hm, t)) / (hm * hm);
+        let h_tt = -(log_marginal(m, t + ht) - 2.0 * log_marginal(m, t) + log_marginal(m, t - ht)) / (ht * ht);
+        let h_mt = -(log_marginal(m + hm, t + ht) - log_marginal(m + hm, t - ht) - log_marginal(m - hm, t + ht)
+            + log_marginal(m - hm, t - ht))
+            / (4.0 * hm * ht);
+        let det = h_mm * h_tt - h_mt * h_mt;
+        let (se_m, se_t) = ((h_tt / det).sqrt(), (h_mm / det).sqrt());
+        let fit = fit_population(&evidence, PopulationSettings { seed: 2 }).unwrap();
+        let c = &fit.components[0];
+        let (fit_se_m, fit_se_t) = ((c.mean_high - c.mean_low) / (2.0 * Z95), (c.sd_high / c.sd).ln() / Z95);
+        eprintln!(
+            "quadrature μ {m:.3} ± {se_m:.3}, σ {:.3} (ln σ ± {se_t:.3}); fit μ {:.3} ± {fit_se_m:.3}, σ {:.3} (ln σ ± {fit_se_t:.3})",
+            t.exp(),
+            c.mean,
+            c.sd
+        );
+        assert!((c.mean - m).abs() < 0.25 * se_m + 0.01, "μ: fit {} vs {m}", c.mean);
+        assert!((c.sd.ln() - t).abs() < 0.25 * se_t + 0.025, "σ: fit {} vs {}", c.sd, t.exp());
+        assert!((fit_se_m / se_m - 1.0).abs() < 0.25, "se(μ): fit {fit_se_m} vs {se_m}");
+        assert!((fit_se_t / se_t - 1.0).abs() < 0.25, "se(ln σ): fit {fit_se_t} vs {se_t}");
+    }
+
+    #[test]
+    fn truncated_normal_maximum_likelihood_recovers_its_parameters() {
+        // Many exact draws: the M-step alone.
+        let s = Support { min: -1.0, max: 2.0 };
+        let mut rng = SeededRng::seed_from_u64(3);
+        for (m, sd) in [(0.5, 0.3), (-0.8, 0.6), (1.5, 2.0)] {
+            let x: Vec<f64> = (0..20_000).map(|_| truncated_normal(m, sd, (s.min, s.max), &mut rng)).collect();
+            let (a, b) = (x.iter().sum::<f64>(), x.iter().map(|v| v * v).sum::<f64>());
+            let mut fit = (0.5, 0.5);
+            for _ in 0..50 {
+                fit = m_step(x.len() as f64, a, b, s, fit);
+            }
+            assert!((fit.0 - m).abs() < 0.05 * sd.max(0.5) && (fit.1 / sd - 1.0).abs() < 0.1, "({m}, {sd}): {fit:?}");
+        }
+    }
+
+    /// A known population is recovered from measured arms (σ = 5°, 30 handovers each) of
+    /// consistent people (α = 20, as the fit assumes): a wide one's means within their 95 %
+    /// intervals (6 of 7 at least) and its spreads (5 of 7: one study's draw of 24 people),
+    /// a narrow one fitted narrow and centred.
+    #[test]
+    fn a_known_population_is_recovered_from_measured_arms() {
+        for (sd_deg, people_n) in [(15.0, 24), (5.0, 24)] {
+            let (mut pop, spec) = population(sd_deg);
+            pop.alpha = 20.0;
+            let mut evidence = people(&pop, people_n, 30, Some(5.0), 11);
+            for e in &mut evidence {
+                e.alpha = pop.alpha;
+            }
+            let fit = fit_population(&evidence, PopulationSettings { seed: 1 }).unwrap();
+            let (mut means, mut spreads) = (0, 0);
+            for (c, truth) in fit.components.iter().zip(&spec.q_star_deg) {
+                let (m, sd) = (c.mean.to_degrees(), c.sd.to_degrees());
+                eprintln!(
+                    "sd {sd_deg}° n {people_n} joint {}: mean {m:.1} [{:.1}, {:.1}] (truth {}), sd {sd:.1} [{:.1}, {:.1}]",
+                    c.joint,
+                    c.mean_low.to_degrees(),
+                    c.mean_high.to_degrees(),
+                    truth.mean,
+                    c.sd_low.to_degrees(),
+                    c.sd_high.to_degrees()
+                );
+                if sd_deg > 10.0 {
+                    // A component without an interval (its spread not determined) is not
+                    // counted as recovered.
+                    means += usize::from((c.mean_low..=c.mean_high).contains(&truth.mean.to_radians()));
+                    spreads += usize::from((c.sd_low..=c.sd_high).contains(&truth.sd.to_radians()));
+                } else {
+                    means += usize::from((m - truth.mean).abs() < 8.0);
+                    spreads += usize::from(sd < 10.0);
+                }
+            }
+            assert!(means >= 6 && spreads >= 5, "sd {sd_deg}°: {means} means and {spreads} spreads of 7 recovered");
+        }
+    }
+
+    /// How many participants a population fit takes: errors of the fitted means, the fitted
+    /// spreads and the means' interval coverage over studies, by size, α and spread
+    /// (measured arms, σ = 5°, and regions; 26 random training handovers each, as a default
+    /// session has). Minutes in a release build:
+    /// `cargo test --release --lib population_recovery_by_size -- --ignored --nocapture`.
+    #[test]
+    #[ignore]
+    fn population_recovery_by_size() {
+        println!(
+            "observation,alpha,sd_deg,participants,study,mean_abs_error_deg,median_fitted_sd_deg,means_with_interval,means_covered,identified"
+        );
+        for (observation, alpha, sd_deg, sizes) in [
+            ("measured", 5.0, 15.0, vec![12, 48]),
+            ("measured", 20.0, 15.0, vec![12, 48]),
+            ("measured", 5.0, 5.0, vec![12, 48]),
+            ("measured", 20.0, 5.0, vec![12, 48]),
+            ("region", 5.0, 15.0, vec![48]),
+        ] {
+            for n in sizes {
+                for study in 0..2u64 {
+                    let (mut pop, spec) = population(sd_deg);
+                    pop.alpha = alpha;
+                    let sigma = (observation == "measured").then_some(5.0);
+                    let mut evidence = people(&pop, n, 26, sigma, 7000 + study);
+                    for e in &mut evidence {
+                        e.alpha = alpha;
+                    }
+                    let fit = fit_population(&evidence, PopulationSettings { seed: study }).unwrap();
+                    let errors: Vec<f64> = fit
+                        .components
+                        .iter()
+                        .zip(&spec.q_star_deg)
+                        .map(|(c, t)| (c.mean.to_degrees() - t.mean).abs())
+                        .collect();
+                    let sds: Vec<f64> = fit.components.iter().map(|c| c.sd.to_degrees()).collect();
+                    let with_interval = fit.components.iter().filter(|c| c.mean_low.is_finite()).count();
+                    let covered = fit
+                        .components
+                        .iter()
+                        .zip(&spec.q_star_deg)
+                        .filter(|(c, t)| (c.mean_low..=c.mean_high).contains(&t.mean.to_radians()))
+                        .count();
+                    println!(
+                        "{observation},{alpha},{sd_deg},{n},{study},{:.1},{:.1},{with_interval},{covered},{}",
+                        crate::stats::mean(&errors),
+                        crate::stats::median(&sds),
+                        fit.identified
+                    );
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,153 @@
+//! `analyze --fit-population`: the population of preferences fitted from the sessions
+//! (`analysis::fit_population`), as a table, JSON, population.json (a protocol's
+//! `population` section, for `plan --population` and `dry-run --population`) and
+//! population.csv.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use clap::Args;
+use handover::analysis::{Analysed, PopulationFit, PopulationSettings, fit_population};
+use serde::Serialize;
+
+#[derive(Debug, Args)]
+pub struct PopulationArgs {
+    /// Also fit the population the participants come from: each participant's λ drawn from
+    /// a normal per learned component truncated to the prior's support, fitted by maximum
+    /// marginal likelihood over every handover of every session (stochastic EM), with 95 %
+    /// intervals (docs/engine.md). With --out, writes population.json (a protocol's
+    /// `population` section: give it to `plan --population` or `dry-run --population`) and
+    /// population.csv.
+    #[arg(long)]
+    fit_population: bool,
+}
+
+/// One group's fit, as JSON and CSV carry it.
+#[derive(Debug, Serialize)]
+pub struct PopulationReport {
+    pub pilot: bool,
+    #[serde(flatten)]
+    pub fit: PopulationFit,
+}
+
+/// One row of population.csv: a learned component of λ in the units a protocol uses.
+#[derive(Default, Serialize)]
+struct Row<'a> {
+    part: &'a str,
+    joint: usize,
+    unit: &'static str,
+    mean: f64,
+    /// 95 % interval ends; empty where the data do not identify them.
+    mean_low: Option<f64>,
+    mean_high: Option<f64>,
+    sd: f64,
+    sd_low: Option<f64>,
+    sd_high: Option<f64>,
+    support_min: f64,
+    support_max: f64,
+    sd_at_floor: bool,
+    sessions: usize,
+}
+
+impl PopulationArgs {
+    /// The fit of each group (real, pilot) that has sessions.
+    pub fn run(&self, real: &[&Analysed], pilot: &[&Analysed]) -> Result<Vec<PopulationReport>> {
+        if !self.fit_population {
+            return Ok(Vec::new());
+        }
+        let mut out = Vec::new();
+        for (is_pilot, group) in [(false, real), (true, pilot)] {
+            let kind = if is_pilot { "pilot" } else { "real" };
+            if group.len() < 2 {
+                if !group.is_empty() {
+                    errln!("--fit-population: one {kind} session; a population is fitted from two or more");
+                }
+                continue;
+            }
+            let evidence: Vec<_> = group.iter().map(|a| a.analysis.person.clone()).collect();
+            errln!("fitting the population of the {} {kind} sessions …", group.len());
+            let fit = fit_population(&evidence, PopulationSettings::default())
+                .with_context(|| format!("cannot fit the population of the {kind} sessions"))?;
+            out.push(PopulationReport { pilot: is_pilot, fit });
+        }
+        Ok(out)
+    }
+}
+
+/// population.json (the section) and population.csv of one group, in `dir`.
+pub fn write(dir: &Path, report: &PopulationReport, group: &[&Analysed]) -> Result<()> {
+    let Some(first) = group.first() else { return Ok(()) };
+    let spec = report.fit.spec(&first.analysis.person.prior);
+    let text = serde_json::to_string_pretty(&spec)? + "\n";
+    handover::private_files::write_output(&dir.join("population.json"), text.as_bytes())?;
+    let rows: Vec<Row> = report
+        .fit
+        .components
+        .iter()
+        .map(|c| {
+            let (unit, scale) =
+                if c.part == "q_star" { ("deg", 180.0 / std::f64::consts::PI) } else { ("weight", 1.0) };
+            let end = |v: f64| v.is_finite().then_some(v * scale);
+            Row {
+                part: c.part,
+                joint: c.joint + 1,
+                unit,
+                mean: c.mean * scale,
+                mean_low: end(c.mean_low),
+                mean_high: end(c.mean_high),
+                sd: c.sd * scale,
+                sd_low: end(c.sd_low),
+                sd_high: end(c.sd_high),
+                support_min: c.min * scale,
+                support_max: c.max * scale,
+                sd_at_floor: c.sd_at_floor,
+                sessions: report.fit.sessions,
+            }
+        })
+        .collect();
+    handover::private_files::write_csv(&dir.join("population.csv"), rows)?;
+    Ok(())
+}
+
+/// The fit as the table `analyze` prints.
+pub fn table(report: &PopulationReport) -> String {
+    let f = &report.fit;
+    let kind = if report.pilot { "pilot" } else { "real" };
+    let mut s = format!(
+        "\nPOPULATION — fitted from {} {kind} sessions ({} handovers; the people's α = {} as the protocol assumed)\n",
+        f.sessions, f.handovers, f.alpha
+    );
+    let _ = writeln!(s, "{:<8} {:>24} {:>24} {:>18}", "", "mean [95 % CI]", "sd [95 % CI]", "support");
+    for c in &f.components {
+        let (name, scale, unit) = if c.part == "q_star" {
+            (format!("q*{}", c.joint + 1), 180.0 / std::f64::consts::PI, "°")
+        } else {
+            (format!("w{}", c.joint + 1), 1.0, "")
+        };
+        let cell = |v: f64, lo: f64, hi: f64| {
+            if lo.is_finite() && hi.is_finite() {
+                format!("{:.1}{unit} [{:.1}, {:.1}]", v * scale, lo * scale, hi * scale)
+            } else {
+                format!("{:.1}{unit} [—]", v * scale)
+            }
+        };
+        let _ = writeln!(
+            s,
+            "{name:<8} {:>24} {:>24} {:>18}{}",
+            cell(c.mean, c.mean_low, c.mean_high),
+            cell(c.sd, c.sd_low, c.sd_high),
+            format!("[{:.0}, {:.0}]", c.min * scale, c.max * scale),
+            if c.sd_at_floor { "  sd at the floor: not told from a narrower population" } else { "" }
+        );
+    }
+    let _ = writeln!(
+        s,
+        "stochastic EM, {} iterations; random-walk acceptance per participant: min {:.2}, median {:.2}{}",
+        f.iterations,
+        f.min_acceptance,
+        f.median_acceptance,
+        if f.identified { "" } else { "; the data do not identify the population: no intervals" }
+    );
+    s
+}
