@@ -16,7 +16,9 @@ use handover::robot::Robot;
 use handover::session::{Session, program_letter};
 use handover::study_dir::ParticipantLock;
 
-use super::input::{HandArg, LogFolders, Pace, bad, body_height, count, load_protocol, parse_json, read_text};
+use super::input::{
+    HandArg, LogFolders, Pace, PopulationArg, bad, body_height, count, load_protocol, parse_json, read_text,
+};
 use super::live::LiveArgs;
 use super::robot::RobotArgs;
 
@@ -59,10 +61,11 @@ pub struct DryRunArgs {
     /// A ground truth for every participant: {"q_star_deg": [7 angles], "w": [7 weights]}.
     #[arg(long, value_name = "FILE", conflicts_with = "population")]
     truth: Option<PathBuf>,
-    /// Whom participants' λ are drawn from: the protocol's `population` section (or its
-    /// default), or the robot's own prior (as the paper's simulations and the dry runs before
-    /// the population section drew them).
-    #[arg(long, value_enum, default_value = "protocol")]
+    /// Whom participants' λ are drawn from: `protocol` (its `population` section, or its
+    /// default), `prior` (the robot's own prior, as the paper's simulations drew them), or a
+    /// population file (a protocol's `population` section, as `analyze --fit-population`
+    /// writes it).
+    #[arg(long, default_value = "protocol")]
     population: PopulationArg,
     #[command(flatten)]
     pace: Pace,
@@ -77,13 +80,6 @@ pub struct DryRunArgs {
     robot: RobotArgs,
     #[command(flatten)]
     live: LiveArgs,
-}
-
-/// Where simulated participants' λ come from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-enum PopulationArg {
-    Protocol,
-    Prior,
 }
 
 fn load_truth(path: &std::path::Path) -> Result<Lambda> {
@@ -105,6 +101,7 @@ fn load_truth(path: &std::path::Path) -> Result<Lambda> {
 
 pub fn run(args: DryRunArgs) -> Result<()> {
     let (text, study) = load_protocol(args.protocol.as_deref())?;
+    let (text, study) = args.population.apply(text, study)?;
     let study = Arc::new(study);
     let truth = args.truth.as_deref().map(load_truth).transpose()?;
     if !(0.0..=1.0).contains(&args.left_handed_share) {
@@ -120,7 +117,11 @@ pub fn run(args: DryRunArgs) -> Result<()> {
         for_body(&text, &study.source_name, handover::protocol::Body { height_m: Some(h), hand })
             .map_err(|e| bad(e.to_string()))?;
     }
-    let versus = args.versus.as_deref().map(|p| load_protocol(Some(p))).transpose()?;
+    let versus = args
+        .versus
+        .as_deref()
+        .map(|p| load_protocol(Some(p)).and_then(|(text, study)| args.population.apply(text, study)))
+        .transpose()?;
     let dirs = args.folders.resolve();
     let protocols = 1 + u64::from(versus.is_some());
     let bar = if args.seeds > 1 || versus.is_some() {
@@ -198,7 +199,7 @@ fn run_seeds(
                 .map_err(|e| bad(format!("simulated participant {} of seed {seed}: {e}", i + 1)))?;
             let fitted = Arc::new(fitted);
             let people = match args.population {
-                PopulationArg::Protocol => fitted.population(),
+                PopulationArg::Protocol | PopulationArg::File(_) => fitted.population(),
                 PopulationArg::Prior => fitted.prior_population(),
             };
             let started = now.to_rfc3339_opts(chrono::SecondsFormat::Millis, true);

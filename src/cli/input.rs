@@ -55,6 +55,53 @@ pub fn load_protocol(path: Option<&Path>) -> anyhow::Result<(String, handover::p
     Ok((text, study))
 }
 
+/// Whom simulated participants' λ are drawn from (`--population`): `protocol` (its
+/// `population` section, or its default), `prior` (the robot's own prior), or a population
+/// file (a protocol's `population` section, as `analyze --fit-population` writes it).
+#[derive(Debug, Clone, PartialEq)]
+pub enum PopulationArg {
+    Protocol,
+    Prior,
+    File(std::path::PathBuf),
+}
+
+impl std::str::FromStr for PopulationArg {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "protocol" => Ok(Self::Protocol),
+            "prior" => Ok(Self::Prior),
+            "" => Err("expected protocol, prior or a population file".to_string()),
+            path => Ok(Self::File(std::path::PathBuf::from(path))),
+        }
+    }
+}
+
+impl PopulationArg {
+    /// The protocol with a population file's section in place of its own, checked as the
+    /// protocol's own section is (the text changes with it: logs embed the population their
+    /// participants came from); the protocol as it was otherwise.
+    pub fn apply(
+        &self,
+        text: String,
+        study: handover::protocol::Study,
+    ) -> anyhow::Result<(String, handover::protocol::Study)> {
+        let Self::File(path) = self else { return Ok((text, study)) };
+        let name = path.display().to_string();
+        let spec: handover::protocol::PopulationSpec = parse_json(&read_text(path)?, &name)?;
+        let mut v: serde_json::Value = serde_json::from_str(&text)?;
+        v["population"] = serde_json::to_value(&spec)?;
+        let text = serde_json::to_string_pretty(&v)? + "\n";
+        let study = handover::protocol::Study::from_json(
+            &text,
+            &format!("{} with the population of {name}", study.source_name),
+        )
+        .map_err(|e| bad(e.to_string()))?;
+        Ok((text, study))
+    }
+}
+
 /// A hand on the command line: `left` or `right`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum HandArg {

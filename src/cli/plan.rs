@@ -21,7 +21,7 @@ use handover::session::Session;
 use handover::study_dir::ParticipantLock;
 use rayon::prelude::*;
 
-use super::input::{bad, count, load_protocol};
+use super::input::{PopulationArg, bad, count, load_protocol};
 use super::simulate::write_csv;
 
 /// Simulated sessions a plan may run (studies × the largest size): the work budget.
@@ -77,6 +77,11 @@ pub struct PlanArgs {
     /// --shard) into exactly what the whole run writes to --out, without running anything.
     #[arg(long, value_name = "DIR", num_args = 1.., conflicts_with = "shard")]
     merge: Vec<PathBuf>,
+    /// Whom the simulated participants' λ are drawn from: `protocol` (its `population`
+    /// section, or its default) or a population file (a protocol's `population` section, as
+    /// `analyze --fit-population` writes it from a pilot).
+    #[arg(long, default_value = "protocol")]
+    population: PopulationArg,
     #[command(flatten)]
     figures: FigureArgs,
 }
@@ -112,6 +117,12 @@ fn check(a: &PlanArgs) -> Result<usize> {
 pub fn run(args: PlanArgs) -> Result<()> {
     let largest = check(&args)?;
     let (text, study) = load_protocol(args.protocol.as_deref())?;
+    if args.population == PopulationArg::Prior {
+        return Err(bad(
+            "--population prior: a plan draws its participants from a population (the protocol's or a file's), not the robot's prior",
+        ));
+    }
+    let (text, study) = args.population.apply(text, study)?;
     let (pool, threads) = super::progress::worker_pool(args.threads)?;
     let fingerprint =
         format!("plan protocol {} sizes {:?} studies {} seed {}", study.sha256, args.sizes, args.studies, args.seed);
@@ -294,7 +305,11 @@ fn print_table(
     events: usize,
     timing: &str,
 ) -> Result<()> {
-    let population = if study.protocol.population.is_some() { "the protocol's" } else { "the default" };
+    let population = match (&args.population, study.protocol.population.is_some()) {
+        (PopulationArg::File(path), _) => format!("{}'s", path.display()),
+        (_, true) => "the protocol's".to_string(),
+        _ => "the default".to_string(),
+    };
     outln!(
         "plan: {} studies per size, seed {}, {population} population (simulated people's α = {}), {} particles ({})",
         args.studies,

@@ -465,3 +465,56 @@ fn a_single_sessions_alpha_plot_says_this_session() {
     assert!(fig10.contains("over 1 pilot (simulated) session") && !fig10.contains("Fig. 10:"), "data in the legend");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_population_fitted_from_pilots_plans_the_next_study() {
+    let dir = logs("population", 6);
+    let out = dir.join("out");
+    let (code, stdout, stderr) = handover(&[
+        "analyze",
+        dir.to_str().unwrap(),
+        "--fit-population",
+        "--alpha-particles",
+        "200",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("POPULATION — fitted from 6 pilot sessions"), "{stdout}");
+    // One real session: no population of its own, said so.
+    assert!(stderr.contains("one real session; a population is fitted from two or more"), "{stderr}");
+    let file = out.join("pilot/population.json");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        assert_eq!(std::fs::metadata(&file).unwrap().permissions().mode() & 0o777, 0o600);
+    }
+    let section: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    assert_eq!(section["q_star_deg"].as_array().map(Vec::len), Some(7), "{section}");
+    let csv = std::fs::read_to_string(out.join("pilot/population.csv")).unwrap();
+    assert!(csv.starts_with("part,joint,unit,mean,mean_low,mean_high,sd,sd_low,sd_high,"), "{csv}");
+    // The fitted population plans the next study.
+    let protocol = dir.join("small.json");
+    std::fs::write(&protocol, small_protocol_text()).unwrap();
+    let (code, stdout, stderr) = handover(&[
+        "plan",
+        "--protocol",
+        protocol.to_str().unwrap(),
+        "--population",
+        file.to_str().unwrap(),
+        "--sizes",
+        "2",
+        "--studies",
+        "1",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("population.json's population"), "{stdout}");
+    // A population file that does not fit the protocol is refused, naming the field.
+    let bad = dir.join("bad-population.json");
+    std::fs::write(&bad, r#"{"q_star_deg": [{"mean": 0, "sd": 1}], "w": []}"#).unwrap();
+    let (code, _, stderr) =
+        handover(&["dry-run", "--protocol", protocol.to_str().unwrap(), "--population", bad.to_str().unwrap()]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("population.q_star_deg: has 1 entries, expected 7"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
