@@ -29,7 +29,8 @@ pub use measured::{
     refit,
 };
 pub use population::{
-    AVERAGED, BURN_IN, ComponentFit, PersonEvidence, PopulationError, PopulationFit, PopulationSettings, fit_population,
+    AVERAGED, BURN_IN, ComponentFit, PersonEstimate, PersonEvidence, PopulationError, PopulationFit,
+    PopulationSettings, fit_population,
 };
 pub use rows::{NoteRow, RobotRow, RobotTimings, TrialRow, TrialStatus, rfc3339_ms, robot_timings, trial_columns};
 pub use seeds::{

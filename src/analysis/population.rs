@@ -42,6 +42,9 @@ const TARGET_ACCEPTANCE: f64 = 0.3;
 /// The smallest spread fitted, as a share of the support's width (a population of exact
 /// copies is not something finite data can tell from a narrow one).
 const MIN_SD_SHARE: f64 = 0.002;
+/// A spread this many times the support's width is flat on it (density ratios within
+/// 1 − 10⁻⁸): the population that stands for a uniform prior.
+const FLAT_SD: f64 = 1e4;
 /// z of a two-sided 95 % normal interval.
 const Z95: f64 = 1.959_963_984_540_054;
 
@@ -121,6 +124,19 @@ pub struct PopulationFit {
     pub median_acceptance: f64,
     /// The α the sessions' protocols assumed (the population's people are given it).
     pub alpha: f64,
+    /// Each session's participant, in the order given.
+    pub people: Vec<PersonEstimate>,
+}
+
+/// One participant's λ (learned components, in the order of [`PopulationFit::components`];
+/// radians for q*): the posterior mean and sd under the fitted population (partial pooling:
+/// the population as the prior) and under the protocol's prior (the session alone).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PersonEstimate {
+    pub pooled_mean: Vec<f64>,
+    pub pooled_sd: Vec<f64>,
+    pub session_mean: Vec<f64>,
+    pub session_sd: Vec<f64>,
 }
 
 impl PopulationFit {
@@ -236,8 +252,8 @@ impl<'a> Chain<'a> {
         };
         // Independence: y ~ g_θ; the population's density cancels, L(y)/L(x) remains.
         let mut y = self.lambda.clone();
-        for ((&i, &(m, sd)), s) in free.iter().zip(theta).zip(supports) {
-            y[i] = truncated_normal(m, sd, (s.min, s.max), &mut self.rng);
+        for ((&i, &(m, sd)), &s) in free.iter().zip(theta).zip(supports) {
+            y[i] = draw(m, sd, s, &mut self.rng);
         }
         let ly = self.log_likelihood(&y);
         if accept(ly - self.ll, &mut self.rng) {
@@ -251,7 +267,7 @@ impl<'a> Chain<'a> {
             let mut log_prior_ratio = 0.0;
             for ((&i, &(m, sd)), s) in free.iter().zip(theta).zip(supports) {
                 let z: f64 = StandardNormal.sample(&mut self.rng);
-                y[i] = self.lambda[i] + scale * sd * z;
+                y[i] = self.lambda[i] + scale * sd.min(s.width()) * z;
                 inside &= (s.min..=s.max).contains(&y[i]);
                 log_prior_ratio += ((self.lambda[i] - m) / sd).powi(2) / 2.0 - ((y[i] - m) / sd).powi(2) / 2.0;
             }
@@ -272,6 +288,16 @@ impl<'a> Chain<'a> {
             record(&self.lambda, &mut stats);
         }
         stats
+    }
+}
+
+/// A draw of component N(m, sd²) truncated to its support: uniform on the support when the
+/// spread is so wide that the normal is flat there (a uniform prior as a population).
+fn draw(m: f64, sd: f64, s: Support, rng: &mut SeededRng) -> f64 {
+    if sd >= FLAT_SD * s.width() {
+        s.min + s.width() * rng.random::<f64>()
+    } else {
+        truncated_normal(m, sd, (s.min, s.max), rng)
     }
 }
 
@@ -331,7 +357,18 @@ pub fn fit_population(
     }
     let mut acceptance: Vec<f64> = chains.iter().map(|c| c.accepted as f64 / c.walks.max(1) as f64).collect();
     acceptance.sort_by(f64::total_cmp);
-    let covariance = covariance_at(&mut chains, &free, &supports, &theta, &sums, n);
+    let (covariance, pooled) = covariance_at(&mut chains, &free, &supports, &theta, &sums, n);
+    let session = session_posteriors(evidence, prior, &free, &supports, settings.seed)?;
+    let people = pooled
+        .into_iter()
+        .zip(session)
+        .map(|(pooled, session)| PersonEstimate {
+            pooled_mean: pooled.iter().map(|p| p.0).collect(),
+            pooled_sd: pooled.iter().map(|p| p.1).collect(),
+            session_mean: session.iter().map(|p| p.0).collect(),
+            session_sd: session.iter().map(|p| p.1).collect(),
+        })
+        .collect();
     let dim = prior.dim();
     let components: Vec<ComponentFit> = free
         .iter()
@@ -367,13 +404,67 @@ pub fn fit_population(
         min_acceptance: acceptance[0],
         median_acceptance: crate::stats::median(&acceptance),
         alpha: evidence[0].alpha,
+        people,
     })
+}
+
+/// Per learned component (E x, E x²) of a participant's chain.
+type Moments = Vec<(f64, f64)>;
+
+/// (mean, sd) from (E x, E x²).
+fn mean_sd(moments: Moments) -> Vec<(f64, f64)> {
+    moments.into_iter().map(|(a, b)| (a, (b - a * a).max(0.0).sqrt())).collect()
+}
+
+/// Each participant's posterior mean and sd per learned component under the prior alone,
+/// from every handover of their session: the per-session estimate the pooled one is set
+/// beside. The same chains, with the prior as the population (a uniform component as a flat
+/// normal, a Gaussian one as itself), [`BURN_IN`] adapting iterations and [`INFORMATION`]
+/// recorded ones.
+fn session_posteriors(
+    evidence: &[PersonEvidence],
+    prior: &Prior,
+    free: &[usize],
+    supports: &[Support],
+    seed: u64,
+) -> Result<Vec<Vec<(f64, f64)>>, PopulationError> {
+    let theta: Theta = free
+        .iter()
+        .zip(supports)
+        .map(|(&i, s)| match prior.components()[i] {
+            crate::belief::ComponentPrior::Gaussian { mean, sd, .. } => (mean, sd),
+            _ => ((s.min + s.max) / 2.0, FLAT_SD * s.width()),
+        })
+        .collect();
+    let mut chains: Vec<Chain> = evidence
+        .iter()
+        .enumerate()
+        .map(|(index, e)| Chain::new(e, free, &theta, derive_seed(seed, 1, PURPOSE_CHAIN), index))
+        .collect::<Result<_, _>>()?;
+    Ok(chains
+        .par_iter_mut()
+        .map(|c| {
+            for t in 0..BURN_IN {
+                c.step(free, supports, &theta, Some(t));
+            }
+            let mut moments = vec![(0.0, 0.0); free.len()];
+            for _ in 0..INFORMATION {
+                for (m, s) in moments.iter_mut().zip(c.step(free, supports, &theta, None)) {
+                    m.0 += s.0 / INFORMATION as f64;
+                    m.1 += s.1 / INFORMATION as f64;
+                }
+            }
+            mean_sd(moments)
+        })
+        .collect())
 }
 
 /// The covariance of (μ_j, ln σ_j) at the fit: the inverse of the observed information by
 /// Louis' principle, −∇²Q(θ) − Σ_s Cov_s[∇ ln g_θ(λ_s)], with each participant's posterior
 /// covariance of the score from [`INFORMATION`] further iterations of its chain. NaN for a
-/// parameter on the edge of its range and for one the data do not identify.
+/// parameter on the edge of its range and for one the data do not identify. Also each
+/// participant's posterior mean and sd per component under the fitted population (the
+/// partially pooled estimate), from the same iterations.
 fn covariance_at(
     chains: &mut [Chain],
     free: &[usize],
@@ -381,7 +472,7 @@ fn covariance_at(
     theta: &Theta,
     sums: &[(f64, f64)],
     n: f64,
-) -> DMatrix<f64> {
+) -> (DMatrix<f64>, Vec<Vec<(f64, f64)>>) {
     let f = free.len();
     let p = 2 * f;
     // The score of ln g_θ(λ) in (μ_j, ln σ_j): ((x − μ)/σ², (x − μ)²/σ²) up to constants
@@ -395,21 +486,26 @@ fn covariance_at(
             })
             .collect()
     };
-    let covariances: Vec<DMatrix<f64>> = chains
+    let (covariances, moments): (Vec<DMatrix<f64>>, Vec<Moments>) = chains
         .par_iter_mut()
         .map(|c| {
             let (mut mean, mut outer) = (DVector::zeros(p), DMatrix::zeros(p, p));
+            let mut moments = vec![(0.0, 0.0); f];
             for _ in 0..INFORMATION {
-                c.step(free, supports, theta, None);
+                for (m, s) in moments.iter_mut().zip(c.step(free, supports, theta, None)) {
+                    m.0 += s.0 / INFORMATION as f64;
+                    m.1 += s.1 / INFORMATION as f64;
+                }
                 let v = DVector::from_vec(score(c));
                 outer += &v * v.transpose();
                 mean += v;
             }
             let k = INFORMATION as f64;
             let mean = mean / k;
-            outer / k - &mean * mean.transpose()
+            (outer / k - &mean * mean.transpose(), moments)
         })
-        .collect();
+        .unzip();
+    let people = moments.into_iter().map(mean_sd).collect();
     let mut information = DMatrix::zeros(p, p);
     for (j, (&(m, sd), &s)) in theta.iter().zip(supports).enumerate() {
         let (a, b) = sums[j];
@@ -450,10 +546,10 @@ fn covariance_at(
                     covariance[(ka, kb)] = inverse[(a, b)];
                 }
             }
-            return covariance;
+            return (covariance, people);
         }
         if kept.len() <= 1 {
-            return DMatrix::from_element(p, p, f64::NAN);
+            return (DMatrix::from_element(p, p, f64::NAN), people);
         }
         let worst = (0..kept.len())
             .min_by(|&a, &b| {
@@ -699,6 +795,22 @@ mod tests {
         assert!((c.sd.ln() - t).abs() < 0.25 * se_t + 0.025, "σ: fit {} vs {}", c.sd, t.exp());
         assert!((fit_se_m / se_m - 1.0).abs() < 0.25, "se(μ): fit {fit_se_m} vs {se_m}");
         assert!((fit_se_t / se_t - 1.0).abs() < 0.25, "se(ln σ): fit {fit_se_t} vs {se_t}");
+        // Each participant's posterior mean alone (uniform prior) and pooled (the fitted
+        // population as prior), against quadrature, within a fifth of the posterior's sd.
+        let moments = |l: &[f64], g: &dyn Fn(f64) -> f64| -> (f64, f64) {
+            let w: Vec<f64> = l.iter().zip(&grid).map(|(l, &x)| l * g(x)).collect();
+            let z: f64 = w.iter().sum();
+            let m = w.iter().zip(&grid).map(|(w, x)| w * x).sum::<f64>() / z;
+            (m, (w.iter().zip(&grid).map(|(w, x)| w * (x - m).powi(2)).sum::<f64>() / z).sqrt())
+        };
+        for (person, l) in fit.people.iter().zip(&likelihoods).take(5) {
+            let (m, sd) = moments(l, &|_| 1.0);
+            assert!((person.session_mean[0] - m).abs() < 0.2 * sd, "alone: {} vs {m} ± {sd}", person.session_mean[0]);
+            assert!((person.session_sd[0] / sd - 1.0).abs() < 0.2, "alone sd: {} vs {sd}", person.session_sd[0]);
+            let (m, sd) = moments(l, &|x| log_truncated_normal(x, c.mean, c.sd, -1.0, 3.0).exp());
+            assert!((person.pooled_mean[0] - m).abs() < 0.2 * sd, "pooled: {} vs {m} ± {sd}", person.pooled_mean[0]);
+            assert!((person.pooled_sd[0] / sd - 1.0).abs() < 0.2, "pooled sd: {} vs {sd}", person.pooled_sd[0]);
+        }
     }
 
     #[test]

@@ -9,6 +9,7 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use clap::Args;
 use handover::analysis::{Analysed, PopulationFit, PopulationSettings, fit_population};
+use handover::stats::Paired;
 use serde::Serialize;
 
 #[derive(Debug, Args)]
@@ -16,9 +17,10 @@ pub struct PopulationArgs {
     /// Also fit the population the participants come from: each participant's λ drawn from
     /// a normal per learned component truncated to the prior's support, fitted by maximum
     /// marginal likelihood over every handover of every session (stochastic EM), with 95 %
-    /// intervals (docs/engine.md). With --out, writes population.json (a protocol's
-    /// `population` section: give it to `plan --population` or `dry-run --population`) and
-    /// population.csv.
+    /// intervals (docs/engine.md), and each participant's estimate under it (partial
+    /// pooling) beside their session's own. With --out, writes population.json (a protocol's
+    /// `population` section: give it to `plan --population` or `dry-run --population`),
+    /// population.csv and pooled.csv.
     #[arg(long)]
     fit_population: bool,
 }
@@ -29,6 +31,58 @@ pub struct PopulationReport {
     pub pilot: bool,
     #[serde(flatten)]
     pub fit: PopulationFit,
+    /// Sessions with a known truth (dry runs): the distance of q* to the truth, the pooled
+    /// estimate's minus the session's own, per participant.
+    pub pooling: Option<Paired>,
+}
+
+/// One row of pooled.csv: a participant's learned component, alone and pooled.
+#[derive(Default, Serialize)]
+struct PersonRow<'a> {
+    participant: &'a str,
+    session_id: &'a str,
+    part: &'a str,
+    joint: usize,
+    unit: &'static str,
+    session_mean: f64,
+    session_sd: f64,
+    pooled_mean: f64,
+    pooled_sd: f64,
+    /// The simulated participant's true value (dry runs).
+    truth: Option<f64>,
+}
+
+/// The scale from radians (q*) or weights to the unit a protocol uses.
+fn unit_of(part: &str) -> (&'static str, f64) {
+    if part == "q_star" { ("deg", 180.0 / std::f64::consts::PI) } else { ("weight", 1.0) }
+}
+
+/// A participant's true value of a learned component, when the log records one.
+fn truth_of(a: &Analysed, part: &str, joint: usize) -> Option<f64> {
+    let t = a.analysis.start.simulated_truth.as_ref()?;
+    if part == "q_star" { t.q_star.get(joint).copied() } else { t.w.get(joint).copied() }
+}
+
+/// The distance (degrees) of the learned q* to the truth, pooled minus the session's own,
+/// over the sessions with a known truth.
+fn pooling(fit: &PopulationFit, group: &[&Analysed]) -> Option<Paired> {
+    let q: Vec<(usize, usize)> =
+        fit.components.iter().enumerate().filter(|(_, c)| c.part == "q_star").map(|(j, c)| (j, c.joint)).collect();
+    let differences: Vec<f64> = group
+        .iter()
+        .zip(&fit.people)
+        .filter_map(|(a, p)| {
+            let truth: Vec<f64> = q.iter().map(|&(_, joint)| truth_of(a, "q_star", joint)).collect::<Option<_>>()?;
+            let distance = |est: &[f64]| {
+                q.iter().zip(&truth).map(|(&(j, _), t)| (est[j] - t).powi(2)).sum::<f64>().sqrt().to_degrees()
+            };
+            Some(distance(&p.pooled_mean) - distance(&p.session_mean))
+        })
+        .collect();
+    if q.is_empty() {
+        return None;
+    }
+    Paired::over_groups("distance_to_truth_deg", 0, "pooled", "session", &[differences])
 }
 
 /// One row of population.csv: a learned component of λ in the units a protocol uses.
@@ -69,7 +123,8 @@ impl PopulationArgs {
             errln!("fitting the population of the {} {kind} sessions …", group.len());
             let fit = fit_population(&evidence, PopulationSettings::default())
                 .with_context(|| format!("cannot fit the population of the {kind} sessions"))?;
-            out.push(PopulationReport { pilot: is_pilot, fit });
+            let pooling = pooling(&fit, group);
+            out.push(PopulationReport { pilot: is_pilot, fit, pooling });
         }
         Ok(out)
     }
@@ -107,6 +162,25 @@ pub fn write(dir: &Path, report: &PopulationReport, group: &[&Analysed]) -> Resu
         })
         .collect();
     handover::private_files::write_csv(&dir.join("population.csv"), rows)?;
+    let mut people = Vec::new();
+    for (a, p) in group.iter().zip(&report.fit.people) {
+        for (j, c) in report.fit.components.iter().enumerate() {
+            let (unit, scale) = unit_of(c.part);
+            people.push(PersonRow {
+                participant: &a.analysis.start.participant,
+                session_id: &a.analysis.start.session_id,
+                part: c.part,
+                joint: c.joint + 1,
+                unit,
+                session_mean: p.session_mean[j] * scale,
+                session_sd: p.session_sd[j] * scale,
+                pooled_mean: p.pooled_mean[j] * scale,
+                pooled_sd: p.pooled_sd[j] * scale,
+                truth: truth_of(a, c.part, c.joint).map(|t| t * scale),
+            });
+        }
+    }
+    handover::private_files::write_csv(&dir.join("pooled.csv"), people)?;
     Ok(())
 }
 
@@ -149,5 +223,24 @@ pub fn table(report: &PopulationReport) -> String {
         f.median_acceptance,
         if f.identified { "" } else { "; the data do not identify the population: no intervals" }
     );
+    if let Some(p) = &report.pooling {
+        let _ = writeln!(
+            s,
+            "partial pooling, {} participants with a known truth: distance of q* to the truth, pooled − session alone: {:+.1}° [{:+.1}, {:+.1}], median {:+.1}°, pooled farther for {:.0} %{}",
+            p.n,
+            p.mean_difference,
+            p.ci_low,
+            p.ci_high,
+            p.median_difference,
+            100.0 * p.share_first_higher,
+            p.p_value.map_or(String::new(), |v| format!(" (Wilcoxon p = {v:.3})"))
+        );
+    }
+    if !f.identified {
+        let _ = writeln!(
+            s,
+            "the pooled estimates assume the fitted spreads: where a spread is not determined they treat people as more alike than the data show (their sds too small); use the session's own"
+        );
+    }
     s
 }

@@ -493,6 +493,17 @@ fn a_population_fitted_from_pilots_plans_the_next_study() {
     assert_eq!(section["q_star_deg"].as_array().map(Vec::len), Some(7), "{section}");
     let csv = std::fs::read_to_string(out.join("pilot/population.csv")).unwrap();
     assert!(csv.starts_with("part,joint,unit,mean,mean_low,mean_high,sd,sd_low,sd_high,"), "{csv}");
+    // Each pilot alone and pooled, beside their true values.
+    let pooled = std::fs::read_to_string(out.join("pilot/pooled.csv")).unwrap();
+    assert!(
+        pooled.starts_with(
+            "participant,session_id,part,joint,unit,session_mean,session_sd,pooled_mean,pooled_sd,truth\n"
+        ),
+        "{pooled}"
+    );
+    assert_eq!(pooled.lines().count() - 1, 6 * (csv.lines().count() - 1), "one row per pilot and learned component");
+    assert!(pooled.lines().skip(1).all(|l| !l.ends_with(',')), "every pilot's truth is given: {pooled}");
+    assert!(stdout.contains("partial pooling, 6 participants with a known truth"), "{stdout}");
     // The fitted population plans the next study.
     let protocol = dir.join("small.json");
     std::fs::write(&protocol, small_protocol_text()).unwrap();
