@@ -17,7 +17,7 @@ use serde::Serialize;
 
 use rand::SeedableRng;
 
-use crate::belief::{Belief, BeliefError, PARTICLE_CHUNK, Prior};
+use crate::belief::{Belief, BeliefError, PARTICLE_CHUNK};
 use std::ops::Range;
 
 use crate::ergo::numeric::{LANES, sum_lanes};
@@ -43,19 +43,8 @@ pub const MAX_EVIDENCE_PARTICLES: usize = 1_000_000;
 /// Seed purpose of the evidence's prior draws (derived from the session seed).
 const PURPOSE: u64 = 401;
 
-/// What a session says about α: the protocol's prior, the session's seed and every handle
-/// taken.
-#[derive(Clone, Debug)]
-pub struct AlphaEvidence {
-    pub prior: Prior,
-    pub seed: u64,
-    /// Each handover's feasible set and the index of the region taken.
-    pub choices: Vec<(FeasibleSet, usize)>,
-    /// The α the session's protocol assumed.
-    pub protocol_alpha: f64,
-}
-
-impl AlphaEvidence {
+/// What a session says about α: the regions taken in its handovers.
+impl super::SessionEvidence {
     /// log p(regions | α) under the prior at every α of [`alpha_grid`], integrated over
     /// `particles` prior draws (seeded from the session, so the same for any thread count).
     ///
@@ -69,13 +58,17 @@ impl AlphaEvidence {
         Ok(self.log_evidence_curve_over(&Belief::from_prior(&self.prior, particles, &mut rng)?))
     }
 
-    /// [`AlphaEvidence::log_evidence_curve`] over given particles.
+    /// [`SessionEvidence::log_evidence_curve`](super::SessionEvidence::log_evidence_curve) over given particles.
     pub(crate) fn log_evidence_curve_over(&self, prior: &Belief) -> Vec<f64> {
         let grid = alpha_grid();
         let k_max = grid.len();
         let (dim, s) = (prior.dim(), 2 * prior.dim());
-        let usable: Vec<&(FeasibleSet, usize)> =
-            self.choices.iter().filter(|(set, r)| set.dim() == dim && *r < set.regions().len()).collect();
+        let usable: Vec<(&FeasibleSet, usize)> = self
+            .handovers
+            .iter()
+            .filter(|h| h.set.dim() == dim && h.region < h.set.regions().len())
+            .map(|h| (&h.set, h.region))
+            .collect();
         let per_particle: Vec<Vec<f64>> = prior
             .particles()
             .par_chunks(PARTICLE_CHUNK * s)
@@ -336,23 +329,23 @@ pub fn alpha_summary(
     let mut out = Vec::with_capacity(sessions.len());
     let mut pooled = vec![0.0; alpha_grid().len()];
     for s in sessions {
-        let e = &s.alpha_evidence;
+        let e = &s.evidence;
         let curve = e.log_evidence_curve(particles)?;
         for (p, v) in pooled.iter_mut().zip(&curve) {
             *p += v;
         }
-        let fit = fit_alpha(&curve, e.choices.len());
+        let fit = fit_alpha(&curve, e.handovers.len());
         progress();
         out.push(SessionAlpha {
             participant: s.start.participant.clone(),
             session_id: s.start.session_id.clone(),
-            protocol_alpha: e.protocol_alpha,
-            protocol_alpha_supported: fit.as_ref().map(|f| f.supports(e.protocol_alpha)),
+            protocol_alpha: e.alpha,
+            protocol_alpha_supported: fit.as_ref().map(|f| f.supports(e.alpha)),
             fit,
         });
     }
-    let pooled = fit_alpha(&pooled, sessions.iter().map(|s| s.alpha_evidence.choices.len()).sum());
-    let mut alphas: Vec<f64> = sessions.iter().map(|s| s.alpha_evidence.protocol_alpha).collect();
+    let pooled = fit_alpha(&pooled, sessions.iter().map(|s| s.evidence.handovers.len()).sum());
+    let mut alphas: Vec<f64> = sessions.iter().map(|s| s.evidence.alpha).collect();
     alphas.sort_by(f64::total_cmp);
     alphas.dedup();
     let protocol_alphas = alphas.into_iter().map(|a| (a, pooled.as_ref().map(|f| f.supports(a)))).collect();
@@ -422,11 +415,18 @@ mod tests {
             .collect();
         let weights: Vec<f64> = (0..9).map(|i| 1.0 + i as f64).collect();
         let prior = Belief::from_particles(&lambdas, &weights).unwrap();
-        let choices = vec![(set.clone(), 0), (set.clone(), 1), (set.clone(), 1)];
-        let e = AlphaEvidence { prior: Prior::new(vec![], vec![]).unwrap(), seed: 1, choices, protocol_alpha: 5.0 };
-        let curve = e.log_evidence_curve_over(&prior);
         let regions: Vec<Observation> =
             (0..2).map(|r| Observation::Region(set.regions()[r].clone().collect())).collect();
+        let handovers = [0, 1, 1]
+            .map(|r| super::super::Handover { set: set.clone(), region: r, observation: regions[r].clone() })
+            .to_vec();
+        let e = super::super::SessionEvidence {
+            prior: crate::belief::Prior::new(vec![], vec![]).unwrap(),
+            alpha: 5.0,
+            seed: 1,
+            handovers,
+        };
+        let curve = e.log_evidence_curve_over(&prior);
         let observed: Vec<Observed> = vec![(&set, &regions[0]), (&set, &regions[1]), (&set, &regions[1])];
         for (a, v) in alpha_grid().iter().zip(&curve) {
             let direct = prior.log_evidence(&observed, *a).unwrap();

@@ -20,8 +20,8 @@ use crate::session::{Applied, BeliefSummary, Phase, Session, SessionStart};
 
 pub use crate::stats::{Wilcoxon, mean, median, quantile, standard_error, wilcoxon_signed_rank};
 pub use alpha::{
-    ALPHA_RANGE, AlphaEvidence, AlphaFit, AlphaSummary, EVIDENCE_PARTICLES, MAX_EVIDENCE_PARTICLES, SUPPORT_DROP,
-    SessionAlpha, alpha_grid, alpha_summary, fit_alpha,
+    ALPHA_RANGE, AlphaFit, AlphaSummary, EVIDENCE_PARTICLES, MAX_EVIDENCE_PARTICLES, SUPPORT_DROP, SessionAlpha,
+    alpha_grid, alpha_summary, fit_alpha,
 };
 pub use collect::{Analysed, Collected, WithdrawnLeftOut, collect};
 pub use measured::{
@@ -29,8 +29,7 @@ pub use measured::{
     refit,
 };
 pub use population::{
-    AVERAGED, BURN_IN, ComponentFit, PersonEstimate, PersonEvidence, PopulationError, PopulationFit,
-    PopulationSettings, fit_population,
+    AVERAGED, BURN_IN, ComponentFit, PersonEstimate, PopulationError, PopulationFit, PopulationSettings, fit_population,
 };
 pub use rows::{NoteRow, RobotRow, RobotTimings, TrialRow, TrialStatus, rfc3339_ms, robot_timings, trial_columns};
 pub use seeds::{
@@ -41,6 +40,36 @@ pub use summary::{CurvePoint, ItemTest, LikertSummary, StudySummary, distinct_q_
 pub use tables::write_tables;
 pub use verify::Difference;
 use verify::Verifier;
+
+/// What one session says about its participant: every handover (both training runs and the
+/// test phase), with the protocol's prior (radians) and the α it assumed. α's evidence uses
+/// the regions taken, the population's fit what the session learned from.
+#[derive(Clone, Debug)]
+pub struct SessionEvidence {
+    pub prior: crate::belief::Prior,
+    pub alpha: f64,
+    /// The session's seed (the draws of α's evidence and of the population's chains derive
+    /// from it).
+    pub seed: u64,
+    pub handovers: Vec<Handover>,
+}
+
+/// One handover: the feasible set offered, the index of the region taken, and the
+/// observation the session learned from (the region, the label model's configuration or the
+/// measured arm).
+#[derive(Clone, Debug)]
+pub struct Handover {
+    pub set: crate::ergo::FeasibleSet,
+    pub region: usize,
+    pub observation: crate::ergo::Observation,
+}
+
+impl SessionEvidence {
+    /// Each handover as (set, observation), as the belief's likelihoods take them.
+    pub(crate) fn observed(&self) -> Vec<crate::belief::Observed<'_>> {
+        self.handovers.iter().map(|h| (&h.set, &h.observation)).collect()
+    }
+}
 
 /// One training handover: what was offered and what was taken.
 #[derive(Clone, Debug, PartialEq)]
@@ -79,11 +108,9 @@ pub struct SessionAnalysis {
     pub likert: Vec<(usize, String, i64)>,
     pub choice: Option<usize>,
     pub completed: bool,
-    /// Every handle taken, with the prior, for estimating α ([`fit_session`]).
-    pub alpha_evidence: AlphaEvidence,
-    /// Every handover as the session learned from it, with the prior, for fitting the
-    /// population ([`fit_population`]).
-    pub person: PersonEvidence,
+    /// Every handover, with the prior: α's evidence ([`alpha_summary`]) and the population's
+    /// ([`fit_population`]).
+    pub evidence: SessionEvidence,
     /// The body the session was run for (from the protocol as logged).
     pub body: crate::protocol::Body,
     /// Every presentation of a query and what became of it, in order.
@@ -228,22 +255,16 @@ impl Analyser {
                 beliefs: summaries,
             });
         }
-        let alpha_evidence = AlphaEvidence {
-            prior: ctx.prior.clone(),
-            seed: log.start.seed,
-            choices: session.trials().iter().map(|t| (session.set(t.query).clone(), t.region)).collect(),
-            protocol_alpha: ctx.alpha,
-        };
-        let person = PersonEvidence {
+        let evidence = SessionEvidence {
             prior: ctx.prior.clone(),
             alpha: ctx.alpha,
             seed: log.start.seed,
-            observed: session
+            handovers: session
                 .trials()
                 .iter()
                 .map(|t| {
                     let set = session.set(t.query);
-                    (set.clone(), ctx.observation_of(set, t))
+                    Handover { set: set.clone(), region: t.region, observation: ctx.observation_of(set, t) }
                 })
                 .collect(),
         };
@@ -268,8 +289,7 @@ impl Analyser {
             likert: session.likert_answers().iter().map(|(&(p, i), &v)| (p, items[i].id.clone(), v)).collect(),
             choice: session.forced_choice(),
             completed,
-            alpha_evidence,
-            person,
+            evidence,
         })
     }
 }

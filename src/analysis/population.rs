@@ -24,8 +24,9 @@ use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::belief::{Belief, BeliefError, Prior};
-use crate::ergo::{FeasibleSet, Lambda, Observation, SetPass};
+use super::SessionEvidence;
+use crate::belief::{BeliefError, Prior};
+use crate::ergo::{FeasibleSet, Observation};
 use crate::protocol::{PopulationSpec, Spread, truncated_normal};
 use crate::{SeededRng, derive_seed};
 
@@ -50,20 +51,6 @@ const Z95: f64 = 1.959_963_984_540_054;
 
 /// Seed purpose of a participant's chain (derived from the fit's seed and the session's).
 const PURPOSE_CHAIN: u64 = 501;
-
-/// What one session says about its participant's λ.
-#[derive(Clone, Debug)]
-pub struct PersonEvidence {
-    /// The session's prior (radians): its support bounds the population.
-    pub prior: Prior,
-    /// The α the session's protocol assumed.
-    pub alpha: f64,
-    /// The session's seed (its chain's draws are derived from it).
-    pub seed: u64,
-    /// Every handover (both training runs and the test phase) as the session learned from
-    /// it: the feasible set and the observation (region, configuration or measured arm).
-    pub observed: Vec<(FeasibleSet, Observation)>,
-}
 
 /// Why a population could not be fitted.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -187,7 +174,7 @@ type Theta = Vec<(f64, f64)>;
 /// One participant's chain: its λ (the learned components), ln L_s there, the random walk's
 /// scale (a multiple of the population's spread) and its acceptance count.
 struct Chain<'a> {
-    evidence: &'a PersonEvidence,
+    evidence: &'a SessionEvidence,
     observed: Vec<(&'a FeasibleSet, &'a Observation)>,
     /// The whole λ = [q*, w] with the known components in place.
     lambda: Vec<f64>,
@@ -201,42 +188,32 @@ struct Chain<'a> {
 
 impl<'a> Chain<'a> {
     fn new(
-        evidence: &'a PersonEvidence,
+        evidence: &'a SessionEvidence,
         free: &[usize],
         theta: &Theta,
         seed: u64,
         index: usize,
     ) -> Result<Self, PopulationError> {
-        let observed: Vec<(&FeasibleSet, &Observation)> = evidence.observed.iter().map(|(s, o)| (s, o)).collect();
+        let observed = evidence.observed();
         let mut rng = SeededRng::seed_from_u64(derive_seed(seed, evidence.seed, PURPOSE_CHAIN));
         let mut lambda = evidence.prior.sample(&mut rng);
         for (&i, &(m, _)) in free.iter().zip(theta) {
             lambda[i] = m;
         }
         // The observations are checked against their sets once, here.
-        let one = Belief::from_particles(&[Lambda::from_slice(&lambda)], &[1.0])
-            .and_then(|b| b.per_particle_log_likelihoods(&observed, evidence.alpha, |_| 0.0))
+        crate::belief::check_observed(&observed, evidence.prior.dim())
             .map_err(|source| PopulationError::Belief { index, source })?;
-        let ll = one[0];
+        let mut scratch = crate::belief::scratch_for(&observed);
+        let ll = crate::belief::log_likelihood_at(&observed, &lambda, evidence.alpha, 0.0, &mut scratch);
         if !ll.is_finite() {
             return Err(PopulationError::Unexplained { index });
         }
-        let scratch = observed.iter().map(|(set, _)| SetPass::scratch(set.len())).collect();
         Ok(Self { evidence, observed, lambda, ll, log_scale: 0.0, walks: 0, accepted: 0, rng, scratch })
     }
 
     /// ln L_s at a whole λ.
     fn log_likelihood(&mut self, lambda: &[f64]) -> f64 {
-        let d = self.evidence.prior.dim();
-        let mut total = 0.0;
-        for ((set, obs), scratch) in self.observed.iter().zip(&mut self.scratch) {
-            let pass = SetPass::run(set.configs(), &lambda[..d], &lambda[d..], self.evidence.alpha, scratch);
-            total += pass.log_likelihood(obs, self.evidence.alpha, scratch);
-            if total == f64::NEG_INFINITY {
-                break;
-            }
-        }
-        total
+        crate::belief::log_likelihood_at(&self.observed, lambda, self.evidence.alpha, 0.0, &mut self.scratch)
     }
 
     /// One iteration: an independence step from g_θ, then [`WALKS`] random-walk steps
@@ -308,7 +285,7 @@ fn accept(log_ratio: f64, rng: &mut SeededRng) -> bool {
 
 /// Fits the population to the sessions (at least two, one prior).
 pub fn fit_population(
-    evidence: &[PersonEvidence],
+    evidence: &[SessionEvidence],
     settings: PopulationSettings,
 ) -> Result<PopulationFit, PopulationError> {
     if evidence.len() < 2 {
@@ -397,7 +374,7 @@ pub fn fit_population(
         .collect();
     Ok(PopulationFit {
         sessions: evidence.len(),
-        handovers: evidence.iter().map(|e| e.observed.len()).sum(),
+        handovers: evidence.iter().map(|e| e.handovers.len()).sum(),
         components,
         iterations: BURN_IN + AVERAGED,
         identified: (0..2 * free.len()).all(|k| covariance[(k, k)].is_finite()),
@@ -422,7 +399,7 @@ fn mean_sd(moments: Moments) -> Vec<(f64, f64)> {
 /// normal, a Gaussian one as itself), [`BURN_IN`] adapting iterations and [`INFORMATION`]
 /// recorded ones.
 fn session_posteriors(
-    evidence: &[PersonEvidence],
+    evidence: &[SessionEvidence],
     prior: &Prior,
     free: &[usize],
     supports: &[Support],
@@ -654,28 +631,29 @@ fn log_truncated_normal(x: f64, mean: f64, sd: f64, min: f64, max: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::belief::ComponentPrior;
+    use crate::analysis::Handover;
+    use crate::belief::{Belief, ComponentPrior};
     use crate::ergo::ConfigSet;
+    use crate::ergo::Lambda;
     use crate::participant::SimulatedPerson;
     use crate::protocol::{Population, Study};
     use crate::session::choice_set;
     use rand_distr::Normal;
 
-    /// An observation of configuration `j` of `set`: the arm measured with noise σ (degrees),
-    /// or the region it lies in.
-    fn observe(set: &FeasibleSet, j: usize, sigma_deg: Option<f64>, rng: &mut SeededRng) -> Observation {
-        match sigma_deg {
+    /// A handover of `set` in which configuration `j` was taken: observed as the arm
+    /// measured with noise σ (degrees), or as the region it lies in.
+    fn handover(set: &FeasibleSet, j: usize, sigma_deg: Option<f64>, rng: &mut SeededRng) -> Handover {
+        let region = set.regions().iter().position(|r| r.contains(&j)).unwrap();
+        let observation = match sigma_deg {
             Some(s) => {
                 let d = set.dim();
                 let noise = Normal::new(0.0, s.to_radians()).unwrap();
                 let q_m: Vec<f64> = (0..d).map(|k| set.configs().joint(k)[j] + noise.sample(rng)).collect();
                 Observation::measured(set.configs(), &q_m, &vec![s.to_radians(); d]).unwrap()
             }
-            None => {
-                let r = set.regions().iter().position(|r| r.contains(&j)).unwrap();
-                Observation::Region(set.regions()[r].clone().collect())
-            }
-        }
+            None => Observation::Region(set.regions()[region].clone().collect()),
+        };
+        Handover { set: set.clone(), region, observation }
     }
 
     /// People drawn from `population`, each offered `handovers` training queries of the
@@ -686,22 +664,21 @@ mod tests {
         handovers: usize,
         sigma_deg: Option<f64>,
         seed: u64,
-    ) -> Vec<PersonEvidence> {
+    ) -> Vec<SessionEvidence> {
         let study = Study::default_study();
         let sets: Vec<FeasibleSet> = study.training.iter().map(|q| choice_set(&q.feasible)).collect();
         (0..n)
             .map(|i| {
                 let person = SimulatedPerson { truth: population.draw(seed, i), alpha: population.alpha };
                 let mut rng = SeededRng::seed_from_u64(derive_seed(seed, i as u64, 9));
-                let observed = (0..handovers)
+                let handovers = (0..handovers)
                     .map(|_| {
-                        let set = sets[rng.random_range(0..sets.len())].clone();
-                        let j = person.choose(&set, &mut rng);
-                        let obs = observe(&set, j, sigma_deg, &mut rng);
-                        (set, obs)
+                        let set = &sets[rng.random_range(0..sets.len())];
+                        let j = person.choose(set, &mut rng);
+                        handover(set, j, sigma_deg, &mut rng)
                     })
                     .collect();
-                PersonEvidence { prior: study.prior.clone(), alpha: population.alpha, seed: i as u64, observed }
+                SessionEvidence { prior: study.prior.clone(), alpha: population.alpha, seed: i as u64, handovers }
             })
             .collect()
     }
@@ -728,17 +705,17 @@ mod tests {
         )
         .unwrap();
         let mut rng = SeededRng::seed_from_u64(5);
-        let evidence: Vec<PersonEvidence> = (0..40)
+        let evidence: Vec<SessionEvidence> = (0..40)
             .map(|i| {
                 let truth = Lambda { q_star: vec![truncated_normal(0.8, 0.5, (-1.0, 3.0), &mut rng)], w: vec![1.0] };
                 let person = SimulatedPerson { truth, alpha: 3.0 };
-                let observed = (0..6)
+                let handovers = (0..6)
                     .map(|t| {
                         let j = person.choose(&set, &mut rng);
-                        (set.clone(), observe(&set, j, (t % 2 == 0).then_some(30.0), &mut rng))
+                        handover(&set, j, (t % 2 == 0).then_some(30.0), &mut rng)
                     })
                     .collect();
-                PersonEvidence { prior: prior.clone(), alpha: 3.0, seed: i, observed }
+                SessionEvidence { prior: prior.clone(), alpha: 3.0, seed: i, handovers }
             })
             .collect();
         let n = 2000;
@@ -748,7 +725,7 @@ mod tests {
         let likelihoods: Vec<Vec<f64>> = evidence
             .iter()
             .map(|e| {
-                let pairs: Vec<(&FeasibleSet, &Observation)> = e.observed.iter().map(|(s, o)| (s, o)).collect();
+                let pairs = e.observed();
                 beliefs.per_particle_log_likelihoods(&pairs, 3.0, |_| 0.0).unwrap().iter().map(|l| l.exp()).collect()
             })
             .collect();

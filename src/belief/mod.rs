@@ -64,6 +64,43 @@ pub struct Belief {
     support: Vec<(f64, f64)>,
 }
 
+/// Checks that every set has `dim` joints and every observation fits its set.
+pub(crate) fn check_observed(observed: &[Observed], dim: usize) -> Result<(), BeliefError> {
+    for (set, obs) in observed {
+        if set.dim() != dim {
+            return Err(BeliefError::DimensionMismatch { found: set.dim(), expected: dim });
+        }
+        obs.check(set.len())?;
+    }
+    Ok(())
+}
+
+/// Scratch space for [`log_likelihood_at`], one per observed set.
+pub(crate) fn scratch_for(observed: &[Observed]) -> Vec<crate::ergo::Scratch> {
+    observed.iter().map(|(set, _)| SetPass::scratch(set.len())).collect()
+}
+
+/// base + Σ_t log P(obs_t | Q_t, λ) at one λ = [q*, w], for observations checked by
+/// [`check_observed`]; the sum stops once it reaches −∞.
+pub(crate) fn log_likelihood_at(
+    observed: &[Observed],
+    lambda: &[f64],
+    alpha: f64,
+    base: f64,
+    scratch: &mut [crate::ergo::Scratch],
+) -> f64 {
+    let d = lambda.len() / 2;
+    let mut lp = base;
+    for ((set, obs), scratch) in observed.iter().zip(scratch) {
+        if lp == f64::NEG_INFINITY {
+            break;
+        }
+        let pass = SetPass::run(set.configs(), &lambda[..d], &lambda[d..], alpha, scratch);
+        lp += pass.log_likelihood(obs, alpha, scratch);
+    }
+    lp
+}
+
 impl Belief {
     /// N equally weighted draws from the prior.
     pub fn from_prior<R: Rng + ?Sized>(prior: &Prior, n: usize, rng: &mut R) -> Result<Self, BeliefError> {
@@ -191,32 +228,14 @@ impl Belief {
         alpha: f64,
         base: impl Fn(&[f64]) -> f64 + Sync,
     ) -> Result<Vec<f64>, BeliefError> {
-        for (set, obs) in observed {
-            if set.dim() != self.dim {
-                return Err(BeliefError::DimensionMismatch { found: set.dim(), expected: self.dim });
-            }
-            obs.check(set.len())?;
-        }
+        check_observed(observed, self.dim)?;
         let s = 2 * self.dim;
-        let d = self.dim;
         let chunks: Vec<Vec<f64>> = self
             .particles
             .par_chunks(PARTICLE_CHUNK * s)
             .map(|ps| {
-                let mut scratch: Vec<_> = observed.iter().map(|(set, _)| SetPass::scratch(set.len())).collect();
-                ps.chunks_exact(s)
-                    .map(|p| {
-                        let mut lp = base(p);
-                        for ((set, obs), scratch) in observed.iter().zip(&mut scratch) {
-                            if lp == f64::NEG_INFINITY {
-                                break;
-                            }
-                            let pass = SetPass::run(set.configs(), &p[..d], &p[d..], alpha, scratch);
-                            lp += pass.log_likelihood(obs, alpha, scratch);
-                        }
-                        lp
-                    })
-                    .collect()
+                let mut scratch = scratch_for(observed);
+                ps.chunks_exact(s).map(|p| log_likelihood_at(observed, p, alpha, base(p), &mut scratch)).collect()
             })
             .collect();
         Ok(chunks.concat())

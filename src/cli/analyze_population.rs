@@ -119,7 +119,7 @@ impl PopulationArgs {
                 }
                 continue;
             }
-            let evidence: Vec<_> = group.iter().map(|a| a.analysis.person.clone()).collect();
+            let evidence: Vec<_> = group.iter().map(|a| a.analysis.evidence.clone()).collect();
             errln!("fitting the population of the {} {kind} sessions …", group.len());
             let fit = fit_population(&evidence, PopulationSettings::default())
                 .with_context(|| format!("cannot fit the population of the {kind} sessions"))?;
@@ -133,7 +133,7 @@ impl PopulationArgs {
 /// population.json (the section) and population.csv of one group, in `dir`.
 pub fn write(dir: &Path, report: &PopulationReport, group: &[&Analysed]) -> Result<()> {
     let Some(first) = group.first() else { return Ok(()) };
-    let spec = report.fit.spec(&first.analysis.person.prior);
+    let spec = report.fit.spec(&first.analysis.evidence.prior);
     let text = serde_json::to_string_pretty(&spec)? + "\n";
     handover::private_files::write_output(&dir.join("population.json"), text.as_bytes())?;
     let rows: Vec<Row> = report
@@ -141,8 +141,7 @@ pub fn write(dir: &Path, report: &PopulationReport, group: &[&Analysed]) -> Resu
         .components
         .iter()
         .map(|c| {
-            let (unit, scale) =
-                if c.part == "q_star" { ("deg", 180.0 / std::f64::consts::PI) } else { ("weight", 1.0) };
+            let (unit, scale) = unit_of(c.part);
             let end = |v: f64| v.is_finite().then_some(v * scale);
             Row {
                 part: c.part,
@@ -194,11 +193,9 @@ pub fn table(report: &PopulationReport) -> String {
     );
     let _ = writeln!(s, "{:<8} {:>24} {:>24} {:>18}", "", "mean [95 % CI]", "sd [95 % CI]", "support");
     for c in &f.components {
-        let (name, scale, unit) = if c.part == "q_star" {
-            (format!("q*{}", c.joint + 1), 180.0 / std::f64::consts::PI, "°")
-        } else {
-            (format!("w{}", c.joint + 1), 1.0, "")
-        };
+        let (_, scale) = unit_of(c.part);
+        let (name, unit) =
+            if c.part == "q_star" { (format!("q*{}", c.joint + 1), "°") } else { (format!("w{}", c.joint + 1), "") };
         let cell = |v: f64, lo: f64, hi: f64| {
             if lo.is_finite() && hi.is_finite() {
                 format!("{:.1}{unit} [{:.1}, {:.1}]", v * scale, lo * scale, hi * scale)
