@@ -33,8 +33,8 @@ pub use population::{
 };
 pub use rows::{NoteRow, RobotRow, RobotTimings, TrialRow, TrialStatus, rfc3339_ms, robot_timings, trial_columns};
 pub use seeds::{
-    HEIGHT_BANDS_M, ObjectsByBody, OverSeeds, SEED_MEASURES, SeedRun, measure_unit, object_shares, objects_by_body,
-    over_seeds, paired_across, paired_over_seeds,
+    Coverage, HEIGHT_BANDS_M, JointError, ObjectsByBody, OverSeeds, SEED_MEASURES, SeedRun, coverage, joint_errors,
+    measure_unit, object_shares, objects_by_body, over_seeds, paired_across, paired_over_seeds,
 };
 pub use summary::{CurvePoint, ItemTest, LikertSummary, StudySummary, distinct_q_star, summarise};
 pub use tables::write_tables;

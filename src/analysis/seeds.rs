@@ -155,6 +155,127 @@ pub fn paired_across(a: &[SeedRun], b: &[SeedRun], labels: (&str, &str), measure
     out
 }
 
+/// |posterior mean − truth| of q*'s joint `j` in degrees, for one condition at one iteration.
+fn joint_error(s: &SessionAnalysis, condition: &str, iteration: usize, j: usize) -> Option<f64> {
+    let truth = s.start.simulated_truth.as_ref()?.q_star.get(j)?;
+    let b = s.runs.iter().find(|r| r.condition == condition)?.beliefs.get(iteration)?;
+    Some((b.mean.q_star.get(j)? - truth).abs().to_degrees())
+}
+
+/// One joint's error of the posterior mean's q* at the end of training, in dry runs.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct JointError {
+    /// 0-based joint.
+    pub joint: usize,
+    /// The last iteration.
+    pub iteration: usize,
+    /// Mean |error| (degrees) of the prior's mean (iteration 0).
+    pub prior: f64,
+    /// Mean |error| (degrees) per condition at `iteration`.
+    pub conditions: Vec<(String, f64)>,
+    /// The first condition − the second at `iteration`, paired by participant.
+    pub paired: Option<Paired>,
+}
+
+/// Per joint of q*, how far the posterior mean ends from the simulated truth: where the
+/// 7-D distance's difference between conditions comes from. Joints whose prior and
+/// posterior means agree with the truth (q* not learned) are left out.
+pub fn joint_errors(runs: &[SeedRun]) -> Vec<JointError> {
+    let cs = conditions(runs);
+    let Some(iteration) = iterations(runs).checked_sub(1) else { return Vec::new() };
+    let sessions: Vec<&SessionAnalysis> = runs.iter().flat_map(|r| &r.sessions).collect();
+    let joints =
+        sessions.iter().filter_map(|s| Some(s.start.simulated_truth.as_ref()?.q_star.len())).max().unwrap_or(0);
+    let mut out = Vec::new();
+    for j in 0..joints {
+        let at =
+            |c: &str, it: usize| -> Vec<f64> { sessions.iter().filter_map(|s| joint_error(s, c, it, j)).collect() };
+        let Some(first) = cs.first() else { break };
+        let prior = at(first, 0);
+        if prior.is_empty() || prior.iter().all(|e| *e < 1e-9) && at(first, iteration).iter().all(|e| *e < 1e-9) {
+            continue;
+        }
+        let paired = cs.get(1).and_then(|second| {
+            let groups: Vec<Vec<f64>> = runs
+                .iter()
+                .map(|r| {
+                    r.sessions
+                        .iter()
+                        .filter_map(|s| {
+                            Some(joint_error(s, first, iteration, j)? - joint_error(s, second, iteration, j)?)
+                        })
+                        .collect()
+                })
+                .collect();
+            Paired::over_groups("abs_error_deg", iteration, first.clone(), second.clone(), &groups)
+        });
+        out.push(JointError {
+            joint: j,
+            iteration,
+            prior: mean(&prior),
+            conditions: cs.iter().map(|c| (c.clone(), mean(&at(c, iteration)))).collect(),
+            paired,
+        });
+    }
+    out
+}
+
+/// How often one condition's logged 90 % credible intervals of q*
+/// ([`crate::belief::CREDIBLE`]) held the simulated participants' true value at one
+/// iteration: per joint, over every participant of every seed.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Coverage {
+    pub condition: String,
+    pub iteration: usize,
+    /// Per joint: (intervals holding the truth, intervals). A joint whose interval is a
+    /// point (q* not learned) counts for nothing.
+    pub per_joint: Vec<(usize, usize)>,
+}
+
+impl Coverage {
+    /// Intervals holding the truth, and intervals, over every joint.
+    pub fn total(&self) -> (usize, usize) {
+        self.per_joint.iter().fold((0, 0), |(h, n), &(a, b)| (h + a, n + b))
+    }
+
+    /// The share of intervals holding the truth (NaN without any).
+    pub fn share(&self) -> f64 {
+        let (held, of) = self.total();
+        held as f64 / of as f64
+    }
+}
+
+/// The coverage of every condition's 90 % credible intervals of q* at every iteration, in
+/// dry runs (sessions with a simulated truth). A calibrated learner's share is 0.90 when the
+/// participants are drawn from its prior; from a narrower population it is higher.
+pub fn coverage(runs: &[SeedRun]) -> Vec<Coverage> {
+    let mut out = Vec::new();
+    for c in conditions(runs) {
+        for iteration in 0..iterations(runs) {
+            let mut per_joint: Vec<(usize, usize)> = Vec::new();
+            for s in runs.iter().flat_map(|r| &r.sessions) {
+                let (Some(truth), Some(b)) = (
+                    s.start.simulated_truth.as_ref(),
+                    s.runs.iter().find(|r| r.condition == c).and_then(|r| r.beliefs.get(iteration)),
+                ) else {
+                    continue;
+                };
+                per_joint.resize(per_joint.len().max(truth.q_star.len()), (0, 0));
+                for (j, ((t, lo), hi)) in truth.q_star.iter().zip(&b.ci_low.q_star).zip(&b.ci_high.q_star).enumerate() {
+                    if lo < hi {
+                        per_joint[j].1 += 1;
+                        per_joint[j].0 += usize::from((lo..=hi).contains(&t));
+                    }
+                }
+            }
+            if per_joint.iter().any(|&(_, n)| n > 0) {
+                out.push(Coverage { condition: c.clone(), iteration, per_joint });
+            }
+        }
+    }
+    out
+}
+
 /// The share of each condition's training offers that were of each object: per seed, then
 /// the mean with a 95 % confidence interval over seeds. condition → object → (mean, low, high).
 pub fn object_shares(runs: &[SeedRun]) -> BTreeMap<String, BTreeMap<String, (f64, f64, f64)>> {

@@ -3,6 +3,7 @@
 mod estimates;
 mod grid;
 mod metrics;
+mod moves;
 mod prior;
 
 use rand::{Rng, RngExt};
@@ -15,6 +16,7 @@ use crate::ergo::{FeasibleSet, Lambda, Observation, ObservationError, SetPass, l
 pub use estimates::{CREDIBLE, Estimate, MAP_TIE, Observed};
 pub use grid::{CellIndex, Grid};
 pub use metrics::{TestExample, posterior_predictive_log_likelihood, test_log_likelihood, true_cost};
+pub use moves::MoveReport;
 pub use prior::{ComponentPrior, Prior, PriorError};
 
 /// Particles evaluated together by one task: fixes the order of every parallel reduction,

@@ -186,3 +186,79 @@ fn a_hopelessly_noisy_measurement_leaves_the_belief_as_it_was() {
     let moved = b.weights().iter().zip(between.weights()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     assert!(moved > 1e-4, "{moved}");
 }
+
+/// The posterior of a 1-D q* (w = 1 known, uniform prior on [−2, 2]) after configurations
+/// `seen` of a set on a 0.1 grid, by quadrature: (mean, sd).
+fn posterior_by_quadrature(set: &FeasibleSet, seen: &[usize], alpha: f64) -> (f64, f64) {
+    let configs: Vec<f64> = set.configs().joint(0).to_vec();
+    let n = 40_000;
+    let (mut m0, mut m1, mut m2) = (0.0, 0.0, 0.0);
+    for i in 0..n {
+        let q = -2.0 + 4.0 * (i as f64 + 0.5) / n as f64;
+        let log_z = log_sum_exp(&configs.iter().map(|c| -alpha * (c - q).powi(2)).collect::<Vec<_>>());
+        let lp: f64 = seen.iter().map(|&k| -alpha * (configs[k] - q).powi(2) - log_z).sum();
+        let p = lp.exp();
+        m0 += p;
+        m1 += p * q;
+        m2 += p * q * q;
+    }
+    let mean = m1 / m0;
+    (mean, (m2 / m0 - mean * mean).sqrt())
+}
+
+#[test]
+fn moves_take_any_equally_weighted_cloud_to_the_posterior_by_quadrature() {
+    let rows: Vec<Vec<f64>> = (0..=40).map(|k| vec![-2.0 + 0.1 * k as f64]).collect();
+    let rows: Vec<&[f64]> = rows.iter().map(|r| r.as_slice()).collect();
+    let set = set(&rows);
+    let prior =
+        Prior::new(vec![ComponentPrior::Uniform { min: -2.0, max: 2.0 }], vec![ComponentPrior::Fixed { value: 1.0 }])
+            .unwrap();
+    let seen = [24, 27, 25];
+    let obs: Vec<Observation> = seen.iter().map(|&k| Observation::Config(k)).collect();
+    let history: Vec<Observed> = obs.iter().map(|o| (&set, o)).collect();
+    let alpha = 2.0;
+    let (mean, sd) = posterior_by_quadrature(&set, &seen, alpha);
+    // Start from the prior, far from the posterior (sd 1.15 against about 0.4).
+    let n = 4000;
+    let start = Belief::from_prior(&prior, n, &mut SeededRng::seed_from_u64(1)).unwrap();
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| {
+            let mut b = start.clone();
+            let report = b.move_particles(&prior, &history, alpha, 40, &[0.01, 0.0], &mut SeededRng::seed_from_u64(2));
+            (b, report.unwrap())
+        })
+    };
+    let (b, report) = run(2);
+    assert_eq!(run(1).0, b, "the same particles for any number of threads");
+    assert!((0.2..0.9).contains(&report.acceptance), "acceptance {}", report.acceptance);
+    let q: Vec<f64> = b.particles().chunks_exact(2).map(|p| p[0]).collect();
+    assert!(q.iter().all(|x| (-2.0..=2.0).contains(x)), "every move stays in the prior's support");
+    assert!(b.particles().chunks_exact(2).all(|p| p[1] == 1.0), "known components do not move");
+    let m = q.iter().sum::<f64>() / n as f64;
+    let s = (q.iter().map(|x| (x - m).powi(2)).sum::<f64>() / n as f64).sqrt();
+    // Monte Carlo error of the mean ≈ sd/√n ≈ 0.006 (more with the chains' correlation).
+    assert!((m - mean).abs() < 0.03, "mean {m} against {mean}");
+    assert!((s - sd).abs() < 0.05 * sd, "sd {s} against {sd}");
+    // Jitter alone does not: the prior cloud keeps the prior's spread.
+    let mut jittered = start.clone();
+    jittered.resample(&[0.01, 0.0], &mut SeededRng::seed_from_u64(3));
+    let spread = |b: &Belief| {
+        let q: Vec<f64> = b.particles().chunks_exact(2).map(|p| p[0]).collect();
+        let m = q.iter().sum::<f64>() / q.len() as f64;
+        (q.iter().map(|x| (x - m).powi(2)).sum::<f64>() / q.len() as f64).sqrt()
+    };
+    assert!(spread(&jittered) > 2.0 * sd);
+}
+
+#[test]
+fn zero_moves_change_nothing() {
+    let prior =
+        Prior::new(vec![ComponentPrior::Uniform { min: -2.0, max: 2.0 }], vec![ComponentPrior::Fixed { value: 1.0 }])
+            .unwrap();
+    let start = Belief::from_prior(&prior, 100, &mut SeededRng::seed_from_u64(1)).unwrap();
+    let mut b = start.clone();
+    b.move_particles(&prior, &[], 1.0, 0, &[0.1, 0.0], &mut SeededRng::seed_from_u64(2)).unwrap();
+    assert_eq!(b, start);
+}

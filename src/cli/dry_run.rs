@@ -6,7 +6,8 @@ use std::sync::Arc;
 use anyhow::{Context, Result};
 use clap::Args;
 use handover::analysis::{
-    SEED_MEASURES, SeedRun, SessionAnalysis, analyse, object_shares, over_seeds, paired_across, paired_over_seeds,
+    SEED_MEASURES, SeedRun, SessionAnalysis, analyse, coverage, joint_errors, object_shares, over_seeds, paired_across,
+    paired_over_seeds,
 };
 use handover::dryrun::{BodyPopulation, RobotDrive, drive_session, now_ns, plan_from};
 use handover::ergo::Lambda;
@@ -388,6 +389,81 @@ fn print_over_seeds(runs: &[SeedRun], seed: u64, seeds: u64, participants: usize
             }
         }
     }
+    print_joint_errors(runs)?;
+    print_coverage(runs)
+}
+
+/// Per joint, the posterior mean's error at the end of training against the prior's, and
+/// the conditions' paired difference.
+fn print_joint_errors(runs: &[SeedRun]) -> Result<()> {
+    let rows = joint_errors(runs);
+    let Some(first) = rows.first() else { return Ok(()) };
+    outln!(
+        "  mean |error| of the posterior mean's q* per joint at iteration {} (degrees; prior: iteration 0):",
+        first.iteration
+    );
+    let mut head = format!("  {:>9} {:>8}", "joint", "prior");
+    for (c, _) in &first.conditions {
+        head += &format!(" {c:>10}");
+    }
+    if let Some(p) = &first.paired {
+        head += &format!(" {:>34}", format!("{} − {} (p)", p.first, p.second));
+    }
+    outln!("{head}");
+    for r in &rows {
+        let mut line = format!("  {:>9} {:>8.1}", format!("q*{}", r.joint + 1), r.prior);
+        for (_, e) in &r.conditions {
+            line += &format!(" {e:>10.1}");
+        }
+        if let Some(p) = &r.paired {
+            line += &format!(" {:>34}", paired_cell(p));
+        }
+        outln!("{line}");
+    }
+    Ok(())
+}
+
+/// How often each condition's 90 % credible intervals held the true q*, by iteration, and
+/// per joint at the last.
+fn print_coverage(runs: &[SeedRun]) -> Result<()> {
+    let rows = coverage(runs);
+    let mut conditions: Vec<&str> = Vec::new();
+    for r in &rows {
+        if !conditions.contains(&r.condition.as_str()) {
+            conditions.push(&r.condition);
+        }
+    }
+    let Some(of) = rows.first().map(|r| r.total().1) else { return Ok(()) };
+    outln!("  90 % credible intervals of q* holding the true value (of {of} participant-joints), by iteration:");
+    let mut head = format!("  {:>9}", "iteration");
+    for c in &conditions {
+        head += &format!(" {c:>10}");
+    }
+    outln!("{head}");
+    let iterations = rows.iter().map(|r| r.iteration).max().unwrap_or(0);
+    for it in 0..=iterations {
+        let mut line = format!("  {it:>9}");
+        for c in &conditions {
+            line += &match rows.iter().find(|r| r.condition == *c && r.iteration == it) {
+                Some(r) => format!(" {:>8.1} %", 100.0 * r.share()),
+                None => format!(" {:>10}", "—"),
+            };
+        }
+        outln!("{line}");
+    }
+    for c in &conditions {
+        if let Some(last) = rows.iter().rfind(|r| r.condition == *c) {
+            let joints: Vec<String> = last
+                .per_joint
+                .iter()
+                .enumerate()
+                .filter(|(_, (_, n))| *n > 0)
+                .map(|(j, (h, n))| format!("q*{} {:.0} %", j + 1, 100.0 * *h as f64 / *n as f64))
+                .collect();
+            outln!("  ({c} at iteration {}, by joint: {})", last.iteration, joints.join(", "));
+        }
+    }
+    outln!("  (0.90 is calibrated when participants are drawn from the prior: `--population prior`)");
     Ok(())
 }
 

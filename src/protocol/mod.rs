@@ -182,7 +182,13 @@ pub struct LearningSpec {
     /// When to resample after an update.
     pub resampling: ResamplePolicy,
     /// Standard deviation of the jitter after resampling: degrees for q*, units of w for w.
+    /// With `moves`, the smallest standard deviation of the moves' random walk instead.
     pub jitter: JitterSpec,
+    /// Metropolis–Hastings steps per particle after each resampling (resample-move: the
+    /// duplicates spread out again under the exact posterior), in place of the jitter; 0,
+    /// the default, keeps the paper's jitter.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub moves: usize,
     /// Cells per prior range for the gridded entropy and the mode.
     pub grid_boxes: usize,
     /// What the robot learns from: `configuration` (the handle mapped to its most likely
@@ -202,6 +208,10 @@ pub struct LearningSpec {
     /// the passive query's).
     #[serde(default = "default_epsilon")]
     pub budget_epsilon: f64,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// What a session learns from when the participant takes the object.

@@ -63,6 +63,9 @@ pub mod limits {
     pub(crate) const PROGRAM_LABEL: usize = crate::text::PROGRAM_LABEL_BYTES;
     /// Characters of an id (A–Z, a–z, 0–9, '-', '_'): ids become file names and CSV keys.
     pub const ID: usize = crate::text::ID_BYTES;
+    /// Metropolis–Hastings steps per particle after resampling (each a pass over the
+    /// session's observations so far).
+    pub(crate) const MOVES: usize = 50;
     /// |position| of a pose or TSR frame, m.
     pub(crate) const POSITION_M: f64 = 5.0;
     /// |angle| of any orientation, bound, limit or prior, degrees.
@@ -332,6 +335,9 @@ fn learning(l: &LearningSpec, p: &mut Problems) {
     }
     p.range("learning.jitter.q_star_deg", l.jitter.q_star_deg, (0.0, limits::ANGLE_DEG), "degrees");
     p.range("learning.jitter.w", l.jitter.w, (0.0, limits::WEIGHT), "a weight");
+    if l.moves > limits::MOVES {
+        p.add("learning.moves", format!("is {}, expected 0 to {} steps per particle", l.moves, limits::MOVES));
+    }
     if l.grid_boxes == 0 || l.grid_boxes > limits::GRID_BOXES {
         p.add(
             "learning.grid_boxes",

@@ -19,6 +19,8 @@ pub struct LearningContext {
     pub grid: Grid,
     pub jitter: Vec<f64>,
     pub policy: ResamplePolicy,
+    /// Metropolis–Hastings steps per particle after each resampling (0: jitter instead).
+    pub moves: usize,
     /// β of `hybrid` and ε of `budgeted`.
     pub tradeoff: Tradeoff,
     /// The label model λ: maps a grabbed region to its most likely configuration.
@@ -235,9 +237,17 @@ impl Learner {
         ctx: &LearningContext,
     ) -> Result<(), crate::belief::BeliefError> {
         let set = &menu[query];
-        self.belief.update(set, ctx.alpha, obs)?;
+        let mut belief = self.belief.clone();
+        belief.update(set, ctx.alpha, obs)?;
+        let mut observed: Vec<Observed> = self.history.iter().map(|(q, o)| (&menu[*q], o)).collect();
+        observed.push((set, obs));
+        if ctx.moves == 0 {
+            belief.maybe_resample(ctx.policy, &ctx.jitter, &mut self.rng);
+        } else if belief.maybe_resample(ctx.policy, &[], &mut self.rng) {
+            belief.move_particles(&ctx.prior, &observed, ctx.alpha, ctx.moves, &ctx.jitter, &mut self.rng)?;
+        }
+        self.belief = belief;
         self.history.push((query, obs.clone()));
-        self.belief.maybe_resample(ctx.policy, &ctx.jitter, &mut self.rng);
         self.iteration += 1;
         let history: Vec<Observed> = self.history.iter().map(|(q, o)| (&menu[*q], o)).collect();
         self.summary = BeliefSummary::of(&self.belief, self.iteration, ctx, &history);

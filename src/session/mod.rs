@@ -334,6 +334,7 @@ impl Session {
             grid: Grid::over_supports(&supports, learning.grid_boxes),
             jitter: learning.jitter(prior.dim()),
             policy: learning.resampling,
+            moves: learning.moves,
             tradeoff: crate::select::Tradeoff { beta: learning.hybrid_beta, epsilon: learning.budget_epsilon },
             label_model: learning.label_model.to_lambda(),
             prior: prior.clone(),

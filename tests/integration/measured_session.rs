@@ -22,6 +22,14 @@ fn measured_protocol(dir: &Path, sigma_deg: f64) -> PathBuf {
     p
 }
 
+/// A dry run of `protocol` logging to `logs`, with `extra` options; asserts it succeeded.
+fn dry_run(protocol: &Path, logs: &Path, extra: &[&str]) {
+    let mut args = vec!["dry-run", "--protocol", protocol.to_str().unwrap(), "--logs", logs.to_str().unwrap()];
+    args.extend(extra);
+    let (code, _, err) = handover(&args);
+    assert_eq!(code, 0, "{err}");
+}
+
 fn responses(path: &Path) -> Vec<serde_json::Value> {
     read_log(path).unwrap().messages.into_iter().filter(|m| m.topic == "/trial/response").map(|m| m.value).collect()
 }
@@ -31,16 +39,7 @@ fn a_measured_dry_run_logs_every_measurement_and_verifies_bit_for_bit() {
     let dir = tmpdir("dry");
     let protocol = measured_protocol(&dir, 3.0);
     let logs = dir.join("logs");
-    let (code, _, err) = handover(&[
-        "dry-run",
-        "--protocol",
-        protocol.to_str().unwrap(),
-        "--logs",
-        logs.to_str().unwrap(),
-        "--participants",
-        "2",
-    ]);
-    assert_eq!(code, 0, "{err}");
+    dry_run(&protocol, &logs, &["--participants", "2"]);
     let files = handover::record::mcap_files(&logs);
     assert_eq!(files.len(), 2);
     let log = read_log(&files[0]).unwrap();
@@ -164,14 +163,7 @@ fn measurements_csv(log: &Path, path: &Path, degrees: bool, keep: impl Fn(usize)
 /// One dry run of the measured protocol (σ = 4°): its logs folder and its log.
 fn one_measured_session(dir: &Path) -> (PathBuf, PathBuf) {
     let logs = dir.join("logs");
-    let (code, _, err) = handover(&[
-        "dry-run",
-        "--protocol",
-        measured_protocol(dir, 4.0).to_str().unwrap(),
-        "--logs",
-        logs.to_str().unwrap(),
-    ]);
-    assert_eq!(code, 0, "{err}");
+    dry_run(&measured_protocol(dir, 4.0), &logs, &[]);
     let log = handover::record::mcap_files(&logs).remove(0);
     (logs, log)
 }
@@ -449,4 +441,39 @@ fn hostile_c3d_files_are_refused(dir: &Path, logs: &Path, good: &Path, start: &s
         assert_eq!(code, 2, "{err}");
         assert!(!err.contains("panicked"), "no panic message: {err}");
     }
+}
+
+/// Resample-move (`learning.moves`) in a measured session: the moves are part of the
+/// session's derived values, so its log replays bit for bit, and they change the belief.
+#[test]
+fn a_session_with_moves_verifies_bit_for_bit_and_learns_otherwise_than_with_jitter() {
+    let dir = tmpdir("moves");
+    let jitter = measured_protocol(&dir, 5.0);
+    let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(&jitter).unwrap()).unwrap();
+    v["learning"]["moves"] = 3.into();
+    let moves = dir.join("moves.json");
+    std::fs::write(&moves, v.to_string()).unwrap();
+    let mut means = Vec::new();
+    for (protocol, name) in [(&jitter, "jitter"), (&moves, "moves")] {
+        let logs = dir.join(name);
+        dry_run(protocol, &logs, &["--seed", "5"]);
+        let (code, _, err) = handover(&["analyze", "--alpha-particles", "300", logs.to_str().unwrap(), "--verify"]);
+        assert_eq!(code, 0, "{err}");
+        assert!(err.contains("every derived value matches"), "{err}");
+        let files = handover::record::mcap_files(&logs);
+        let log = read_log(&files[0]).unwrap();
+        let beliefs: Vec<serde_json::Value> =
+            log.messages.into_iter().filter(|m| m.topic.starts_with("/belief/")).map(|m| m.value).collect();
+        assert!(beliefs.len() >= 10, "{} beliefs", beliefs.len());
+        if name == "moves" {
+            // Resampled after every update, then moved: every belief is equally weighted.
+            for b in &beliefs {
+                let ess = b["ess"].as_f64().unwrap();
+                assert!((ess - 300.0).abs() < 1e-9, "{b}");
+            }
+        }
+        means.push(beliefs.iter().map(|b| b["mean"].to_string()).collect::<Vec<_>>());
+    }
+    assert_eq!(means[0][0], means[1][0], "the same prior draw");
+    assert_ne!(means[0].last(), means[1].last(), "moves change what is learned");
 }

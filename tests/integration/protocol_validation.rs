@@ -128,6 +128,7 @@ fn every_bad_input_names_its_field() {
             Box::new(|v| v["learning"]["resampling"] = json!({"kind": "ess-below", "fraction": 2})),
             "learning.resampling.fraction",
         ),
+        (Box::new(|v| v["learning"]["moves"] = json!(51)), "learning.moves: is 51, expected 0 to 50"),
     ];
     for (edit, needle) in cases {
         let mut v = default_json();

@@ -286,6 +286,44 @@ fn a_dry_run_over_seeds_reports_intervals_and_paired_differences() {
         out.lines().filter(|l| l.contains("(active − passive at the last iteration: median ")).collect();
     assert_eq!(spread.len(), 2, "one per measure: {out}");
     assert!(spread.iter().all(|l| l.contains(" % of 6 participants with the first higher)")), "{spread:?}");
+
+    // The 90 % intervals' coverage of the true q*, counted again from the logs at the last
+    // iteration: the logged interval against the logged truth.
+    assert!(out.contains("90 % credible intervals of q* holding the true value (of 42 participant-joints)"), "{out}");
+    assert!(out.contains("mean |error| of the posterior mean's q* per joint at iteration 5"), "{out}");
+    for condition in ["active", "passive"] {
+        let (mut held, mut of) = (0, 0);
+        let mut error_q1 = 0.0;
+        for f in logs_in(&logs) {
+            let log = read_log(&f).unwrap();
+            let start = log.messages.iter().find(|m| m.topic == "/session/start").unwrap();
+            let truth = &start.value["simulated_truth"]["q_star"];
+            let last = log.messages.iter().rfind(|m| m.topic == format!("/belief/{condition}")).unwrap();
+            assert_eq!(last.value["iteration"], 5);
+            error_q1 +=
+                (last.value["mean"]["q_star"][0].as_f64().unwrap() - truth[0].as_f64().unwrap()).abs().to_degrees()
+                    / 6.0;
+            for j in 0..7 {
+                let (lo, hi) = (&last.value["ci90"]["low"]["q_star"][j], &last.value["ci90"]["high"]["q_star"][j]);
+                let t = truth[j].as_f64().unwrap();
+                of += 1;
+                held += usize::from(lo.as_f64().unwrap() <= t && t <= hi.as_f64().unwrap());
+            }
+        }
+        let line = out.lines().find(|l| l.starts_with(&format!("  ({condition} at iteration 5, by joint: "))).unwrap();
+        assert_eq!(of, 42, "{line}");
+        let row5 = out
+            .lines()
+            .skip_while(|l| !l.contains("90 % credible intervals of q*"))
+            .find(|l| l.trim_start().starts_with("5 "))
+            .unwrap();
+        let shares: Vec<&str> = row5.split_whitespace().collect();
+        let column = if condition == "active" { 1 } else { 3 };
+        assert_eq!(shares[column], format!("{:.1}", 100.0 * held as f64 / of as f64), "{row5}");
+        let q1: Vec<&str> =
+            out.lines().find(|l| l.trim_start().starts_with("q*1 ")).unwrap().split_whitespace().collect();
+        assert_eq!(q1[if condition == "active" { 2 } else { 3 }], format!("{error_q1:.1}"), "{q1:?}");
+    }
 }
 
 #[test]
