@@ -18,7 +18,8 @@ use handover::session::{Session, program_letter};
 use handover::study_dir::ParticipantLock;
 
 use super::input::{
-    HandArg, LogFolders, Pace, PopulationArg, bad, body_height, count, load_protocol, parse_json, read_text,
+    HandArg, LogFolders, Pace, PopulationArg, PopulationFile, bad, body_height, count, load_protocol, parse_json,
+    read_text,
 };
 use super::live::LiveArgs;
 use super::robot::RobotArgs;
@@ -102,7 +103,9 @@ fn load_truth(path: &std::path::Path) -> Result<Lambda> {
 
 pub fn run(args: DryRunArgs) -> Result<()> {
     let (text, study) = load_protocol(args.protocol.as_deref())?;
-    let (text, study) = args.population.apply(text, study)?;
+    // Read once: both protocols of --versus get the same section.
+    let population_file = args.population.read()?;
+    let (text, study) = PopulationFile::apply(population_file.as_ref(), text, study)?;
     let study = Arc::new(study);
     let truth = args.truth.as_deref().map(load_truth).transpose()?;
     if !(0.0..=1.0).contains(&args.left_handed_share) {
@@ -121,7 +124,10 @@ pub fn run(args: DryRunArgs) -> Result<()> {
     let versus = args
         .versus
         .as_deref()
-        .map(|p| load_protocol(Some(p)).and_then(|(text, study)| args.population.apply(text, study)))
+        .map(|p| {
+            load_protocol(Some(p))
+                .and_then(|(text, study)| PopulationFile::apply(population_file.as_ref(), text, study))
+        })
         .transpose()?;
     let dirs = args.folders.resolve();
     let protocols = 1 + u64::from(versus.is_some());

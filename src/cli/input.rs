@@ -78,20 +78,40 @@ impl std::str::FromStr for PopulationArg {
     }
 }
 
+/// A population file, read once: its name and its section.
+pub struct PopulationFile(String, handover::protocol::PopulationSpec);
+
 impl PopulationArg {
-    /// The protocol with a population file's section in place of its own, checked as the
-    /// protocol's own section is (the text changes with it: logs embed the population their
-    /// participants came from); the protocol as it was otherwise.
+    /// The population file, read and parsed (none for `protocol` and `prior`).
+    pub fn read(&self) -> anyhow::Result<Option<PopulationFile>> {
+        let Self::File(path) = self else { return Ok(None) };
+        let name = path.display().to_string();
+        let spec = parse_json(&read_text(path)?, &name)?;
+        Ok(Some(PopulationFile(name, spec)))
+    }
+
+    /// [`PopulationFile::apply`] of the file, read now.
     pub fn apply(
         &self,
         text: String,
         study: handover::protocol::Study,
     ) -> anyhow::Result<(String, handover::protocol::Study)> {
-        let Self::File(path) = self else { return Ok((text, study)) };
-        let name = path.display().to_string();
-        let spec: handover::protocol::PopulationSpec = parse_json(&read_text(path)?, &name)?;
+        PopulationFile::apply(self.read()?.as_ref(), text, study)
+    }
+}
+
+impl PopulationFile {
+    /// The protocol with a population file's section in place of its own, checked as the
+    /// protocol's own section is (the text changes with it: logs embed the population their
+    /// participants came from); the protocol as it was without a file.
+    pub fn apply(
+        file: Option<&Self>,
+        text: String,
+        study: handover::protocol::Study,
+    ) -> anyhow::Result<(String, handover::protocol::Study)> {
+        let Some(Self(name, spec)) = file else { return Ok((text, study)) };
         let mut v: serde_json::Value = serde_json::from_str(&text)?;
-        v["population"] = serde_json::to_value(&spec)?;
+        v["population"] = serde_json::to_value(spec)?;
         let text = serde_json::to_string_pretty(&v)? + "\n";
         let study = handover::protocol::Study::from_json(
             &text,
