@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::analysis::{Analyser, SeedRun, SessionAnalysis, measure_unit, object_shares, paired_over_seeds};
 use crate::derive_seed;
-use crate::dryrun::{BodyPopulation, DryRunPlan, plan, simulated_seconds};
+use crate::dryrun::{BodyPopulation, DryRunPlan, plan_from, simulated_seconds};
 use crate::protocol::{Study, for_body};
 use crate::record::{LogContents, ReplayStep};
 use crate::session::{Session, Stamped};
@@ -39,17 +39,20 @@ pub enum PlanError {
 }
 
 /// Simulated participant `index` of a study with seed `seed`: the protocol fitted to the
-/// participant's body (its text, as a log embeds it) and the session's plan.
+/// participant's body (its text, as a log embeds it) and the session's plan. The person's λ
+/// is drawn from the protocol's population, or with `from_prior` from the robot's prior.
 pub fn participant(
     text: &str,
     study: &Study,
     seed: u64,
     index: usize,
+    from_prior: bool,
 ) -> Result<(String, Arc<Study>, DryRunPlan), String> {
     let body = BodyPopulation::default().draw(seed, index);
     let (text, fitted) = for_body(text, &study.source_name, body).map_err(|e| e.to_string())?;
     let fitted = Arc::new(fitted);
-    let p = plan(&fitted, seed, index, None, crate::analysis::rfc3339_ms(START_NS));
+    let people = if from_prior { fitted.prior_population() } else { fitted.population() };
+    let p = plan_from(&fitted, &people, seed, index, None, crate::analysis::rfc3339_ms(START_NS));
     Ok((text, fitted, p))
 }
 
@@ -102,19 +105,20 @@ pub fn session_in_memory(text: String, study: Arc<Study>, p: &DryRunPlan) -> Res
 
 /// Study `index` of a plan: its first `participants` simulated sessions, each analysed as it
 /// is driven, as `analyze` analyses its log (without the posterior predictive and the MAP
-/// estimates, which the plan does not use).
+/// estimates, which the plan does not use). `from_prior`: as [`participant`].
 pub fn simulate_study(
     text: &str,
     study: &Study,
     seed: u64,
     index: usize,
     participants: usize,
+    from_prior: bool,
 ) -> Result<Vec<SessionAnalysis>, PlanError> {
     let s = study_seed(seed, index);
     (0..participants)
         .map(|i| {
             let err = |message: String| PlanError::Participant { study: index, participant: i + 1, message };
-            let (text, fitted, p) = participant(text, study, s, i).map_err(err)?;
+            let (text, fitted, p) = participant(text, study, s, i, from_prior).map_err(err)?;
             let mut analyser = Analyser::new(START_NS, false, false);
             let (log, session) =
                 drive_in_memory(text, Arc::clone(&fitted), &p, true, |s, step| analyser.visit(s, step)).map_err(err)?;
@@ -344,7 +348,7 @@ mod tests {
     fn a_session_analysed_as_it_is_driven_is_its_log_replayed_and_analysed() {
         let study = Study::default_study();
         let text = crate::protocol::DEFAULT_PROTOCOL;
-        let (text, fitted, p) = participant(text, &study, study_seed(3, 0), 0).unwrap();
+        let (text, fitted, p) = participant(text, &study, study_seed(3, 0), 0, false).unwrap();
         let mut analyser = Analyser::new(START_NS, false, true);
         let (log, session) =
             drive_in_memory(text, Arc::clone(&fitted), &p, false, |s, step| analyser.visit(s, step)).unwrap();
@@ -367,7 +371,7 @@ mod tests {
         let study = Study::default_study();
         for index in 0..3 {
             let (text, fitted, p) =
-                participant(crate::protocol::DEFAULT_PROTOCOL, &study, study_seed(9, 0), index).unwrap();
+                participant(crate::protocol::DEFAULT_PROTOCOL, &study, study_seed(9, 0), index, false).unwrap();
             let drive = |plan_only: bool| {
                 let mut analyser = Analyser::new(START_NS, false, false);
                 let (log, session) = drive_in_memory(text.clone(), Arc::clone(&fitted), &p, plan_only, |s, step| {

@@ -78,8 +78,9 @@ pub struct PlanArgs {
     #[arg(long, value_name = "DIR", num_args = 1.., conflicts_with = "shard")]
     merge: Vec<PathBuf>,
     /// Whom the simulated participants' λ are drawn from: `protocol` (its `population`
-    /// section, or its default) or a population file (a protocol's `population` section, as
-    /// `analyze --fit-population` writes it from a pilot).
+    /// section, or its default), `prior` (the robot's own prior: people as varied as the
+    /// robot allows) or a population file (a protocol's `population` section, as `analyze
+    /// --fit-population` writes it from a pilot).
     #[arg(long, default_value = "protocol")]
     population: PopulationArg,
     #[command(flatten)]
@@ -117,15 +118,17 @@ fn check(a: &PlanArgs) -> Result<usize> {
 pub fn run(args: PlanArgs) -> Result<()> {
     let largest = check(&args)?;
     let (text, study) = load_protocol(args.protocol.as_deref())?;
-    if args.population == PopulationArg::Prior {
-        return Err(bad(
-            "--population prior: a plan draws its participants from a population (the protocol's or a file's), not the robot's prior",
-        ));
-    }
     let (text, study) = args.population.apply(text, study)?;
+    let from_prior = args.population == PopulationArg::Prior;
     let (pool, threads) = super::progress::worker_pool(args.threads)?;
-    let fingerprint =
-        format!("plan protocol {} sizes {:?} studies {} seed {}", study.sha256, args.sizes, args.studies, args.seed);
+    let fingerprint = format!(
+        "plan protocol {} sizes {:?} studies {} seed {}{}",
+        study.sha256,
+        args.sizes,
+        args.studies,
+        args.seed,
+        if from_prior { " people from the prior" } else { "" }
+    );
     for dir in args.out.iter() {
         handover::private_files::create_dir(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
@@ -168,11 +171,12 @@ pub fn run(args: PlanArgs) -> Result<()> {
     let powers = power(&rows);
     let shares = object_share_rows(&objects);
     // The stated duration of one session, from the first study's first participant.
-    let (p_text, fitted, p) = participant(&text, &study, study_seed(args.seed, 0), 0).map_err(anyhow::Error::msg)?;
+    let (p_text, fitted, p) =
+        participant(&text, &study, study_seed(args.seed, 0), 0, from_prior).map_err(anyhow::Error::msg)?;
     let log = session_in_memory(p_text, fitted, &p).map_err(anyhow::Error::msg)?;
     print_table(&study, &args, &powers, &shares, session_seconds(&log), log.events.len(), &timing)?;
     if let Some(logs) = &args.keep_logs {
-        keep_logs(&text, &study, args.seed, largest, logs)?;
+        keep_logs(&text, &study, args.seed, largest, from_prior, logs)?;
     }
     if let Some(dir) = &args.out {
         write_csv(&dir.join("studies.csv"), &rows)?;
@@ -205,7 +209,8 @@ fn run_studies(
         indices
             .par_iter()
             .map(|&k| {
-                let sessions = simulate_study(text, study, args.seed, k, largest)?;
+                let sessions =
+                    simulate_study(text, study, args.seed, k, largest, args.population == PopulationArg::Prior)?;
                 bar.inc(largest as u64);
                 Ok::<_, handover::plan::PlanError>(study_rows(k, &sessions, &args.sizes, &object_ids))
             })
@@ -272,10 +277,10 @@ fn read_rows<T: serde::de::DeserializeOwned>(path: &Path, max: usize) -> Result<
 
 /// The first study's sessions written as pilot logs: the same events, stamped the same, as
 /// the plan analysed.
-fn keep_logs(text: &str, study: &Study, seed: u64, participants: usize, logs: &Path) -> Result<()> {
+fn keep_logs(text: &str, study: &Study, seed: u64, participants: usize, from_prior: bool, logs: &Path) -> Result<()> {
     let s = study_seed(seed, 0);
     for i in 0..participants {
-        let (p_text, fitted, p) = participant(text, study, s, i).map_err(anyhow::Error::msg)?;
+        let (p_text, fitted, p) = participant(text, study, s, i, from_prior).map_err(anyhow::Error::msg)?;
         let log = session_in_memory(p_text.clone(), Arc::clone(&fitted), &p).map_err(anyhow::Error::msg)?;
         let path = new_log_path(logs, &p.start.participant, chrono::Utc::now());
         let _lock = ParticipantLock::acquire(&logs.join(&p.start.participant), &p.start.participant, "plan")?;
@@ -307,6 +312,7 @@ fn print_table(
 ) -> Result<()> {
     let population = match (&args.population, study.protocol.population.is_some()) {
         (PopulationArg::File(path), _) => format!("{}'s", path.display()),
+        (PopulationArg::Prior, _) => "the robot's prior as the".to_string(),
         (_, true) => "the protocol's".to_string(),
         _ => "the default".to_string(),
     };

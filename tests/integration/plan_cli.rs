@@ -287,3 +287,64 @@ fn bad_input_exits_2_naming_what() {
         assert!(err.contains(what), "{args:?}: {err}");
     }
 }
+
+/// `--population prior` plans with people as varied as the robot's prior: their q* spread
+/// over each joint's prior range as a uniform draw does (variance width²/12), where the
+/// protocol's default population's sd is a sixth of the range (a third of that variance).
+#[test]
+fn a_plan_from_the_prior_draws_people_across_the_prior() {
+    let dir = tmp("prior");
+    let p = protocol(&dir, "p.json", |_| {});
+    let ranges: Vec<(f64, f64)> = {
+        let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
+        v["learning"]["prior"]["q_star_deg"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| (c["min"].as_f64().unwrap().to_radians(), c["max"].as_f64().unwrap().to_radians()))
+            .collect()
+    };
+    let spread = |population: &str| {
+        let logs = dir.join(format!("logs-{population}"));
+        let (code, out, err) = handover(&[
+            "plan",
+            "--protocol",
+            &p,
+            "--sizes",
+            "12",
+            "--studies",
+            "1",
+            "--seed",
+            "3",
+            "--population",
+            population,
+            "--keep-logs",
+            logs.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        if population == "prior" {
+            assert!(out.contains("the robot's prior as the population"), "{out}");
+        }
+        let truths: Vec<Vec<f64>> = handover::record::mcap_files(&logs)
+            .iter()
+            .map(|f| handover::record::read_log(f).unwrap().start.simulated_truth.unwrap().q_star)
+            .collect();
+        assert_eq!(truths.len(), 12);
+        // Each joint's variance over the participants, relative to a uniform draw's.
+        let relative: f64 = ranges
+            .iter()
+            .enumerate()
+            .map(|(j, &(lo, hi))| {
+                let x: Vec<f64> = truths.iter().map(|t| t[j]).collect();
+                assert!(x.iter().all(|v| (lo..=hi).contains(v)), "inside the prior's support");
+                let m = x.iter().sum::<f64>() / x.len() as f64;
+                let var = x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (x.len() - 1) as f64;
+                var / ((hi - lo).powi(2) / 12.0)
+            })
+            .sum::<f64>()
+            / ranges.len() as f64;
+        relative
+    };
+    let (prior, protocol) = (spread("prior"), spread("protocol"));
+    assert!(prior > 0.7 && protocol < 0.6, "relative variance: prior {prior}, protocol {protocol}");
+}
