@@ -50,9 +50,23 @@ impl Belief {
         rng: &mut R,
     ) -> Result<MoveReport, BeliefError> {
         check_observed(history, self.dim)?;
+        Ok(self.move_checked(prior, history, alpha, steps, floor, rng))
+    }
+
+    /// [`Belief::move_particles`] for a history whose every observation was checked
+    /// ([`check_observed`], as [`Belief::update`] checks each).
+    pub(crate) fn move_checked<R: Rng + ?Sized>(
+        &mut self,
+        prior: &Prior,
+        history: &[Observed],
+        alpha: f64,
+        steps: usize,
+        floor: &[f64],
+        rng: &mut R,
+    ) -> MoveReport {
         let base: u64 = rng.random();
         if steps == 0 || self.free.is_empty() {
-            return Ok(MoveReport { acceptance: 0.0 });
+            return MoveReport { acceptance: 0.0 };
         }
         let s = 2 * self.dim;
         let mean = self.mean().to_vec();
@@ -96,6 +110,6 @@ impl Belief {
                 accepted
             })
             .sum();
-        Ok(MoveReport { acceptance: accepted as f64 / (steps * self.len()) as f64 })
+        MoveReport { acceptance: accepted as f64 / (steps * self.len()) as f64 }
     }
 }

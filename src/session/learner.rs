@@ -237,19 +237,17 @@ impl Learner {
         ctx: &LearningContext,
     ) -> Result<(), crate::belief::BeliefError> {
         let set = &menu[query];
-        let mut belief = self.belief.clone();
-        belief.update(set, ctx.alpha, obs)?;
-        let mut observed: Vec<Observed> = self.history.iter().map(|(q, o)| (&menu[*q], o)).collect();
-        observed.push((set, obs));
-        if ctx.moves == 0 {
-            belief.maybe_resample(ctx.policy, &ctx.jitter, &mut self.rng);
-        } else if belief.maybe_resample(ctx.policy, &[], &mut self.rng) {
-            belief.move_particles(&ctx.prior, &observed, ctx.alpha, ctx.moves, &ctx.jitter, &mut self.rng)?;
-        }
-        self.belief = belief;
+        // An update that fails leaves the belief as it was; every observation it accepts is
+        // checked, so the moves over the history cannot fail.
+        self.belief.update(set, ctx.alpha, obs)?;
         self.history.push((query, obs.clone()));
-        self.iteration += 1;
         let history: Vec<Observed> = self.history.iter().map(|(q, o)| (&menu[*q], o)).collect();
+        if ctx.moves == 0 {
+            self.belief.maybe_resample(ctx.policy, &ctx.jitter, &mut self.rng);
+        } else if self.belief.maybe_resample(ctx.policy, &[], &mut self.rng) {
+            self.belief.move_checked(&ctx.prior, &history, ctx.alpha, ctx.moves, &ctx.jitter, &mut self.rng);
+        }
+        self.iteration += 1;
         self.summary = BeliefSummary::of(&self.belief, self.iteration, ctx, &history);
         self.entropies.push(self.summary.entropy);
         self.estimates.push(self.summary.mean.clone());
