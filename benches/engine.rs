@@ -6,7 +6,7 @@ use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_m
 use handover::SeededRng;
 use handover::belief::{Belief, ComponentPrior, Prior};
 use handover::ergo::{ConfigSet, FeasibleSet, Observation, SetPass};
-use handover::select::{Active, OutcomeModel, Problem, Selector};
+use handover::select::{Active, OutcomeModel, Precision, Problem, Selector};
 use rand::{RngExt, SeedableRng};
 
 const D: usize = 7;
@@ -57,13 +57,16 @@ fn select_active(c: &mut Criterion) {
         let mut rng = SeededRng::seed_from_u64(1);
         let b = belief(n, &mut rng);
         let menu = menu(8, m, &mut rng);
-        let problem = Problem { belief: &b, menu: &menu, alpha: 10.0, outcomes: OutcomeModel::Configuration };
         g.throughput(Throughput::Elements((n * 8 * m) as u64));
-        for threads in [1, 2] {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            g.bench_function(BenchmarkId::new(format!("{n}x8x{m}"), format!("{threads}-threads")), |bench| {
-                bench.iter(|| pool.install(|| Active.select(&problem, &mut rng).index))
-            });
+        // Float64 and float32 side by side, in one run.
+        for precision in [Precision::Float64, Precision::Float32] {
+            let problem =
+                Problem { belief: &b, menu: &menu, alpha: 10.0, outcomes: OutcomeModel::Configuration, precision };
+            for threads in [1, 2] {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+                let id = BenchmarkId::new(format!("{n}x8x{m}/{}", precision.name()), format!("{threads}-threads"));
+                g.bench_function(id, |bench| bench.iter(|| pool.install(|| Active.select(&problem, &mut rng).index)));
+            }
         }
     }
     g.finish();
@@ -85,8 +88,13 @@ fn console_step(c: &mut Criterion) {
                     let mut rng = SeededRng::seed_from_u64(3);
                     b.update(&menu[0], 10.0, &Observation::Config(17)).unwrap();
                     b.resample(&jitter, &mut rng);
-                    let problem =
-                        Problem { belief: &b, menu: &menu, alpha: 10.0, outcomes: OutcomeModel::Configuration };
+                    let problem = Problem {
+                        belief: &b,
+                        menu: &menu,
+                        alpha: 10.0,
+                        outcomes: OutcomeModel::Configuration,
+                        precision: Default::default(),
+                    };
                     Active.select(&problem, &mut rng).index
                 })
             })
@@ -107,13 +115,19 @@ fn session_step_default_protocol(c: &mut Criterion) {
     use handover::session::{Event, Prompt, Session, SessionStart, condition_order};
     let mut g = c.benchmark_group("session_step_default_protocol");
     g.sample_size(10);
-    for (observation, particles, learn) in
-        [("region", 2000, "q-star"), ("configuration", 2000, "q-star"), ("region", 20_000, "both")]
-    {
+    for (observation, particles, learn, precision) in [
+        ("region", 2000, "q-star", "float64"),
+        ("region", 2000, "q-star", "float32"),
+        ("configuration", 2000, "q-star", "float64"),
+        ("region", 20_000, "both", "float64"),
+        ("region", 20_000, "both", "float32"),
+    ] {
         let mut v: serde_json::Value = serde_json::from_str(DEFAULT_PROTOCOL).unwrap();
         v["learning"]["observation"] = observation.into();
         v["learning"]["particles"] = particles.into();
         v["learning"]["learn"] = learn.into();
+        v["learning"]["precision"] = precision.into();
+        let observation = format!("{observation}_{precision}");
         let study = std::sync::Arc::new(Study::from_json(&v.to_string(), "bench").unwrap());
         let start = SessionStart {
             session_id: "bench".into(),

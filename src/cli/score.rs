@@ -8,7 +8,8 @@ use clap::Args;
 use handover::belief::{Belief, Grid};
 use handover::ergo::{ConfigSet, FeasibleSet, Lambda, Observation};
 use handover::select::{
-    OutcomeModel, Problem, SelectorKind, Tradeoff, argmax, choose_from_values, information_gain_paper, menu_values,
+    OutcomeModel, Precision, Problem, SelectorKind, Tradeoff, argmax, choose_from_values, information_gain_paper,
+    menu_values,
 };
 use serde::{Deserialize, Serialize};
 
@@ -26,6 +27,10 @@ use super::input::{bad, parse_json, read_text};
 pub struct ScoreArgs {
     /// The input JSON file, or `-` for standard input.
     file: PathBuf,
+    /// The arithmetic of the information gain and expected cost: float64, or float32 (its
+    /// tolerance in docs/engine.md); posteriors are float64 either way.
+    #[arg(long, value_enum, default_value_t = Precision::Float64)]
+    precision: Precision,
 }
 
 #[derive(Debug, Deserialize)]
@@ -262,9 +267,9 @@ impl Config {
     }
 }
 
-fn score(cfg: Config) -> Result<Output> {
+fn score(cfg: Config, precision: Precision) -> Result<Output> {
     let outcomes = OutcomeModel::Configuration;
-    let problem = Problem { belief: &cfg.belief, menu: &cfg.menu, alpha: cfg.alpha, outcomes };
+    let problem = Problem { belief: &cfg.belief, menu: &cfg.menu, alpha: cfg.alpha, outcomes, precision };
     let values = menu_values(&problem);
     let paper: Option<Vec<f64>> = cfg
         .grid
@@ -300,7 +305,7 @@ pub fn run(args: ScoreArgs) -> Result<()> {
     let name = if args.file.as_os_str() == "-" { "<stdin>".to_string() } else { args.file.display().to_string() };
     let text = read_text(&args.file)?;
     let input: Input = parse_json(&text, &name)?;
-    let out = score(Config::from_input(input, &name)?)?;
+    let out = score(Config::from_input(input, &name)?, args.precision)?;
     outln!("{}", serde_json::to_string_pretty(&out)?);
     Ok(())
 }

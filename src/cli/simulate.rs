@@ -12,7 +12,7 @@ use handover::experiment::{
     self, Arm7, Planar2, Scenario, Settings, SimObservation, SummaryRow, paired_tests, summarise,
 };
 use handover::plot::{LinePlot, Series, line_grid, mean_se_plot};
-use handover::select::{DEFAULT_BUDGET_EPSILON, DEFAULT_HYBRID_BETA, SelectorKind, Tradeoff};
+use handover::select::{DEFAULT_BUDGET_EPSILON, DEFAULT_HYBRID_BETA, Precision, SelectorKind, Tradeoff};
 
 use super::input::{bad, count};
 
@@ -78,6 +78,10 @@ pub struct SimulateArgs {
     /// measured).
     #[arg(long, value_name = "DEG")]
     sigma_deg: Option<f64>,
+    /// The arithmetic of the selectors' information gain and expected cost: float64, or
+    /// float32 (about twice as fast; its tolerance in docs/engine.md). Beliefs are float64.
+    #[arg(long, value_enum, default_value_t = Precision::Float64)]
+    precision: Precision,
     /// Seed of every random draw; the same seed gives byte-identical CSV for any --threads.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -183,6 +187,7 @@ fn check(a: &SimulateArgs) -> Result<Checked> {
         numerics: Default::default(),
         estimate: a.estimate,
         observation,
+        precision: a.precision,
     };
     Ok(Checked { scenario, settings })
 }

@@ -83,6 +83,7 @@ impl SweepArgs {
             numerics: Default::default(),
             estimate: Estimate::Mean,
             observation: SimObservation::Configuration,
+            precision: Default::default(),
         }
     }
 }

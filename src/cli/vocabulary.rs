@@ -57,6 +57,12 @@ pub const CONCEPTS: &[Concept] = &[
     c("handedness", "HANDEDNESS", None, "a participant's dominant hand: left or right"),
     c("left-handed-share", "FRACTION", Some("0.1"), "the share of left-handed participants drawn"),
     c("population", "POPULATION", Some("protocol"), "whom simulated participants' λ are drawn from"),
+    c(
+        "precision",
+        "PRECISION",
+        Some("float64"),
+        "the arithmetic of the selectors' information gain and expected cost: float64, or float32 (its tolerance in docs/engine.md)",
+    ),
     c("truth", "FILE", None, "one ground truth λ for every simulated participant"),
     c("pilot", "", None, "a pilot with a real person: a `pilot-` id, no record, the log flagged pilot"),
     c("practice", "", None, "a rehearsal where a simulated participant chooses and the operator presses every key"),

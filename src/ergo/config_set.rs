@@ -3,6 +3,7 @@
 use std::ops::Range;
 
 use super::lanes::WIDTH;
+use super::lanes_f32::WIDTH_F32;
 
 /// Why a set of configurations was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -28,6 +29,10 @@ pub struct ConfigSet {
     /// pass's): joint d of configuration j is `data[d * stride + j]`.
     data: Vec<f64>,
     stride: usize,
+    /// The same rounded to f32, padded to whole blocks of [`WIDTH_F32`] (the float32
+    /// pass's): joint d of configuration j is `data_f32[d * stride_f32 + j]`.
+    data_f32: Vec<f32>,
+    stride_f32: usize,
 }
 
 impl ConfigSet {
@@ -50,7 +55,14 @@ impl ConfigSet {
                 data[d * stride + j] = v;
             }
         }
-        Ok(Self { dim, len, data, stride })
+        let stride_f32 = len.div_ceil(WIDTH_F32) * WIDTH_F32;
+        let mut data_f32 = vec![0.0; dim * stride_f32];
+        for d in 0..dim {
+            for (o, &v) in data_f32[d * stride_f32..].iter_mut().zip(&data[d * stride..d * stride + len]) {
+                *o = v as f32;
+            }
+        }
+        Ok(Self { dim, len, data, stride, data_f32, stride_f32 })
     }
 
     /// Number of joints D.
@@ -76,6 +88,12 @@ impl ConfigSet {
     /// Joint d of every configuration in blocks of [`WIDTH`], the last one padded with zeros.
     pub(super) fn joint_blocks(&self, d: usize) -> &[[f64; WIDTH]] {
         self.data[d * self.stride..(d + 1) * self.stride].as_chunks().0
+    }
+
+    /// Joint d of every configuration rounded to f32, in blocks of [`WIDTH_F32`], the last
+    /// one padded with zeros.
+    pub(super) fn joint_blocks_f32(&self, d: usize) -> &[[f32; WIDTH_F32]] {
+        self.data_f32[d * self.stride_f32..(d + 1) * self.stride_f32].as_chunks().0
     }
 
     /// Configuration j as a vector of D joint angles.

@@ -67,6 +67,8 @@ pub struct Settings {
     pub estimate: Estimate,
     /// What the learner observes of each choice.
     pub observation: SimObservation,
+    /// The arithmetic of the selectors' information gain and expected cost.
+    pub precision: crate::select::Precision,
 }
 
 /// How a simulated belief is gridded, jittered and smoothed; one value for every
@@ -226,7 +228,7 @@ fn run_trial(scenario: &dyn Scenario, s: &Settings, prior: &Prior, trial: usize)
                 SimObservation::Region => OutcomeModel::Region,
                 SimObservation::Configuration | SimObservation::Measured { .. } => OutcomeModel::Configuration,
             };
-            let problem = Problem { belief: &belief, menu: &t.menu, alpha: s.alpha, outcomes };
+            let problem = Problem { belief: &belief, menu: &t.menu, alpha: s.alpha, outcomes, precision: s.precision };
             let chosen = selector.select(&problem, &mut select_rng).index;
             let set = &t.menu[chosen];
             let cost = true_cost(set, &t.truth, s.alpha);

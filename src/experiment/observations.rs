@@ -190,6 +190,7 @@ mod tests {
             numerics: Default::default(),
             estimate: crate::belief::Estimate::Mean,
             observation: SimObservation::Configuration,
+            precision: Default::default(),
         };
         let rows = observation_sweep(&scenario, &base, 2, &observation_settings(&[5.0]), &|| {});
         // 3 models × 2 selectors × 3 iterations × 2 measures.

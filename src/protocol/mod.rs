@@ -189,6 +189,11 @@ pub struct LearningSpec {
     /// the default, keeps the paper's jitter.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub moves: usize,
+    /// The arithmetic of the selectors' information gain and expected cost: `float64` (the
+    /// default) or `float32` (about twice as fast; its tolerance in docs/engine.md). Belief
+    /// updates and every logged estimate are float64 either way.
+    #[serde(default, skip_serializing_if = "crate::select::Precision::is_default")]
+    pub precision: crate::select::Precision,
     /// Cells per prior range for the gridded entropy and the mode.
     pub grid_boxes: usize,
     /// What the robot learns from: `configuration` (the handle mapped to its most likely

@@ -3,9 +3,9 @@
 
 use rayon::prelude::*;
 
-use super::OutcomeModel;
+use super::{OutcomeModel, Precision};
 use crate::belief::{Belief, PARTICLE_CHUNK};
-use crate::ergo::{FeasibleSet, SetPass, xlogx};
+use crate::ergo::{ConfigSet, FeasibleSet, Scratch, ScratchF32, SetPass, xlogx};
 
 /// What one pass over a query's feasible set yields.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -26,8 +26,21 @@ struct Partial {
 /// (the configuration, or the region with [`OutcomeModel::Region`]) under particle i.
 /// O(N·|Q|); particles are reduced in fixed chunks so the result does not depend on the
 /// number of threads. A measured outcome's information is estimated
-/// ([`measured_information`] with [`MEASURED_POINTS`] points).
+/// ([`measured_information`] with [`MEASURED_POINTS`] points). In float64.
 pub fn query_value(belief: &Belief, set: &FeasibleSet, alpha: f64, outcomes: OutcomeModel) -> QueryValue {
+    query_value_in(belief, set, alpha, outcomes, Precision::Float64)
+}
+
+/// [`query_value`] with the set passes of a configuration or region outcome in the given
+/// precision (a measured outcome's estimate is always float64): float32 computes every
+/// weight in f32 and adds the per-particle sums in f64 (docs/engine.md, "Float32").
+pub fn query_value_in(
+    belief: &Belief,
+    set: &FeasibleSet,
+    alpha: f64,
+    outcomes: OutcomeModel,
+    precision: Precision,
+) -> QueryValue {
     let region = match outcomes {
         OutcomeModel::Configuration => false,
         OutcomeModel::Region => true,
@@ -36,8 +49,67 @@ pub fn query_value(belief: &Belief, set: &FeasibleSet, alpha: f64, outcomes: Out
             return QueryValue { information_gain: m.estimate, expected_cost: m.expected_cost };
         }
     };
-    let pass = discrete_pass(belief, set, alpha, region);
+    let pass = match precision {
+        Precision::Float64 => discrete_pass::<Float64>(belief, set, alpha, region),
+        Precision::Float32 => discrete_pass::<Float32>(belief, set, alpha, region),
+    };
     QueryValue { information_gain: pass.information_gain, expected_cost: pass.expected_cost }
+}
+
+/// A set pass in one precision, for the passes over the particles written once.
+trait PassPrecision {
+    type Scratch;
+    /// The accumulator of a configuration outcome's marginal.
+    type Marginal: Copy + Default + Into<f64> + Send;
+    fn scratch(len: usize) -> Self::Scratch;
+    fn run(set: &ConfigSet, q_star: &[f64], w: &[f64], alpha: f64, scratch: &mut Self::Scratch) -> SetPass;
+    fn min_cost(set: &ConfigSet, q_star: &[f64], w: &[f64], scratch: &mut Self::Scratch) -> f64;
+    fn range_sums(scratch: &Self::Scratch, ranges: &[std::ops::Range<usize>], out: &mut [f64]);
+    fn add_scaled_weights(scratch: &Self::Scratch, scale: f64, marginal: &mut [Self::Marginal]);
+}
+
+struct Float64;
+
+impl PassPrecision for Float64 {
+    type Scratch = Scratch;
+    type Marginal = f64;
+    fn scratch(len: usize) -> Scratch {
+        SetPass::scratch(len)
+    }
+    fn run(set: &ConfigSet, q_star: &[f64], w: &[f64], alpha: f64, scratch: &mut Scratch) -> SetPass {
+        SetPass::run(set, q_star, w, alpha, scratch)
+    }
+    fn min_cost(set: &ConfigSet, q_star: &[f64], w: &[f64], scratch: &mut Scratch) -> f64 {
+        SetPass::min_cost(set, q_star, w, scratch)
+    }
+    fn range_sums(scratch: &Scratch, ranges: &[std::ops::Range<usize>], out: &mut [f64]) {
+        scratch.range_sums(ranges, out)
+    }
+    fn add_scaled_weights(scratch: &Scratch, scale: f64, marginal: &mut [f64]) {
+        scratch.add_scaled_weights(scale, marginal)
+    }
+}
+
+struct Float32;
+
+impl PassPrecision for Float32 {
+    type Scratch = ScratchF32;
+    type Marginal = f32;
+    fn scratch(len: usize) -> ScratchF32 {
+        ScratchF32::new(len)
+    }
+    fn run(set: &ConfigSet, q_star: &[f64], w: &[f64], alpha: f64, scratch: &mut ScratchF32) -> SetPass {
+        crate::ergo::run_f32(set, q_star, w, alpha, scratch)
+    }
+    fn min_cost(set: &ConfigSet, q_star: &[f64], w: &[f64], scratch: &mut ScratchF32) -> f64 {
+        crate::ergo::min_cost_f32(set, q_star, w, scratch)
+    }
+    fn range_sums(scratch: &ScratchF32, ranges: &[std::ops::Range<usize>], out: &mut [f64]) {
+        scratch.range_sums(ranges, out)
+    }
+    fn add_scaled_weights(scratch: &ScratchF32, scale: f64, marginal: &mut [f32]) {
+        scratch.add_scaled_weights(scale as f32, marginal)
+    }
 }
 
 /// What one pass over a belief yields for a discrete outcome (the configuration or the
@@ -48,20 +120,27 @@ struct DiscretePass {
     expected_cost: f64,
 }
 
-fn discrete_pass(belief: &Belief, set: &FeasibleSet, alpha: f64, region: bool) -> DiscretePass {
+fn discrete_pass<P: PassPrecision>(belief: &Belief, set: &FeasibleSet, alpha: f64, region: bool) -> DiscretePass {
     let d = belief.dim();
     let k = if region { set.regions().len() } else { set.len() };
     let partials: Vec<Partial> = chunks(belief)
         .map(|chunk| {
-            let mut scratch = SetPass::scratch(set.len());
-            let mut part = Partial { marginal: vec![0.0; k], conditional_entropy: 0.0, expected_cost: 0.0 };
+            let mut scratch = P::scratch(set.len());
+            // A configuration outcome's marginal in the precision's type; a region's (a few
+            // numbers a particle) in f64 whatever the precision.
+            let mut config_marginal = vec![P::Marginal::default(); if region { 0 } else { k }];
+            let mut part = Partial {
+                marginal: vec![0.0; if region { k } else { 0 }],
+                conditional_entropy: 0.0,
+                expected_cost: 0.0,
+            };
             let mut region_p = vec![0.0; set.regions().len()];
             for (p, w) in chunk {
-                let pass = SetPass::run(set.configs(), &p[..d], &p[d..], alpha, &mut scratch);
+                let pass = P::run(set.configs(), &p[..d], &p[d..], alpha, &mut scratch);
                 part.expected_cost += w * pass.min_cost;
                 let scale = w / pass.sum;
                 if region {
-                    scratch.range_sums(set.regions(), &mut region_p);
+                    P::range_sums(&scratch, set.regions(), &mut region_p);
                     let mut h = 0.0;
                     for pr in region_p.iter_mut() {
                         *pr /= pass.sum;
@@ -72,9 +151,12 @@ fn discrete_pass(belief: &Belief, set: &FeasibleSet, alpha: f64, region: bool) -
                     }
                     part.conditional_entropy += w * h;
                 } else {
-                    scratch.add_scaled_weights(scale, &mut part.marginal);
+                    P::add_scaled_weights(&scratch, scale, &mut config_marginal);
                     part.conditional_entropy += w * pass.config_entropy();
                 }
+            }
+            if !region {
+                part.marginal = config_marginal.into_iter().map(Into::into).collect();
             }
             part
         })
@@ -146,7 +228,7 @@ pub fn measured_information(
     let dim = configs.dim();
     assert_eq!(sigma.len(), dim, "one noise level per joint");
     assert!(points >= 2 && points.is_multiple_of(2), "points come in antithetic pairs");
-    let exact = discrete_pass(belief, set, alpha, false);
+    let exact = discrete_pass::<Float64>(belief, set, alpha, false);
     let strata = points / 2;
     // The measurement points: strata of the marginal, antithetic noise.
     let total: f64 = exact.marginal.iter().sum();
@@ -266,17 +348,24 @@ pub fn measured_information(
     }
 }
 
-/// Σ_i ω_i min_q C(q; λ_i) (eq. 10, without α): [`query_value`]'s `expected_cost`, the same
-/// bits (the same chunks, in the same order), without the weights' exponentials: all that
-/// `passive` decides from.
-pub fn expected_cost(belief: &Belief, set: &FeasibleSet) -> f64 {
+/// Σ_i ω_i min_q C(q; λ_i) (eq. 10, without α): [`query_value_in`]'s `expected_cost` in
+/// the same precision, the same bits (the same chunks, in the same order), without the
+/// weights' exponentials: all that `passive` decides from.
+pub fn expected_cost(belief: &Belief, set: &FeasibleSet, precision: Precision) -> f64 {
+    match precision {
+        Precision::Float64 => expected_cost_in::<Float64>(belief, set),
+        Precision::Float32 => expected_cost_in::<Float32>(belief, set),
+    }
+}
+
+fn expected_cost_in<P: PassPrecision>(belief: &Belief, set: &FeasibleSet) -> f64 {
     let d = belief.dim();
     let partials: Vec<f64> = chunks(belief)
         .map(|chunk| {
-            let mut scratch = SetPass::scratch(set.len());
+            let mut scratch = P::scratch(set.len());
             let mut cost = 0.0;
             for (p, w) in chunk {
-                cost += w * SetPass::min_cost(set.configs(), &p[..d], &p[d..], &mut scratch);
+                cost += w * P::min_cost(set.configs(), &p[..d], &p[d..], &mut scratch);
             }
             cost
         })

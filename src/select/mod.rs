@@ -14,7 +14,7 @@ use crate::belief::{Belief, Grid};
 use crate::ergo::FeasibleSet;
 
 pub use information::{
-    MEASURED_POINTS, MeasuredInformation, QueryValue, expected_cost, measured_information, query_value,
+    MEASURED_POINTS, MeasuredInformation, QueryValue, expected_cost, measured_information, query_value, query_value_in,
 };
 pub use paper::information_gain_paper;
 
@@ -41,6 +41,34 @@ impl OutcomeModel<'_> {
     }
 }
 
+/// The arithmetic of the selectors' set passes (protocol `learning.precision`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Precision {
+    /// IEEE double throughout (the default): information gains exact to rounding.
+    #[default]
+    Float64,
+    /// Costs, weights and their sums per particle in IEEE single (sixteen lanes where
+    /// float64 has eight), each particle's sums and everything after them in double: the
+    /// tolerance in docs/engine.md ("Float32"). Belief updates stay float64.
+    Float32,
+}
+
+impl Precision {
+    /// Its name in protocols and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Precision::Float64 => "float64",
+            Precision::Float32 => "float32",
+        }
+    }
+
+    /// Whether it is the default (float64), for leaving it out of serialised protocols.
+    pub fn is_default(&self) -> bool {
+        *self == Precision::Float64
+    }
+}
+
 /// The belief, the menu and the choice model a selector decides from.
 #[derive(Clone, Copy)]
 pub struct Problem<'a> {
@@ -48,6 +76,8 @@ pub struct Problem<'a> {
     pub menu: &'a [FeasibleSet],
     pub alpha: f64,
     pub outcomes: OutcomeModel<'a>,
+    /// The arithmetic of the set passes of the information gain and expected cost.
+    pub precision: Precision,
 }
 
 /// A selector's choice and the criterion it maximised, for every menu item (`passive`
@@ -68,7 +98,11 @@ pub trait Selector: Send + Sync {
 
 /// Information gain and expected cost of every menu item.
 pub fn menu_values(problem: &Problem) -> Vec<QueryValue> {
-    problem.menu.iter().map(|set| query_value(problem.belief, set, problem.alpha, problem.outcomes)).collect()
+    problem
+        .menu
+        .iter()
+        .map(|set| query_value_in(problem.belief, set, problem.alpha, problem.outcomes, problem.precision))
+        .collect()
 }
 
 /// The parameters of the selectors that trade information against comfort.

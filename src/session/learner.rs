@@ -5,7 +5,7 @@ use crate::belief::Observed;
 use crate::belief::{Belief, CellIndex, Grid, Prior, ResamplePolicy};
 use crate::ergo::{FeasibleSet, Lambda, Observation};
 use crate::protocol::ObservationModel;
-use crate::select::{OutcomeModel, Problem, QueryValue, SelectorKind, Tradeoff, menu_values};
+use crate::select::{OutcomeModel, Precision, Problem, QueryValue, SelectorKind, Tradeoff, menu_values};
 
 /// Settings shared by both learners of a session.
 #[derive(Clone, Debug)]
@@ -37,9 +37,17 @@ pub struct LearningContext {
     pub training_trials: usize,
     /// What the selectors score ([`SessionStart::selection`](super::SessionStart)).
     pub selection: super::SelectionOutcome,
+    /// The arithmetic of the selectors' set passes (protocol `learning.precision`).
+    pub precision: Precision,
 }
 
 impl LearningContext {
+    /// What the selectors decide from: this belief over the menu, with the session's α,
+    /// outcomes and precision.
+    pub fn problem<'a>(&'a self, belief: &'a Belief, menu: &'a [FeasibleSet]) -> Problem<'a> {
+        Problem { belief, menu, alpha: self.alpha, outcomes: self.selection_outcomes(), precision: self.precision }
+    }
+
     /// The outcomes the selectors score: the measured arm when the session learns from it
     /// (its information about λ estimated, `select::measured_information`), else the
     /// region (what the operator's key records, and the fallback of a trial without a
@@ -204,12 +212,11 @@ impl Learner {
             menu.iter()
                 .map(|set| QueryValue {
                     information_gain: f64::NAN,
-                    expected_cost: crate::select::expected_cost(&self.belief, set),
+                    expected_cost: crate::select::expected_cost(&self.belief, set, ctx.precision),
                 })
                 .collect()
         } else {
-            let problem = Problem { belief: &self.belief, menu, alpha: ctx.alpha, outcomes: ctx.selection_outcomes() };
-            menu_values(&problem)
+            menu_values(&ctx.problem(&self.belief, menu))
         };
         self.choose(menu, ctx);
     }
@@ -219,8 +226,7 @@ impl Learner {
         self.suggestion = match crate::select::choose_from_values(self.condition, &self.scores, ctx.tradeoff) {
             Some(i) => i,
             None => {
-                let problem =
-                    Problem { belief: &self.belief, menu, alpha: ctx.alpha, outcomes: ctx.selection_outcomes() };
+                let problem = ctx.problem(&self.belief, menu);
                 self.condition.build(&ctx.grid, ctx.tradeoff).select(&problem, &mut self.rng).index
             }
         };

@@ -341,6 +341,7 @@ impl Session {
             plan_only: false,
             training_trials: spec.trials_per_condition,
             selection,
+            precision: learning.precision,
         };
         let menu: Arc<Vec<FeasibleSet>> = Arc::new(study.training.iter().map(|q| choice_set(&q.feasible)).collect());
         let tests: Arc<Vec<FeasibleSet>> = Arc::new(study.test.iter().map(|q| choice_set(&q.feasible)).collect());

@@ -283,7 +283,13 @@ fn selection_scores_what_the_start_says_and_a_new_session_what_it_learns_from() 
     assert_eq!(s.start().selection, Some(SelectionOutcome::Measured));
     let menu: Vec<FeasibleSet> = (0..s.study().training.len()).map(|i| s.set(QueryRef::Training(i)).clone()).collect();
     let score = |outcomes| {
-        menu_values(&Problem { belief: &s.learners()[0].belief, menu: &menu, alpha: s.context().alpha, outcomes })
+        menu_values(&Problem {
+            belief: &s.learners()[0].belief,
+            menu: &menu,
+            alpha: s.context().alpha,
+            outcomes,
+            precision: Default::default(),
+        })
     };
     let sigma = [5f64.to_radians(); 7];
     assert_eq!(s.learners()[0].scores, score(OutcomeModel::Measured { sigma: &sigma }));

@@ -20,6 +20,7 @@ mod live_view;
 mod measured_session;
 mod outputs;
 mod plan_cli;
+mod precision;
 mod protocol_validation;
 mod robot_hook;
 mod robot_ros2;
