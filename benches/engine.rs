@@ -202,5 +202,28 @@ fn session_step_default_protocol(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, set_pass, select_active, console_step, session_step_default_protocol);
+/// One simulated study of `plan` (10 sessions of the default protocol, driven and analysed
+/// as `plan` does), in float64 and float32 side by side; the protocol fitted to each body
+/// comes from the plan's cache, as it does for nearly every session of a default plan.
+fn plan_study(c: &mut Criterion) {
+    use handover::plan::{FittedBodies, simulate_study};
+    use handover::protocol::{DEFAULT_PROTOCOL, Study};
+    let mut g = c.benchmark_group("plan_study_default_protocol");
+    g.sample_size(10);
+    for precision in ["float64", "float32"] {
+        let mut v: serde_json::Value = serde_json::from_str(DEFAULT_PROTOCOL).unwrap();
+        v["learning"]["precision"] = precision.into();
+        let text = v.to_string();
+        let study = Study::from_json(&text, "bench").unwrap();
+        let bodies = FittedBodies::default();
+        simulate_study(&text, &study, 1, 0, 10, false, &bodies).unwrap();
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+        g.bench_function(format!("10_sessions/{precision}/2-threads"), |b| {
+            b.iter(|| pool.install(|| simulate_study(&text, &study, 1, 0, 10, false, &bodies).unwrap().len()))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, set_pass, select_active, console_step, session_step_default_protocol, plan_study);
 criterion_main!(benches);

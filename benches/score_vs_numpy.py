@@ -151,6 +151,10 @@ def timed(cmd):
     return dt, json.loads(r.stdout)
 
 
+# How far handover's float32 pass may lie from NumPy's float64 (docs/engine.md, "Float32").
+FLOAT32_TOLERANCE = 1e-5
+
+
 def compare(ours, theirs, tolerance):
     """The largest relative difference of the per-query values; exits 1 when the choices or
     values disagree beyond the tolerance."""
@@ -191,19 +195,23 @@ def main():
         path = os.path.join(tmp, "score.json")
         make_input(path, args.particles, args.queries, args.configs, args.joints, args.alpha, args.seed)
         ours_cmd = [args.handover, "research", "score", path]
+        ours32_cmd = ours_cmd + ["--precision", "float32"]
         theirs_cmd = [sys.executable, os.path.abspath(__file__), "--numpy-score", path]
         # One warm-up each (page cache, NumPy's import), then alternate.
         _, ours = timed(ours_cmd)
+        _, ours32 = timed(ours32_cmd)
         _, theirs = timed(theirs_cmd)
         worst = compare(ours, theirs, args.tolerance)
-        t_ours, t_theirs = [], []
+        worst32 = compare(ours32, theirs, FLOAT32_TOLERANCE)
+        t_ours, t_ours32, t_theirs = [], [], []
         for _ in range(args.repeats):
             t_ours.append(timed(ours_cmd)[0])
+            t_ours32.append(timed(ours32_cmd)[0])
             t_theirs.append(timed(theirs_cmd)[0])
         jax = jax_times(path, args.repeats) if args.jax else {}
 
     pairs = args.particles * args.queries * args.configs
-    mo, mt = statistics.median(t_ours), statistics.median(t_theirs)
+    mo, mo32, mt = statistics.median(t_ours), statistics.median(t_ours32), statistics.median(t_theirs)
     threads = os.environ.get("RAYON_NUM_THREADS", str(os.cpu_count()))
     print(
         f"{args.particles} particles × {args.queries} queries × {args.configs} configurations, "
@@ -214,12 +222,17 @@ def main():
           + " ".join(f"{t * 1e3:.0f}" for t in t_ours))
     print(f"  NumPy:          {mt * 1e3:8.1f} ms  ({mt / pairs * 1e9:.2f} ns per pair)  runs: "
           + " ".join(f"{t * 1e3:.0f}" for t in t_theirs))
+    print(f"  handover research score --precision float32: {mo32 * 1e3:8.1f} ms  ({mo32 / pairs * 1e9:.2f} ns per pair)  runs: "
+          + " ".join(f"{t * 1e3:.0f}" for t in t_ours32))
     print(f"  ratio NumPy / handover: {mt / mo:.1f}×   (outputs agree to {worst:.1e} relative)")
+    print(f"  ratio NumPy / handover float32: {mt / mo32:.1f}×   (outputs agree to {worst32:.1e} relative)")
+    print(f"  ratio handover float64 / float32: {mo / mo32:.2f}×")
     for dtype, (t, gains) in jax.items():
-        ours_gains = [q["information_gain"] for q in ours["queries"]]
-        diff = max(abs(a - b) / max(abs(a), 1e-12) for a, b in zip(ours_gains, gains))
+        mine = (ours32 if dtype == "float32" else ours)["queries"]
+        base = mo32 if dtype == "float32" else mo
+        diff = max(abs(a["information_gain"] - b) / max(abs(b), 1e-12) for a, b in zip(mine, gains))
         print(f"  JAX {dtype} (compute only, after compilation): {t * 1e3:8.1f} ms  ({t / pairs * 1e9:.2f} ns per pair); "
-              f"ratio JAX / handover (whole process): {t / mo:.2f}×  (information gains agree to {diff:.1e} relative)")
+              f"ratio JAX / handover {dtype} (whole process): {t / base:.2f}×  (information gains agree to {diff:.1e} relative)")
 
 
 if __name__ == "__main__":

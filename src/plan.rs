@@ -7,15 +7,16 @@
 //! k at N = 20 holds study k at N = 10. The sizes' powers are then compared on the same
 //! people, and one study's sessions are simulated once for every size.
 
+use std::collections::HashMap;
 use std::path::PathBuf;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use serde::{Deserialize, Serialize};
 
 use crate::analysis::{Analyser, SeedRun, SessionAnalysis, measure_unit, object_shares, paired_over_seeds};
 use crate::derive_seed;
 use crate::dryrun::{BodyPopulation, DryRunPlan, plan_from, simulated_seconds};
-use crate::protocol::{Study, for_body};
+use crate::protocol::{Body, Study, for_body};
 use crate::record::{LogContents, ReplayStep};
 use crate::session::{Session, Stamped};
 
@@ -38,6 +39,40 @@ pub enum PlanError {
     Participant { study: usize, participant: usize, message: String },
 }
 
+/// The protocol fitted to each body a plan has met, shared by its studies: bodies are drawn
+/// to the millimetre with one of two hands, so a plan's thousands of simulated people have a
+/// few hundred distinct bodies, and fitting one (the inverse kinematics of every query) is
+/// about a seventh of a session's time. A fitted protocol depends on the body alone, so
+/// the numbers are those of fitting every person anew.
+#[derive(Default)]
+pub struct FittedBodies {
+    fitted: Mutex<HashMap<BodyKey, (String, Arc<Study>)>>,
+}
+
+/// A body as the cache tells bodies apart: the bits of its height (m) and its hand's name.
+type BodyKey = (Option<u64>, &'static str);
+
+/// Bodies kept at most (a fitted default protocol holds about 1 MB of feasible sets).
+const FITTED_BODIES: usize = 2048;
+
+impl FittedBodies {
+    /// The protocol `text` fitted to `body`: its text, as a log embeds it, and its study.
+    pub fn fit(&self, text: &str, study: &Study, body: Body) -> Result<(String, Arc<Study>), String> {
+        let key = (body.height_m.map(f64::to_bits), body.hand.name());
+        if let Some(hit) = self.fitted.lock().unwrap_or_else(|e| e.into_inner()).get(&key) {
+            return Ok(hit.clone());
+        }
+        // Fitted outside the lock: two threads may fit the same body once each, to the same.
+        let (text, fitted) = for_body(text, &study.source_name, body).map_err(|e| e.to_string())?;
+        let fitted = (text, Arc::new(fitted));
+        let mut map = self.fitted.lock().unwrap_or_else(|e| e.into_inner());
+        if map.len() < FITTED_BODIES {
+            map.insert(key, fitted.clone());
+        }
+        Ok(fitted)
+    }
+}
+
 /// Simulated participant `index` of a study with seed `seed`: the protocol fitted to the
 /// participant's body (its text, as a log embeds it) and the session's plan. The person's λ
 /// is drawn from the protocol's population, or with `from_prior` from the robot's prior.
@@ -47,10 +82,10 @@ pub fn participant(
     seed: u64,
     index: usize,
     from_prior: bool,
+    bodies: &FittedBodies,
 ) -> Result<(String, Arc<Study>, DryRunPlan), String> {
     let body = BodyPopulation::default().draw(seed, index);
-    let (text, fitted) = for_body(text, &study.source_name, body).map_err(|e| e.to_string())?;
-    let fitted = Arc::new(fitted);
+    let (text, fitted) = bodies.fit(text, study, body)?;
     let people = if from_prior { fitted.prior_population() } else { fitted.population() };
     let p = plan_from(&fitted, &people, seed, index, None, crate::analysis::rfc3339_ms(START_NS));
     Ok((text, fitted, p))
@@ -113,12 +148,13 @@ pub fn simulate_study(
     index: usize,
     participants: usize,
     from_prior: bool,
+    bodies: &FittedBodies,
 ) -> Result<Vec<SessionAnalysis>, PlanError> {
     let s = study_seed(seed, index);
     (0..participants)
         .map(|i| {
             let err = |message: String| PlanError::Participant { study: index, participant: i + 1, message };
-            let (text, fitted, p) = participant(text, study, s, i, from_prior).map_err(err)?;
+            let (text, fitted, p) = participant(text, study, s, i, from_prior, bodies).map_err(err)?;
             let mut analyser = Analyser::new(START_NS, false, false);
             let (log, session) =
                 drive_in_memory(text, Arc::clone(&fitted), &p, true, |s, step| analyser.visit(s, step)).map_err(err)?;
@@ -344,11 +380,32 @@ mod tests {
         assert_eq!(wilson_interval(10, 10).1, 1.0);
     }
 
+    /// A body met again gets the protocol fitted the first time: the same study, shared, and
+    /// the same text and feasible sets as fitting it anew.
+    #[test]
+    fn a_body_met_again_is_not_fitted_again() {
+        let study = Study::default_study();
+        let text = crate::protocol::DEFAULT_PROTOCOL;
+        let bodies = FittedBodies::default();
+        let body = BodyPopulation::default().draw(5, 0);
+        let (t1, s1) = bodies.fit(text, &study, body).unwrap();
+        let (t2, s2) = bodies.fit(text, &study, body).unwrap();
+        assert!(Arc::ptr_eq(&s1, &s2), "fitted once");
+        let (t0, s0) = for_body(text, &study.source_name, body).unwrap();
+        assert_eq!((t1, t2), (t0.clone(), t0));
+        let sets = |s: &Study| s.training.iter().map(|q| q.feasible.clone()).collect::<Vec<_>>();
+        assert_eq!(sets(&s1), sets(&s0));
+        // Another body is fitted for itself.
+        let other = crate::protocol::Body { height_m: Some(1.9), ..body };
+        assert!(!Arc::ptr_eq(&bodies.fit(text, &study, other).unwrap().1, &s1));
+    }
+
     #[test]
     fn a_session_analysed_as_it_is_driven_is_its_log_replayed_and_analysed() {
         let study = Study::default_study();
         let text = crate::protocol::DEFAULT_PROTOCOL;
-        let (text, fitted, p) = participant(text, &study, study_seed(3, 0), 0, false).unwrap();
+        let (text, fitted, p) =
+            participant(text, &study, study_seed(3, 0), 0, false, &FittedBodies::default()).unwrap();
         let mut analyser = Analyser::new(START_NS, false, true);
         let (log, session) =
             drive_in_memory(text, Arc::clone(&fitted), &p, false, |s, step| analyser.visit(s, step)).unwrap();
@@ -369,9 +426,11 @@ mod tests {
     #[test]
     fn a_plan_only_session_chooses_and_learns_what_a_whole_one_does() {
         let study = Study::default_study();
+        let bodies = FittedBodies::default();
         for index in 0..3 {
             let (text, fitted, p) =
-                participant(crate::protocol::DEFAULT_PROTOCOL, &study, study_seed(9, 0), index, false).unwrap();
+                participant(crate::protocol::DEFAULT_PROTOCOL, &study, study_seed(9, 0), index, false, &bodies)
+                    .unwrap();
             let drive = |plan_only: bool| {
                 let mut analyser = Analyser::new(START_NS, false, false);
                 let (log, session) = drive_in_memory(text.clone(), Arc::clone(&fitted), &p, plan_only, |s, step| {

@@ -196,15 +196,16 @@ fn run_seeds(
 ) -> Result<Vec<SeedRun>> {
     let RunContext { args, population, logs, truth, bar, live, arm } = *ctx;
     let mut runs = Vec::new();
+    let bodies = handover::plan::FittedBodies::default();
     for k in 0..args.seeds {
         let seed = args.seed + k;
         let mut sessions = Vec::new();
         for i in 0..args.participants {
             let now = chrono::Utc::now();
             let body = population.draw(seed, i);
-            let (text, fitted) = for_body(text, &study.source_name, body)
+            let (text, fitted) = bodies
+                .fit(text, study, body)
                 .map_err(|e| bad(format!("simulated participant {} of seed {seed}: {e}", i + 1)))?;
-            let fitted = Arc::new(fitted);
             let people = match args.population {
                 PopulationArg::Protocol | PopulationArg::File(_) => fitted.population(),
                 PopulationArg::Prior => fitted.prior_population(),

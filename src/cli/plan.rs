@@ -171,8 +171,8 @@ pub fn run(args: PlanArgs) -> Result<()> {
     let powers = power(&rows);
     let shares = object_share_rows(&objects);
     // The stated duration of one session, from the first study's first participant.
-    let (p_text, fitted, p) =
-        participant(&text, &study, study_seed(args.seed, 0), 0, from_prior).map_err(anyhow::Error::msg)?;
+    let (p_text, fitted, p) = participant(&text, &study, study_seed(args.seed, 0), 0, from_prior, &Default::default())
+        .map_err(anyhow::Error::msg)?;
     let log = session_in_memory(p_text, fitted, &p).map_err(anyhow::Error::msg)?;
     print_table(&study, &args, &powers, &shares, session_seconds(&log), log.events.len(), &timing)?;
     if let Some(logs) = &args.keep_logs {
@@ -205,12 +205,20 @@ fn run_studies(
 ) -> Result<(Vec<StudyRow>, Vec<StudyObjectRow>)> {
     let bar = super::progress::bar("plan", (indices.len() * largest) as u64, "simulated sessions");
     let object_ids: Vec<String> = study.protocol.objects.iter().map(|o| o.id.clone()).collect();
+    let bodies = handover::plan::FittedBodies::default();
     let per_study: Vec<_> = pool.install(|| {
         indices
             .par_iter()
             .map(|&k| {
-                let sessions =
-                    simulate_study(text, study, args.seed, k, largest, args.population == PopulationArg::Prior)?;
+                let sessions = simulate_study(
+                    text,
+                    study,
+                    args.seed,
+                    k,
+                    largest,
+                    args.population == PopulationArg::Prior,
+                    &bodies,
+                )?;
                 bar.inc(largest as u64);
                 Ok::<_, handover::plan::PlanError>(study_rows(k, &sessions, &args.sizes, &object_ids))
             })
@@ -279,8 +287,9 @@ fn read_rows<T: serde::de::DeserializeOwned>(path: &Path, max: usize) -> Result<
 /// the plan analysed.
 fn keep_logs(text: &str, study: &Study, seed: u64, participants: usize, from_prior: bool, logs: &Path) -> Result<()> {
     let s = study_seed(seed, 0);
+    let bodies = handover::plan::FittedBodies::default();
     for i in 0..participants {
-        let (p_text, fitted, p) = participant(text, study, s, i, from_prior).map_err(anyhow::Error::msg)?;
+        let (p_text, fitted, p) = participant(text, study, s, i, from_prior, &bodies).map_err(anyhow::Error::msg)?;
         let log = session_in_memory(p_text.clone(), Arc::clone(&fitted), &p).map_err(anyhow::Error::msg)?;
         let path = new_log_path(logs, &p.start.participant, chrono::Utc::now());
         let _lock = ParticipantLock::acquire(&logs.join(&p.start.participant), &p.start.participant, "plan")?;
