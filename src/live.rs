@@ -2,12 +2,16 @@
 //! WebSocket protocol (`foxglove.websocket.v1`, by the official `foxglove` crate's server).
 //! Every message is served once it is on disk, on the log's topics with the log's schemas, so
 //! the app shows the same 3D scene, plots and notes as the log opened later
-//! (`docs/foxglove-layout.json`). Every topic a session may publish is advertised before its
-//! first message, so a viewer connected from the start subscribes in time to get every
-//! message in order; one that connects late gets each topic's latest message when it
-//! subscribes (the body is in every `/human/arm`), so the scene is there at once. A viewer
-//! gets each message once: it is sent to a subscriber only after that subscriber's replay,
-//! both under one lock, so a message published while a viewer subscribes is not sent twice.
+//! (`docs/foxglove-layout.json`). Every topic a session may publish has its channel from the
+//! moment the server starts, so it is advertised to a viewer as it connects. (A channel made
+//! after a viewer connected is advertised to it before the SDK, foxglove 0.30.3, records it
+//! as advertised to that viewer, so a viewer that answers at once can have its subscription
+//! refused as an unknown channel: under load, a topic lost for good.) A viewer connected from
+//! the start subscribes in time to get every message in order; one that connects late gets
+//! each topic's latest message when it subscribes (the body is in every `/human/arm`), so the
+//! scene is there at once. A viewer gets each message once: it is sent to a subscriber only
+//! after that subscriber's replay, both under one lock, so a message published while a
+//! viewer subscribes is not sent twice.
 
 use std::collections::{HashMap, HashSet};
 use std::net::SocketAddr;
@@ -75,7 +79,14 @@ impl LiveView {
     /// Starts serving on `addr` (port 0: any free port).
     pub fn start(addr: SocketAddr) -> Result<Self, String> {
         let context = Context::new();
-        let shared = Arc::new(Mutex::new(Shared::default()));
+        // Every channel before the first viewer can connect (the module's header says why).
+        let mut channels = HashMap::new();
+        for topic in Topic::ALL {
+            if let Some(c) = make_channel(&context, topic) {
+                channels.insert(topic, c);
+            }
+        }
+        let shared = Arc::new(Mutex::new(Shared { channels, ..Shared::default() }));
         let server = WebSocketServer::new()
             .name(format!("handover {}", env!("CARGO_PKG_VERSION")))
             .bind(addr.ip().to_string(), addr.port())
@@ -116,23 +127,28 @@ impl Drop for Serving {
 }
 
 impl LiveView {
-    /// The topic's channel, advertised to every viewer when it is made.
+    /// The topic's channel (made when the server started; made now for a topic that could
+    /// not be made then).
     fn channel(&self, shared: &mut Shared, topic: Topic) -> Option<Arc<RawChannel>> {
         if let Some(c) = shared.channels.get(&topic) {
             return Some(Arc::clone(c));
         }
-        let (name, text) = schema(topic);
-        let built = self
-            .context
-            .channel_builder(topic.name())
-            .message_encoding("json")
-            .schema(Schema::new(name, "jsonschema", text.into_bytes()))
-            .build_raw();
-        // A channel that cannot be made is left out of the view; the log has it.
-        let c = built.ok()?;
+        let c = make_channel(&self.context, topic)?;
         shared.channels.insert(topic, Arc::clone(&c));
         Some(c)
     }
+}
+
+/// The topic's channel with the log's schema, advertised to every viewer connected; `None`
+/// when it cannot be made (the topic is left out of the view; the log has it).
+fn make_channel(context: &Arc<Context>, topic: Topic) -> Option<Arc<RawChannel>> {
+    let (name, text) = schema(topic);
+    context
+        .channel_builder(topic.name())
+        .message_encoding("json")
+        .schema(Schema::new(name, "jsonschema", text.into_bytes()))
+        .build_raw()
+        .ok()
 }
 
 impl Tap for LiveView {
