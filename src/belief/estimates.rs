@@ -22,29 +22,47 @@ impl Belief {
     /// P(λ_c ≤ x) ≥ p (a step of the weighted empirical distribution, so no interpolation
     /// decides it).
     pub fn quantile(&self, p: f64) -> Lambda {
+        self.quantiles(&[p]).swap_remove(0)
+    }
+
+    /// [`Belief::quantile`] at every p of `ps`, from one sort of each component (a
+    /// component every particle holds at one value, such as a known one, needs none).
+    pub fn quantiles(&self, ps: &[f64]) -> Vec<Lambda> {
         let s = 2 * self.dim;
-        let mut out = vec![0.0; s];
+        let mut out = vec![vec![0.0; s]; ps.len()];
         let mut column: Vec<(f64, f64)> = Vec::with_capacity(self.len());
-        for (c, o) in out.iter_mut().enumerate() {
+        for c in 0..s {
             column.clear();
             column.extend(self.particles.chunks_exact(s).zip(&self.weights).map(|(x, &w)| (x[c], w)));
+            let first = column.first().map_or(0.0, |f| f.0);
+            if column.iter().all(|&(x, _)| x.to_bits() == first.to_bits()) {
+                // Every step of the distribution is at that one value.
+                out.iter_mut().for_each(|o| o[c] = first);
+                continue;
+            }
+            // Stable: tied values keep the particles' order, so the cumulative weights are
+            // added in one fixed order.
             column.sort_by(|a, b| a.0.total_cmp(&b.0));
-            let mut acc = 0.0;
-            *o = column.last().map_or(0.0, |l| l.0);
-            for &(x, w) in &column {
-                acc += w;
-                if acc >= p - 1e-12 {
-                    *o = x;
-                    break;
+            for (o, &p) in out.iter_mut().zip(ps) {
+                let mut acc = 0.0;
+                o[c] = column.last().map_or(0.0, |l| l.0);
+                for &(x, w) in &column {
+                    acc += w;
+                    if acc >= p - 1e-12 {
+                        o[c] = x;
+                        break;
+                    }
                 }
             }
         }
-        Lambda::from_slice(&out)
+        out.iter().map(|o| Lambda::from_slice(o)).collect()
     }
 
     /// The credible interval of every component ([`CREDIBLE`]).
     pub fn credible_interval(&self) -> (Lambda, Lambda) {
-        (self.quantile(CREDIBLE.0), self.quantile(CREDIBLE.1))
+        let mut q = self.quantiles(&[CREDIBLE.0, CREDIBLE.1]);
+        let high = q.pop().expect("two quantiles");
+        (q.pop().expect("two quantiles"), high)
     }
 
     /// The unnormalised log posterior of every particle, recomputed exactly: log p(λ_i) plus
@@ -186,5 +204,34 @@ mod tests {
         assert_eq!(b.quantile(0.05).q_star, vec![0.0]);
         assert_eq!(b.quantile(0.25).q_star, vec![2.0]);
         assert_eq!(b.quantile(0.95).q_star, vec![3.0]);
+        // A known component (one value everywhere) is that value at every p.
+        assert_eq!(b.quantile(0.05).w, vec![1.0]);
+        assert_eq!(b.quantile(0.95).w, vec![1.0]);
+    }
+
+    /// Several quantiles from one sort are each quantile computed alone, with ties and
+    /// unsorted particles.
+    #[test]
+    fn quantiles_at_once_are_the_quantiles_one_by_one() {
+        let qs = [2.0, -1.0, 2.0, 0.5, -1.0, 3.0, 0.5];
+        let lambdas: Vec<Lambda> = qs.iter().map(|&q| Lambda { q_star: vec![q, -q], w: vec![0.3, 1.0] }).collect();
+        let b = Belief::from_particles(&lambdas, &[0.2, 0.05, 0.1, 0.3, 0.15, 0.1, 0.1]).unwrap();
+        let ps = [0.05, 0.2, 0.5, 0.95, 1.0];
+        let together = b.quantiles(&ps);
+        for (p, q) in ps.iter().zip(&together) {
+            let alone = b.quantile(*p);
+            assert_eq!(q, &alone, "p = {p}");
+            // The step itself, by a naive count.
+            let mut sorted: Vec<(f64, f64)> = qs.iter().copied().zip(b.weights().iter().copied()).collect();
+            sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let mut acc = 0.0;
+            let want = sorted.iter().find(|(_, w)| {
+                acc += w;
+                acc >= p - 1e-12
+            });
+            assert_eq!(q.q_star[0], want.map_or(3.0, |x| x.0), "p = {p}");
+        }
+        let (lo, hi) = b.credible_interval();
+        assert_eq!((lo, hi), (b.quantile(0.05), b.quantile(0.95)));
     }
 }
