@@ -1,6 +1,7 @@
 //! Feasible sets of arm configurations, stored joint-major for fast cost evaluation.
 
 use std::ops::Range;
+use std::sync::OnceLock;
 
 use super::lanes::WIDTH;
 use super::lanes_f32::WIDTH_F32;
@@ -21,7 +22,7 @@ pub enum ConfigSetError {
 }
 
 /// A non-empty set of configurations of D joints.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct ConfigSet {
     dim: usize,
     len: usize,
@@ -30,9 +31,16 @@ pub struct ConfigSet {
     data: Vec<f64>,
     stride: usize,
     /// The same rounded to f32, padded to whole blocks of [`WIDTH_F32`] (the float32
-    /// pass's): joint d of configuration j is `data_f32[d * stride_f32 + j]`.
-    data_f32: Vec<f32>,
-    stride_f32: usize,
+    /// pass's), made when a float32 pass first asks for it, so a float64 program never
+    /// pays for it: joint d of configuration j is at `d * stride_f32() + j`.
+    data_f32: OnceLock<Vec<f32>>,
+}
+
+/// Equal sets hold the same configurations, whether or not either has made its f32 copy.
+impl PartialEq for ConfigSet {
+    fn eq(&self, other: &Self) -> bool {
+        (self.dim, self.len, self.stride, &self.data) == (other.dim, other.len, other.stride, &other.data)
+    }
 }
 
 impl ConfigSet {
@@ -55,14 +63,7 @@ impl ConfigSet {
                 data[d * stride + j] = v;
             }
         }
-        let stride_f32 = len.div_ceil(WIDTH_F32) * WIDTH_F32;
-        let mut data_f32 = vec![0.0; dim * stride_f32];
-        for d in 0..dim {
-            for (o, &v) in data_f32[d * stride_f32..].iter_mut().zip(&data[d * stride..d * stride + len]) {
-                *o = v as f32;
-            }
-        }
-        Ok(Self { dim, len, data, stride, data_f32, stride_f32 })
+        Ok(Self { dim, len, data, stride, data_f32: OnceLock::new() })
     }
 
     /// Number of joints D.
@@ -93,7 +94,17 @@ impl ConfigSet {
     /// Joint d of every configuration rounded to f32, in blocks of [`WIDTH_F32`], the last
     /// one padded with zeros.
     pub(super) fn joint_blocks_f32(&self, d: usize) -> &[[f32; WIDTH_F32]] {
-        self.data_f32[d * self.stride_f32..(d + 1) * self.stride_f32].as_chunks().0
+        let stride = self.len.div_ceil(WIDTH_F32) * WIDTH_F32;
+        let data = self.data_f32.get_or_init(|| {
+            let mut out = vec![0.0; self.dim * stride];
+            for d in 0..self.dim {
+                for (o, &v) in out[d * stride..].iter_mut().zip(self.joint(d)) {
+                    *o = v as f32;
+                }
+            }
+            out
+        });
+        data[d * stride..(d + 1) * stride].as_chunks().0
     }
 
     /// Configuration j as a vector of D joint angles.
