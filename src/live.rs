@@ -69,7 +69,8 @@ impl ServerListener for Latch {
 /// serves until the last clone is dropped (`Serving`).
 #[derive(Clone)]
 pub struct LiveView {
-    context: Arc<Context>,
+    /// Held so the channels stay advertised (the server holds it weakly).
+    _context: Arc<Context>,
     shared: Arc<Mutex<Shared>>,
     _server: Arc<Serving>,
     addr: SocketAddr,
@@ -96,7 +97,7 @@ impl LiveView {
             .map_err(|e| format!("the live view cannot listen on {addr}: {e}"))?;
         let addr = SocketAddr::new(addr.ip(), server.port());
         let serving = Serving { _handle: server, shared: Arc::clone(&shared) };
-        Ok(Self { context, shared, _server: Arc::new(serving), addr })
+        Ok(Self { _context: context, shared, _server: Arc::new(serving), addr })
     }
 
     /// What Foxglove's *Open connection…* takes.
@@ -126,21 +127,8 @@ impl Drop for Serving {
     }
 }
 
-impl LiveView {
-    /// The topic's channel (made when the server started; made now for a topic that could
-    /// not be made then).
-    fn channel(&self, shared: &mut Shared, topic: Topic) -> Option<Arc<RawChannel>> {
-        if let Some(c) = shared.channels.get(&topic) {
-            return Some(Arc::clone(c));
-        }
-        let c = make_channel(&self.context, topic)?;
-        shared.channels.insert(topic, Arc::clone(&c));
-        Some(c)
-    }
-}
-
-/// The topic's channel with the log's schema, advertised to every viewer connected; `None`
-/// when it cannot be made (the topic is left out of the view; the log has it).
+/// The topic's channel with the log's schema; `None` when it cannot be made (the topic is
+/// left out of the view; the log has it).
 fn make_channel(context: &Arc<Context>, topic: Topic) -> Option<Arc<RawChannel>> {
     let (name, text) = schema(topic);
     context
@@ -152,16 +140,9 @@ fn make_channel(context: &Arc<Context>, topic: Topic) -> Option<Arc<RawChannel>>
 }
 
 impl Tap for LiveView {
-    fn declare(&mut self, topics: &[Topic]) {
-        let mut shared = lock(&self.shared);
-        for &topic in topics {
-            self.channel(&mut shared, topic);
-        }
-    }
-
     fn publish(&mut self, topic: Topic, time_ns: u64, data: &[u8]) {
         let mut shared = lock(&self.shared);
-        let Some(channel) = self.channel(&mut shared, topic) else { return };
+        let Some(channel) = shared.channels.get(&topic).cloned() else { return };
         shared.latest.insert(topic, (time_ns, data.to_vec()));
         shared.last_publish = Some(Instant::now());
         // Under the lock: a viewer subscribing now gets this message either as its replay or

@@ -11,11 +11,9 @@ use super::{PROTOCOL_ATTACHMENT, RecordError, Topic, io, messages, messages_for,
 use crate::session::{Applied, Session, Stamped};
 
 /// Where a session's messages also go once they are on disk (a live view). It must not
-/// block: it runs on the recording thread.
+/// block: it runs on the recording thread. A tap knows every topic before the session
+/// starts (`Topic::ALL`; the live view makes their channels when it starts).
 pub trait Tap: Send {
-    /// The topics the session may publish, before its first message: a viewer subscribes to
-    /// a topic once it is declared, so that none of its messages is published unseen.
-    fn declare(&mut self, topics: &[Topic]);
     /// One message of `topic`, logged at `time_ns`, as the log holds it (JSON).
     fn publish(&mut self, topic: Topic, time_ns: u64, data: &[u8]);
     /// Another handle on the same destination (one per session).
@@ -124,10 +122,6 @@ impl Recorder {
     /// Sends every message from now on to `tap` too, starting with the session's start (the
     /// frames, the body, the priors), so that a viewer has the scene.
     pub fn set_tap(&mut self, mut tap: Box<dyn Tap>) {
-        let mut topics: Vec<Topic> = self.channels.keys().copied().collect();
-        topics.extend(Topic::ALL.into_iter().filter(|t| t.registered_on_use() && !self.channels.contains_key(t)));
-        topics.sort();
-        tap.declare(&topics);
         for (topic, data) in &self.start.0 {
             tap.publish(*topic, self.start.1, data);
         }

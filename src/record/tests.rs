@@ -337,7 +337,6 @@ fn a_log_name_says_when_it_was_created() {
 struct Collect(Arc<std::sync::Mutex<Vec<(Topic, u64)>>>);
 
 impl super::Tap for Collect {
-    fn declare(&mut self, _topics: &[Topic]) {}
     fn publish(&mut self, topic: Topic, time_ns: u64, _data: &[u8]) {
         self.0.lock().unwrap().push((topic, time_ns));
     }
