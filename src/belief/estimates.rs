@@ -22,14 +22,15 @@ impl Belief {
     /// P(λ_c ≤ x) ≥ p (a step of the weighted empirical distribution, so no interpolation
     /// decides it).
     pub fn quantile(&self, p: f64) -> Lambda {
-        self.quantiles(&[p]).swap_remove(0)
+        let [q] = self.quantiles([p]);
+        q
     }
 
     /// [`Belief::quantile`] at every p of `ps`, from one sort of each component (a
     /// component every particle holds at one value, such as a known one, needs none).
-    pub fn quantiles(&self, ps: &[f64]) -> Vec<Lambda> {
+    pub fn quantiles<const N: usize>(&self, ps: [f64; N]) -> [Lambda; N] {
         let s = 2 * self.dim;
-        let mut out = vec![vec![0.0; s]; ps.len()];
+        let mut out = [(); N].map(|_| vec![0.0; s]);
         let mut column: Vec<(f64, f64)> = Vec::with_capacity(self.len());
         for c in 0..s {
             column.clear();
@@ -43,7 +44,7 @@ impl Belief {
             // Stable: tied values keep the particles' order, so the cumulative weights are
             // added in one fixed order.
             column.sort_by(|a, b| a.0.total_cmp(&b.0));
-            for (o, &p) in out.iter_mut().zip(ps) {
+            for (o, p) in out.iter_mut().zip(ps) {
                 let mut acc = 0.0;
                 o[c] = column.last().map_or(0.0, |l| l.0);
                 for &(x, w) in &column {
@@ -55,14 +56,13 @@ impl Belief {
                 }
             }
         }
-        out.iter().map(|o| Lambda::from_slice(o)).collect()
+        out.map(|o| Lambda::from_slice(&o))
     }
 
     /// The credible interval of every component ([`CREDIBLE`]).
     pub fn credible_interval(&self) -> (Lambda, Lambda) {
-        let mut q = self.quantiles(&[CREDIBLE.0, CREDIBLE.1]);
-        let high = q.pop().expect("two quantiles");
-        (q.pop().expect("two quantiles"), high)
+        let [low, high] = self.quantiles([CREDIBLE.0, CREDIBLE.1]);
+        (low, high)
     }
 
     /// The unnormalised log posterior of every particle, recomputed exactly: log p(λ_i) plus
@@ -217,7 +217,7 @@ mod tests {
         let lambdas: Vec<Lambda> = qs.iter().map(|&q| Lambda { q_star: vec![q, -q], w: vec![0.3, 1.0] }).collect();
         let b = Belief::from_particles(&lambdas, &[0.2, 0.05, 0.1, 0.3, 0.15, 0.1, 0.1]).unwrap();
         let ps = [0.05, 0.2, 0.5, 0.95, 1.0];
-        let together = b.quantiles(&ps);
+        let together = b.quantiles(ps);
         for (p, q) in ps.iter().zip(&together) {
             let alone = b.quantile(*p);
             assert_eq!(q, &alone, "p = {p}");

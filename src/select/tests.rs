@@ -15,6 +15,11 @@ fn binary_entropy(a: f64) -> f64 {
     -(a * a.ln() + (1.0 - a) * (1.0 - a).ln())
 }
 
+/// The configuration outcome's problem in float64.
+fn configuration_problem<'a>(b: &'a Belief, menu: &'a [FeasibleSet], alpha: f64) -> Problem<'a> {
+    Problem { belief: b, menu, alpha, outcomes: OutcomeModel::Configuration, precision: Precision::Float64 }
+}
+
 fn two_particles() -> Belief {
     Belief::from_particles(&[lam(&[0.0], &[1.0]), lam(&[1.0], &[1.0])], &[1.0, 1.0]).unwrap()
 }
@@ -60,13 +65,7 @@ fn single_configuration_teaches_nothing() {
 fn passive_picks_the_lowest_expected_cost() {
     let menu = [set(&[&[3.0], &[2.0]]), set(&[&[0.5], &[-4.0]])];
     let b = two_particles();
-    let p = Problem {
-        belief: &b,
-        menu: &menu,
-        alpha: 1.0,
-        outcomes: OutcomeModel::Configuration,
-        precision: Default::default(),
-    };
+    let p = configuration_problem(&b, &menu, 1.0);
     let s = Passive.select(&p, &mut SeededRng::seed_from_u64(0));
     // Set 0: min costs 4 and 1 → 2.5; set 1: 0.25 and 0.25 → 0.25 (maximised negated).
     assert_eq!(s.criterion, vec![-2.5, -0.25]);
@@ -77,13 +76,7 @@ fn passive_picks_the_lowest_expected_cost() {
 fn ties_go_to_the_earliest_item() {
     let menu = [set(&[&[0.0], &[1.0]]), set(&[&[0.0], &[1.0]])];
     let b = two_particles();
-    let p = Problem {
-        belief: &b,
-        menu: &menu,
-        alpha: 1.0,
-        outcomes: OutcomeModel::Configuration,
-        precision: Default::default(),
-    };
+    let p = configuration_problem(&b, &menu, 1.0);
     let grid = Grid::new(vec![0.5, 1.0]).unwrap();
     for kind in [
         SelectorKind::Active,
@@ -106,13 +99,7 @@ fn active_prefers_the_separating_query_and_passive_the_comfortable_one() {
     // configuration both find cheap (uninformative, comfortable on average).
     let menu = [set(&[&[0.0], &[1.0]]), set(&[&[0.5]])];
     let b = two_particles();
-    let p = Problem {
-        belief: &b,
-        menu: &menu,
-        alpha: 4.0,
-        outcomes: OutcomeModel::Configuration,
-        precision: Default::default(),
-    };
+    let p = configuration_problem(&b, &menu, 4.0);
     let mut rng = SeededRng::seed_from_u64(0);
     assert_eq!(Active.select(&p, &mut rng).index, 0);
     assert_eq!(Passive.select(&p, &mut rng).index, 0, "min cost 0 beats 0.25");
@@ -129,13 +116,7 @@ fn active_prefers_the_separating_query_and_passive_the_comfortable_one() {
 fn random_is_reproducible_for_a_seed() {
     let menu: Vec<_> = (0..8).map(|i| set(&[&[i as f64]])).collect();
     let b = two_particles();
-    let p = Problem {
-        belief: &b,
-        menu: &menu,
-        alpha: 1.0,
-        outcomes: OutcomeModel::Configuration,
-        precision: Default::default(),
-    };
+    let p = configuration_problem(&b, &menu, 1.0);
     let draw = |seed| {
         let mut rng = SeededRng::seed_from_u64(seed);
         (0..20).map(|_| Random.select(&p, &mut rng).index).collect::<Vec<_>>()
@@ -296,13 +277,7 @@ fn budgeted_takes_the_most_informative_query_within_its_cost_budget() {
     // 0: informative and costly; 1: cheapest, uninformative; 2: a little dearer, a little
     // informative.
     let menu = [set(&[&[-1.0], &[2.0]]), set(&[&[0.5]]), set(&[&[-0.6], &[1.7]])];
-    let p = Problem {
-        belief: &b,
-        menu: &menu,
-        alpha: 1.0,
-        outcomes: OutcomeModel::Configuration,
-        precision: Default::default(),
-    };
+    let p = configuration_problem(&b, &menu, 1.0);
     let v = menu_values(&p);
     let passive = v[1].expected_cost;
     assert!(v[2].expected_cost > passive && v[0].expected_cost > v[2].expected_cost, "{v:?}");
