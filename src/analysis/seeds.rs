@@ -7,6 +7,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::SessionAnalysis;
+use crate::session::BeliefSummary;
 use crate::stats::{Paired, mean, mean_ci95};
 
 /// The sessions of one seed's dry run.
@@ -35,13 +36,16 @@ fn values(s: &SessionAnalysis, condition: &str, measure: &str, iteration: usize)
     let run = s.runs.iter().find(|r| r.condition == condition)?;
     match measure {
         "test_log_likelihood" => run.test_ll_estimate.get(iteration).copied(),
-        "distance_to_truth_deg" => {
-            let truth = s.start.simulated_truth.as_ref()?;
-            let b = run.beliefs.get(iteration)?;
-            Some(b.mean.q_star.iter().zip(&truth.q_star).map(|(a, t)| (a - t).to_degrees().powi(2)).sum::<f64>().sqrt())
-        }
+        "distance_to_truth_deg" => distance_to_truth_deg(s, run.beliefs.get(iteration)?),
         _ => None,
     }
+}
+
+/// The distance (degrees) of a belief's posterior mean q* to the simulated participant's
+/// true q*; `None` for a real participant.
+pub fn distance_to_truth_deg(s: &SessionAnalysis, belief: &BeliefSummary) -> Option<f64> {
+    let truth = s.start.simulated_truth.as_ref()?;
+    Some(belief.mean.q_star.iter().zip(&truth.q_star).map(|(a, t)| (a - t).to_degrees().powi(2)).sum::<f64>().sqrt())
 }
 
 /// Measures reported per iteration.

@@ -5,6 +5,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
+use super::seeds::distance_to_truth_deg;
 use super::{AlphaFit, AlphaSummary, Analysed, StudySummary, objects_by_body, rfc3339_ms, trial_columns};
 use crate::kinematics::JOINT_NAMES;
 use crate::private_files::write_csv;
@@ -123,6 +124,7 @@ struct BeliefSummaryRow<'a> {
     iteration: usize,
     entropy_nats: f64,
     ess: f64,
+    distance_to_truth_deg: Option<f64>,
 }
 
 /// `questionnaire.csv`.
@@ -309,12 +311,12 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
     let runs = || {
         group.iter().flat_map(|a| {
             let (session_id, participant) = ids(a);
-            a.analysis.runs.iter().flat_map(move |r| r.beliefs.iter().map(move |b| (session_id, participant, r, b)))
+            a.analysis.runs.iter().flat_map(move |r| r.beliefs.iter().map(move |b| (session_id, participant, a, r, b)))
         })
     };
     write_csv(
         &dir.join("beliefs.csv"),
-        runs().flat_map(|(session_id, participant, r, b)| {
+        runs().flat_map(|(session_id, participant, _, r, b)| {
             let estimates = [
                 ("mean", &b.mean),
                 ("map", &b.map),
@@ -342,7 +344,7 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
     )?;
     write_csv(
         &dir.join("belief_summary.csv"),
-        runs().map(|(session_id, participant, r, b)| BeliefSummaryRow {
+        runs().map(|(session_id, participant, a, r, b)| BeliefSummaryRow {
             session_id,
             participant,
             condition: &r.condition,
@@ -350,6 +352,7 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
             iteration: b.iteration,
             entropy_nats: b.entropy,
             ess: b.ess,
+            distance_to_truth_deg: distance_to_truth_deg(&a.analysis, b),
         }),
     )?;
     write_csv(
