@@ -230,7 +230,7 @@ pub fn table(report: &PopulationReport) -> String {
             p.ci_high,
             p.median_difference,
             100.0 * p.share_first_higher,
-            p.p_value.map_or(String::new(), |v| format!(" (Wilcoxon p = {v:.3})"))
+            p.p_value.map_or(String::new(), |v| format!(" (Wilcoxon {})", super::wilcoxon_p(v)))
         );
     }
     if !f.identified {

@@ -135,9 +135,7 @@ pub(super) fn table(label: &str, group: &[&Analysed], s: &StudySummary, alpha: &
             }
         }
         if let Some(t) = s.fig10_tests.iter().find(|t| t.iteration == it) {
-            let p = t.p_value.map_or("no difference".to_string(), |p| {
-                if p < 0.001 { "p<0.001".to_string() } else { format!("p={p:.3}") }
-            });
+            let p = t.p_value.map_or("no difference".to_string(), super::wilcoxon_p);
             let ci =
                 if t.ci_low.is_finite() { format!(" [{:+.1}, {:+.1}]", t.ci_low, t.ci_high) } else { String::new() };
             o += &format!(

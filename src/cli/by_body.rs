@@ -23,9 +23,7 @@ pub fn lines(sessions: &[&SessionAnalysis]) -> Vec<String> {
         "by body (height band in m, [low, high); dominant hand; each session one participant; 95 % interval over sessions, two-sided Wilcoxon; {last}: the rest):"
     )];
     for r in rows.iter().filter(|r| r.object != last) {
-        let p = r
-            .p_value
-            .map_or("no difference".to_string(), |p| if p < 0.001 { "p<0.001".into() } else { format!("p={p:.3}") });
+        let p = r.p_value.map_or("no difference".to_string(), super::wilcoxon_p);
         let (d, lo, hi) = r.difference;
         let diff = if lo.is_finite() {
             format!("{:+.0} [{:+.0}, {:+.0}] points", 100.0 * d, (100.0 * lo).max(-100.0), (100.0 * hi).min(100.0))

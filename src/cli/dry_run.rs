@@ -303,9 +303,7 @@ fn spread(t: &handover::stats::Paired) -> String {
 
 /// "mean [low, high] (p)" of a paired difference.
 fn paired_cell(t: &handover::stats::Paired) -> String {
-    let p = t
-        .p_value
-        .map_or("no difference".to_string(), |p| if p < 0.001 { "p<0.001".to_string() } else { format!("p={p:.3}") });
+    let p = t.p_value.map_or("no difference".to_string(), super::wilcoxon_p);
     format!("{:+.1} [{:+.1}, {:+.1}] ({p})", t.mean_difference, t.ci_low, t.ci_high)
 }
 

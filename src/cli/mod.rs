@@ -99,6 +99,11 @@ pub fn is_broken_pipe(err: &anyhow::Error) -> bool {
     })
 }
 
+/// A two-sided Wilcoxon p as the reports print it: to three decimals, or a bound below 0.001.
+fn wilcoxon_p(p: f64) -> String {
+    if p < 0.001 { "p<0.001".to_string() } else { format!("p={p:.3}") }
+}
+
 /// How long a run took and on how many worker threads, as a run's header line ends:
 /// "12.3 s on 2 threads".
 fn timing(seconds: f64, threads: usize) -> String {
