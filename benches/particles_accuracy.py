@@ -6,7 +6,8 @@ trial's truth, menu and test set depend only on the seed and the trial, so the r
 paired trial by trial), then prints, at the last iteration, each count's mean distance to
 the truth and test log-likelihood with a 95 % t-interval over the seeds' means, and the
 paired difference from the first count (mean over seeds with its 95 % interval, and the
-two-sided sign test over all trials). Standard library only.
+two-sided sign test over all trials); `--json FILE` also writes them for
+benches/readme_results.py. Standard library only.
 
     python3 benches/particles_accuracy.py --handover target/release/handover \\
         --particles 1000,5000,20000 --learn both --seeds 10 --trials 20 --out target/particles
@@ -14,6 +15,7 @@ two-sided sign test over all trials). Standard library only.
 
 import argparse
 import csv
+import json
 import math
 import os
 import statistics
@@ -65,11 +67,13 @@ def main():
     ap.add_argument("--particles", default="1000,5000,20000")
     ap.add_argument("--learn", default="both")
     ap.add_argument("--algorithms", default="active")
+    ap.add_argument("--seed", type=int, default=0, help="the first seed (seeds SEED, SEED+1, …)")
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--trials", type=int, default=20)
     ap.add_argument("--observation", default="configuration", help="configuration or region (the grip taken)")
     ap.add_argument("--alpha", help="the simulated person's and the model's α (default: simulate's)")
     ap.add_argument("--out", default="target/particles")
+    ap.add_argument("--json", help="also write every count's and difference's numbers here")
     args = ap.parse_args()
     counts = [int(c) for c in args.particles.split(",")]
 
@@ -79,7 +83,7 @@ def main():
         metrics = os.path.join(out, "metrics.csv")
         if not os.path.exists(metrics):
             cmd = [args.handover, "research", "simulate", "arm7", "--learn", args.learn, "--particles", str(n),
-                   "--algorithms", args.algorithms, "--seeds", str(args.seeds), "--trials", str(args.trials),
+                   "--algorithms", args.algorithms, "--seed", str(args.seed), "--seeds", str(args.seeds), "--trials", str(args.trials),
                    "--observation", args.observation, "--out", out] + (["--alpha", args.alpha] if args.alpha else [])
             t0 = time.perf_counter()
             r = subprocess.run(cmd, stdout=subprocess.DEVNULL)
@@ -89,8 +93,9 @@ def main():
         runs[n] = last_iteration(metrics)
 
     base = counts[0]
+    results = []
     print(f"arm7, learning {args.learn}, observing the {args.observation}, α = {args.alpha or 'simulate default'}, "
-          f"{args.seeds} seeds × {args.trials} trials, last iteration; "
+          f"seeds {args.seed}–{args.seed + args.seeds - 1} × {args.trials} trials, last iteration; "
           f"mean [95 % interval over seeds]; Δ: paired difference from a smaller count "
           f"(mean over seeds [95 % interval], sign test over all trials)")
     for algorithm in args.algorithms.split(","):
@@ -102,6 +107,8 @@ def main():
                 for k in keys:
                     by_seed.setdefault(k[1], []).append(float(runs[n][k][measure]))
                 m, lo, hi = interval([statistics.fmean(v) for v in by_seed.values()])
+                results.append({"algorithm": algorithm, "measure": measure, "particles": n, "mean": m, "low": lo,
+                                "high": hi})
                 line = f"  {n:>6} particles  {m:10.4f} [{lo:.4f}, {hi:.4f}]"
                 i = counts.index(n)
                 for ref in ([base] if i == 1 else [base, counts[i - 1]]) if i > 0 else []:
@@ -110,8 +117,15 @@ def main():
                     for k, d in zip(keys, diffs):
                         seed_diffs.setdefault(k[1], []).append(d)
                     dm, dlo, dhi = interval([statistics.fmean(v) for v in seed_diffs.values()])
-                    line += f"   Δ vs {ref}: {dm:+.4f} [{dlo:+.4f}, {dhi:+.4f}], sign test p = {sign_test(diffs):.2g}"
+                    p = sign_test(diffs)
+                    results.append({"algorithm": algorithm, "measure": measure, "particles": n, "versus": ref,
+                                    "difference": dm, "low": dlo, "high": dhi, "sign_test_p": p, "trials": len(diffs)})
+                    line += f"   Δ vs {ref}: {dm:+.4f} [{dlo:+.4f}, {dhi:+.4f}], sign test p = {p:.2g}"
                 print(line)
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump({"seed": args.seed, "seeds": args.seeds, "trials": args.trials, "observation": args.observation,
+                       "alpha": args.alpha, "learn": args.learn, "results": results}, f, indent=1)
 
 
 if __name__ == "__main__":

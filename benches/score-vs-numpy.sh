@@ -9,14 +9,11 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --quiet
-venv=target/bench-venv
-if [ ! -x "$venv/bin/python" ]; then
-  python3 -m venv "$venv"
-fi
-"$venv/bin/pip" install --quiet --disable-pip-version-check numpy
+packages=(numpy)
 for arg in "$@"; do
   if [ "$arg" = --jax ]; then
-    "$venv/bin/pip" install --quiet --disable-pip-version-check "jax[cpu]"
+    packages+=("jax[cpu]")
   fi
 done
-exec "$venv/bin/python" benches/score_vs_numpy.py --handover target/release/handover "$@"
+python=$(benches/bench-venv.sh "${packages[@]}")
+exec "$python" benches/score_vs_numpy.py --handover target/release/handover "$@"

@@ -851,11 +851,18 @@ mod tests {
     /// (measured arms, σ = 5°, and regions; 26 random training handovers each, as a default
     /// session has). Minutes in a release build:
     /// `cargo test --release --lib population_recovery_by_size -- --ignored --nocapture`.
+    /// `HANDOVER_RECOVERY_STUDIES` studies per row (default 2), the people of study k drawn
+    /// with seed `HANDOVER_RECOVERY_SEED` + k (default 7000); `benches/readme_results.py`
+    /// runs it on fresh seeds.
     #[test]
     #[ignore]
     fn population_recovery_by_size() {
+        let setting = |name: &str, default: u64| {
+            std::env::var(name).map_or(default, |v| v.parse().unwrap_or_else(|_| panic!("{name}={v}: not a number")))
+        };
+        let (first_seed, studies) = (setting("HANDOVER_RECOVERY_SEED", 7000), setting("HANDOVER_RECOVERY_STUDIES", 2));
         println!(
-            "observation,alpha,sd_deg,participants,study,mean_abs_error_deg,median_fitted_sd_deg,means_with_interval,means_covered,identified"
+            "observation,alpha,sd_deg,participants,study,seed,mean_abs_error_deg,median_fitted_sd_deg,means_with_interval,means_covered,sds_with_interval,sds_covered,identified"
         );
         for (observation, alpha, sd_deg, sizes) in [
             ("measured", 5.0, 15.0, vec![12, 48]),
@@ -865,11 +872,11 @@ mod tests {
             ("region", 5.0, 15.0, vec![48]),
         ] {
             for n in sizes {
-                for study in 0..2u64 {
+                for study in 0..studies {
                     let (mut pop, spec) = population(sd_deg);
                     pop.alpha = alpha;
                     let sigma = (observation == "measured").then_some(5.0);
-                    let mut evidence = people(&pop, n, 26, sigma, 7000 + study);
+                    let mut evidence = people(&pop, n, 26, sigma, first_seed + study);
                     for e in &mut evidence {
                         e.alpha = alpha;
                     }
@@ -888,8 +895,16 @@ mod tests {
                         .zip(&spec.q_star_deg)
                         .filter(|(c, t)| (c.mean_low..=c.mean_high).contains(&t.mean.to_radians()))
                         .count();
+                    let sds_with_interval = fit.components.iter().filter(|c| c.sd_low.is_finite()).count();
+                    let sds_covered = fit
+                        .components
+                        .iter()
+                        .zip(&spec.q_star_deg)
+                        .filter(|(c, t)| (c.sd_low..=c.sd_high).contains(&t.sd.to_radians()))
+                        .count();
                     println!(
-                        "{observation},{alpha},{sd_deg},{n},{study},{:.1},{:.1},{with_interval},{covered},{}",
+                        "{observation},{alpha},{sd_deg},{n},{study},{},{:.1},{:.1},{with_interval},{covered},{sds_with_interval},{sds_covered},{}",
+                        first_seed + study,
                         crate::stats::mean(&errors),
                         crate::stats::median(&sds),
                         fit.identified
