@@ -53,6 +53,40 @@ pub fn mean_ci95(v: &[f64]) -> (f64, f64, f64) {
     (m, m - h, m + h)
 }
 
+/// Fieller's 95 % interval for a ratio of paired means, mean(num) / mean(den), from the pairs
+/// (num_k, den_k): every R for which the two-sided t-test (n − 1 df) of the mean of
+/// num_k − R·den_k does not reject 0. It is bounded only when mean(den) is itself
+/// significantly away from 0; otherwise the set is unbounded (the whole line, or all but an
+/// interval) and the data do not bound the ratio: `None`. Also `None` below two pairs.
+pub fn fieller_ratio_ci95(num: &[f64], den: &[f64]) -> Option<(f64, f64)> {
+    let n = num.len();
+    if n < 2 || den.len() != n {
+        return None;
+    }
+    let (mn, md) = (mean(num), mean(den));
+    let (mut snn, mut sdd, mut snd) = (0.0, 0.0, 0.0);
+    for (a, b) in num.iter().zip(den) {
+        let (x, y) = (a - mn, b - md);
+        snn += x * x;
+        sdd += y * y;
+        snd += x * y;
+    }
+    // The variances and covariance of the two means.
+    let scale = ((n - 1) * n) as f64;
+    let (vnn, vdd, vnd) = (snn / scale, sdd / scale, snd / scale);
+    let t2 = t_975(n - 1).powi(2);
+    // (mn − R·md)² ≤ t²·(vnn − 2R·vnd + R²·vdd), i.e. a·R² − 2b·R + c ≤ 0.
+    let a = md * md - t2 * vdd;
+    let b = mn * md - t2 * vnd;
+    let c = mn * mn - t2 * vnn;
+    if a <= 0.0 || !a.is_finite() {
+        return None;
+    }
+    // At R = mn / md the left side is ≤ 0, so the discriminant is ≥ 0 up to rounding.
+    let root = (b * b - a * c).max(0.0).sqrt();
+    Some(((b - root) / a, (b + root) / a))
+}
+
 /// A paired comparison of two conditions (or algorithms, or protocols) on one measure at one
 /// iteration: the differences (first − second) of the same participants or trials, in groups
 /// (one per seed; a study's sessions are one group). The one shape of every paired result:
@@ -235,6 +269,45 @@ fn exact_p(ranks: &[f64], w_plus: f64) -> f64 {
 
 #[cfg(test)]
 mod tests {
+    /// At each end of Fieller's interval the paired t-test of num − R·den sits exactly on
+    /// its 95 % boundary (the interval's definition), inside it does not reject, and the
+    /// ratio of the means lies within.
+    #[test]
+    fn fieller_interval_is_where_the_paired_t_test_does_not_reject() {
+        let num = [0.31, 0.12, 0.45, 0.22, 0.05, 0.38, 0.27, 0.19];
+        let den = [0.40, 0.21, 0.52, 0.30, 0.18, 0.36, 0.33, 0.29];
+        let (low, high) = fieller_ratio_ci95(&num, &den).unwrap();
+        let ratio = mean(&num) / mean(&den);
+        assert!(low < ratio && ratio < high, "{low} {ratio} {high}");
+        // SciPy 1.17.1: brentq on ttest_1samp(num − R·den).pvalue = 0.05 either side of the ratio.
+        assert!((low - 0.5729235415494751).abs() < 1e-9 && (high - 0.8962228409012657).abs() < 1e-9, "{low} {high}");
+        let t_of = |r: f64| {
+            let d: Vec<f64> = num.iter().zip(&den).map(|(a, b)| a - r * b).collect();
+            mean(&d) / standard_error(&d)
+        };
+        for end in [low, high] {
+            assert!((t_of(end).abs() - t_975(7)).abs() < 1e-9, "t at {end}: {}", t_of(end));
+        }
+        for r in [low + 1e-3, ratio, high - 1e-3] {
+            assert!(t_of(r).abs() < t_975(7), "{r}");
+        }
+        for r in [low - 1e-3, high + 1e-3] {
+            assert!(t_of(r).abs() > t_975(7), "{r}");
+        }
+    }
+
+    /// A denominator whose mean is not told from 0 leaves the ratio unbounded; a ratio of a
+    /// quantity to itself is exactly 1; a numerator of zeros exactly 0.
+    #[test]
+    fn fieller_interval_is_none_when_the_denominator_is_not_told_from_zero() {
+        let num = [0.3, 0.1, 0.4, 0.2];
+        assert_eq!(fieller_ratio_ci95(&num, &[0.2, -0.3, 0.25, -0.1]), None);
+        assert_eq!(fieller_ratio_ci95(&num[..1], &[0.2]), None);
+        let (l, h) = fieller_ratio_ci95(&num, &num).unwrap();
+        assert!((l - 1.0).abs() < 1e-12 && (h - 1.0).abs() < 1e-12, "{l} {h}");
+        assert_eq!(fieller_ratio_ci95(&[0.0; 4], &num), Some((0.0, 0.0)));
+    }
+
     use super::*;
 
     /// `qt(0.975, df)` as R and scipy 1.17.1 (`scipy.stats.t.ppf(0.975, df)`) give it, to

@@ -148,8 +148,12 @@ fn print_table(
         for p in &here {
             let gain = match (p.gain, p.gain_ci_low, p.gain_ci_high) {
                 (Some(g), Some(l), Some(h)) => format!("{:.0} % [{:.0}, {:.0}]", 100.0 * g, 100.0 * l, 100.0 * h),
-                (Some(g), _, _) => format!("{:.0} %", 100.0 * g),
+                (Some(g), _, _) => format!("{:.0} % [unbounded]", 100.0 * g),
                 (None, _, _) => "undefined".to_string(),
+            };
+            let cost = match (p.cost_ratio_ci_low, p.cost_ratio_ci_high) {
+                (Some(l), Some(h)) => format!("{:.2} [{l:.2}, {h:.2}]", p.cost_ratio),
+                _ => format!("{:.2} [unbounded]", p.cost_ratio),
             };
             outln!(
                 "  {:<10} {:>7} {:>10.3} {:>8.3} {:>26} {:>24}",
@@ -158,7 +162,7 @@ fn print_table(
                 p.distance,
                 p.cost,
                 gain,
-                format!("{:.2} [{:.2}, {:.2}]", p.cost_ratio, p.cost_ratio_ci_low, p.cost_ratio_ci_high)
+                cost
             );
         }
         let best = here

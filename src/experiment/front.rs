@@ -6,14 +6,17 @@
 //! distance of the estimate to the truth at the last iteration and C the mean true cost of
 //! the chosen queries over the iterations (each a mean over the trials):
 //! gain = (D_passive − D) / (D_passive − D_active) and cost ratio = C / C_passive. A point is
-//! the ratio of the means over seeds, with a 95 % t-interval over the seeds' own ratios; the
-//! gain is left undefined when active is not closer to the truth than passive.
+//! the ratio of the means over seeds, with Fieller's 95 % interval for a ratio of paired means
+//! (the seeds are the pairs): a t-interval over the seeds' own ratios explodes whenever one
+//! seed's active gains little, and says nothing true about the ratio. Where the denominator's
+//! mean is not told from 0 the interval is unbounded and left empty. The gain is undefined
+//! when active is not closer to the truth than passive.
 
 use serde::Serialize;
 
 use super::{MetricRow, Scenario, Settings, simulate};
 use crate::select::{SelectorKind, Tradeoff};
-use crate::stats::mean_ci95;
+use crate::stats::fieller_ratio_ci95;
 
 /// One selector setting on the front.
 #[derive(Clone, Debug, PartialEq, Serialize, Default)]
@@ -29,12 +32,13 @@ pub struct FrontPoint {
     pub cost: f64,
     /// Fraction of active's distance gain over passive (None: active gains nothing).
     pub gain: Option<f64>,
+    /// Fieller's 95 % interval (None: unbounded, or no gain).
     pub gain_ci_low: Option<f64>,
     pub gain_ci_high: Option<f64>,
-    /// Cost relative to passive's.
+    /// Cost relative to passive's, with Fieller's 95 % interval.
     pub cost_ratio: f64,
-    pub cost_ratio_ci_low: f64,
-    pub cost_ratio_ci_high: f64,
+    pub cost_ratio_ci_low: Option<f64>,
+    pub cost_ratio_ci_high: Option<f64>,
 }
 
 /// (distance at the last iteration, mean true cost over the iterations), averaged over trials.
@@ -103,16 +107,13 @@ pub fn front(
         .map(|(f, o)| {
             let (d, c) = (mean_of(o, |x| x.0), mean_of(o, |x| x.1));
             let gain = (d_p - d_a > 0.0).then(|| (d_p - d) / (d_p - d_a));
-            let seed_gains: Vec<f64> = (0..o.len())
-                .filter_map(|k| {
-                    let (da, dp) = (outcomes[a][k].0, outcomes[p][k].0);
-                    (dp - da > 0.0).then(|| (dp - o[k].0) / (dp - da))
-                })
-                .collect();
-            let seed_costs: Vec<f64> = (0..o.len()).map(|k| o[k].1 / outcomes[p][k].1).collect();
-            let (_, gl, gh) = mean_ci95(&seed_gains);
-            let (_, cl, ch) = mean_ci95(&seed_costs);
-            let finite = |x: f64| x.is_finite().then_some(x);
+            // Per seed: passive's distance less this setting's, over passive's less active's.
+            let kept: Vec<f64> = outcomes[p].iter().zip(o).map(|(q, x)| q.0 - x.0).collect();
+            let active_gain: Vec<f64> = outcomes[p].iter().zip(&outcomes[a]).map(|(q, x)| q.0 - x.0).collect();
+            let gain_ci = gain.and(fieller_ratio_ci95(&kept, &active_gain));
+            let costs: Vec<f64> = o.iter().map(|x| x.1).collect();
+            let passive_costs: Vec<f64> = outcomes[p].iter().map(|x| x.1).collect();
+            let cost_ci = fieller_ratio_ci95(&costs, &passive_costs);
             FrontPoint {
                 scenario: scenario.name(),
                 learn: base.learn.to_string(),
@@ -122,11 +123,11 @@ pub fn front(
                 distance: d,
                 cost: c,
                 gain,
-                gain_ci_low: gain.and(finite(gl)),
-                gain_ci_high: gain.and(finite(gh)),
+                gain_ci_low: gain_ci.map(|x| x.0),
+                gain_ci_high: gain_ci.map(|x| x.1),
                 cost_ratio: c / c_p,
-                cost_ratio_ci_low: cl,
-                cost_ratio_ci_high: ch,
+                cost_ratio_ci_low: cost_ci.map(|x| x.0),
+                cost_ratio_ci_high: cost_ci.map(|x| x.1),
             }
         })
         .collect()

@@ -274,6 +274,23 @@ fn the_front_anchors_passive_and_active_and_writes_csv_and_svg() {
     assert_eq!(get("budgeted", "1000.0", "distance"), get("active", "", "distance"));
     // β huge weighs only cost: passive's choices.
     assert_eq!(get("hybrid", "1000.0", "distance"), get("passive", "", "distance"));
+    // Fieller's intervals: present ones hold their ratio; a ratio of passive's cost to
+    // itself is exactly 1 when bounded (two seeds rarely bound it); an unbounded interval is left empty, both ends together.
+    for r in &rows {
+        for (point, low, high) in
+            [("gain", "gain_ci_low", "gain_ci_high"), ("cost_ratio", "cost_ratio_ci_low", "cost_ratio_ci_high")]
+        {
+            assert_eq!(r[col(low)].is_empty(), r[col(high)].is_empty(), "{r:?}");
+            if !r[col(low)].is_empty() {
+                let v = |c: &str| r[col(c)].parse::<f64>().unwrap();
+                assert!(v(low) <= v(point) + 1e-12 && v(point) <= v(high) + 1e-12, "{point}: {r:?}");
+            }
+        }
+    }
+    for end in ["cost_ratio_ci_low", "cost_ratio_ci_high"] {
+        let v = get("passive", "", end);
+        assert!(v.is_empty() || (v.parse::<f64>().unwrap() - 1.0).abs() < 1e-12, "{end}: {v}");
+    }
     let (code, _, err) = handover(&["research", "front", "--seeds", "1"]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("'--seeds <N>'") && err.contains("2..=1000"), "{err}");
