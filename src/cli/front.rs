@@ -131,7 +131,7 @@ fn print_table(
         super::timing(seconds, threads),
     );
     outln!(
-        "gain: fraction of active's distance gain over passive at the last iteration; cost: true cost relative to passive's; mean [95 % interval over seeds]"
+        "gain: fraction of active's distance gain over passive at the last iteration; cost: true cost relative to passive's; ratio of the means over seeds [Fieller's 95 % interval; unbounded: active's own gain not told from 0]"
     );
     for (scenario, learn, alpha, iterations) in panels {
         outln!("\n{scenario}, learning {learn} (α = {alpha}, {iterations} queries):");
