@@ -888,20 +888,16 @@ mod tests {
                         .map(|(c, t)| (c.mean.to_degrees() - t.mean).abs())
                         .collect();
                     let sds: Vec<f64> = fit.components.iter().map(|c| c.sd.to_degrees()).collect();
-                    let with_interval = fit.components.iter().filter(|c| c.mean_low.is_finite()).count();
-                    let covered = fit
-                        .components
-                        .iter()
-                        .zip(&spec.q_star_deg)
-                        .filter(|(c, t)| (c.mean_low..=c.mean_high).contains(&t.mean.to_radians()))
-                        .count();
-                    let sds_with_interval = fit.components.iter().filter(|c| c.sd_low.is_finite()).count();
-                    let sds_covered = fit
-                        .components
-                        .iter()
-                        .zip(&spec.q_star_deg)
-                        .filter(|(c, t)| (c.sd_low..=c.sd_high).contains(&t.sd.to_radians()))
-                        .count();
+                    // (components with an interval, intervals holding the truth) of one
+                    // parameter: its (low, high) and the true value in degrees.
+                    let coverage = |pick: fn(&ComponentFit, &Spread) -> (f64, f64, f64)| {
+                        let picked: Vec<_> =
+                            fit.components.iter().zip(&spec.q_star_deg).map(|(c, t)| pick(c, t)).collect();
+                        let with = picked.iter().filter(|(low, _, _)| low.is_finite()).count();
+                        (with, picked.iter().filter(|(low, high, t)| (*low..=*high).contains(&t.to_radians())).count())
+                    };
+                    let (with_interval, covered) = coverage(|c, t| (c.mean_low, c.mean_high, t.mean));
+                    let (sds_with_interval, sds_covered) = coverage(|c, t| (c.sd_low, c.sd_high, t.sd));
                     println!(
                         "{observation},{alpha},{sd_deg},{n},{study},{},{:.1},{:.1},{with_interval},{covered},{sds_with_interval},{sds_covered},{}",
                         first_seed + study,
