@@ -81,14 +81,19 @@ def main():
     for n in counts:
         out = os.path.join(args.out, f"particles-{n}")
         metrics = os.path.join(out, "metrics.csv")
-        if not os.path.exists(metrics):
-            cmd = [args.handover, "research", "simulate", "arm7", "--learn", args.learn, "--particles", str(n),
-                   "--algorithms", args.algorithms, "--seed", str(args.seed), "--seeds", str(args.seeds), "--trials", str(args.trials),
-                   "--observation", args.observation, "--out", out] + (["--alpha", args.alpha] if args.alpha else [])
+        cmd = [args.handover, "research", "simulate", "arm7", "--learn", args.learn, "--particles", str(n),
+               "--algorithms", args.algorithms, "--seed", str(args.seed), "--seeds", str(args.seeds), "--trials", str(args.trials),
+               "--observation", args.observation, "--out", out] + (["--alpha", args.alpha] if args.alpha else [])
+        # A finished run is kept only for the same settings (command.json, written after it).
+        done = os.path.join(out, "command.json")
+        kept = os.path.exists(metrics) and os.path.exists(done) and json.load(open(done)) == cmd[1:]
+        if not kept:
             t0 = time.perf_counter()
             r = subprocess.run(cmd, stdout=subprocess.DEVNULL)
             if r.returncode != 0:
                 sys.exit(f"{' '.join(cmd)} failed (exit {r.returncode})")
+            with open(done, "w") as f:
+                json.dump(cmd[1:], f)
             print(f"{n} particles: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
         runs[n] = last_iteration(metrics)
 
