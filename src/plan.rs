@@ -449,17 +449,14 @@ mod tests {
             }
             for (a, b) in plan_analysis.runs.iter().zip(&whole_analysis.runs) {
                 assert_eq!(a.test_ll_estimate, b.test_ll_estimate);
-                // Everything but the MAP estimate, which a plan leaves out (its `map` is the mean).
-                let without_map = |v: &[crate::session::BeliefSummary]| {
-                    // The prior's summary is made before the session is told it is a plan's.
-                    v.iter()
-                        .map(|b| match b.iteration {
-                            0 => b.clone(),
-                            _ => crate::session::BeliefSummary { map: b.mean.clone(), ..b.clone() },
-                        })
-                        .collect::<Vec<_>>()
+                // A plan's summaries hold the posterior mean alone (the prior's is made
+                // before the session is told it is a plan's).
+                let means = |v: &[crate::session::BeliefSummary]| {
+                    v.iter().map(|b| (b.iteration, b.mean.clone())).collect::<Vec<_>>()
                 };
-                assert_eq!(a.beliefs, without_map(&b.beliefs));
+                assert_eq!(means(&a.beliefs), means(&b.beliefs));
+                assert_eq!(a.beliefs[0], b.beliefs[0]);
+                assert!(a.beliefs[1..].iter().all(|b| b.map == b.mean && b.entropy.is_nan()));
             }
             // What was left out: a finished learner's last scores.
             assert!(plan.learners().iter().all(|l| l.scores.is_empty()));

@@ -11,7 +11,7 @@ use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::ergo::{FeasibleSet, Lambda, Observation, ObservationError, SetPass, log_sum_exp};
+use crate::ergo::{FeasibleSet, Lambda, Observation, ObservationError, SetPass, log_sum_exp, region_weights};
 
 pub use estimates::{CREDIBLE, Estimate, MAP_TIE, Observed};
 pub use grid::{CellIndex, Grid};
@@ -101,6 +101,40 @@ pub(crate) fn log_likelihood_at(
         lp += pass.log_likelihood(obs, alpha, scratch);
     }
     lp
+}
+
+/// [`log_likelihood_at`] of one region observation for each particle of `ps` (row-major),
+/// the same numbers: particles go four at a time, so that their regions' sums of weights
+/// are added together ([`region_weights`]).
+fn region_log_likelihoods(
+    set: &FeasibleSet,
+    idx: &[usize],
+    ps: &[f64],
+    alpha: f64,
+    base: &impl Fn(&[f64]) -> f64,
+) -> Vec<f64> {
+    const K: usize = 4;
+    let d = set.dim();
+    let mut scratch: [crate::ergo::Scratch; K] = std::array::from_fn(|_| SetPass::scratch(set.len()));
+    let mut out = Vec::with_capacity(ps.len() / (2 * d));
+    for group in ps.chunks(K * 2 * d) {
+        let mut passes = [None; K];
+        let mut bases = [0.0; K];
+        for (k, (p, sc)) in group.chunks_exact(2 * d).zip(&mut scratch).enumerate() {
+            bases[k] = base(p);
+            if bases[k] != f64::NEG_INFINITY {
+                passes[k] = Some(SetPass::run(set.configs(), &p[..d], &p[d..], alpha, sc));
+            }
+        }
+        let sums = region_weights::<K>(std::array::from_fn(|k| scratch[k].exps()), idx);
+        for k in 0..group.len() / (2 * d) {
+            out.push(match passes[k] {
+                Some(pass) => bases[k] + pass.region_log_likelihood(idx, sums[k], alpha, &scratch[k]),
+                None => bases[k],
+            });
+        }
+    }
+    out
 }
 
 impl Belief {
@@ -235,9 +269,12 @@ impl Belief {
         let chunks: Vec<Vec<f64>> = self
             .particles
             .par_chunks(PARTICLE_CHUNK * s)
-            .map(|ps| {
-                let mut scratch = scratch_for(observed);
-                ps.chunks_exact(s).map(|p| log_likelihood_at(observed, p, alpha, base(p), &mut scratch)).collect()
+            .map(|ps| match observed {
+                [(set, Observation::Region(idx))] => region_log_likelihoods(set, idx, ps, alpha, &base),
+                _ => {
+                    let mut scratch = scratch_for(observed);
+                    ps.chunks_exact(s).map(|p| log_likelihood_at(observed, p, alpha, base(p), &mut scratch)).collect()
+                }
             })
             .collect();
         Ok(chunks.concat())

@@ -262,3 +262,33 @@ fn zero_moves_change_nothing() {
     b.move_particles(&prior, &[], 1.0, 0, &[0.1, 0.0], &mut SeededRng::seed_from_u64(2)).unwrap();
     assert_eq!(b, start);
 }
+
+/// A region observation's likelihoods, four particles at a time, are each particle's own
+/// pass and likelihood, bit for bit (particle counts around the group of four, weights of 0).
+#[test]
+fn region_likelihoods_four_at_a_time_are_each_particles_own() {
+    use rand::RngExt;
+    let mut rng = SeededRng::seed_from_u64(21);
+    let rows: Vec<Vec<f64>> = (0..45).map(|_| (0..3).map(|_| rng.random_range(-2.0..2.0)).collect()).collect();
+    let labels: Vec<usize> = (0..45).map(|j| usize::from(j >= 20)).collect();
+    let set = FeasibleSet::with_regions(ConfigSet::from_rows(&rows).unwrap(), &labels).unwrap();
+    for n in [1, 3, 4, 5, 70] {
+        let lambdas: Vec<Lambda> = (0..n)
+            .map(|_| {
+                let q: Vec<f64> = (0..3).map(|_| rng.random_range(-1.5..1.5)).collect();
+                lam(&q, &[rng.random_range(0.1..2.0), 1.0, rng.random_range(0.1..2.0)])
+            })
+            .collect();
+        let b = Belief::from_particles(&lambdas, &vec![1.0; n]).unwrap();
+        for (alpha, region) in [(3.0, 0), (40.0, 1)] {
+            let obs = Observation::Region(set.regions()[region].clone().collect());
+            let got = b.log_likelihoods(&set, alpha, &obs).unwrap();
+            for (i, l) in lambdas.iter().enumerate() {
+                let mut scratch = SetPass::scratch(set.len());
+                let pass = SetPass::run(set.configs(), &l.q_star, &l.w, alpha, &mut scratch);
+                let want = pass.log_likelihood(&obs, alpha, &scratch);
+                assert_eq!(got[i].to_bits(), want.to_bits(), "{n} particles, particle {i}, α {alpha}");
+            }
+        }
+    }
+}

@@ -34,9 +34,72 @@ pub struct ConfigSet {
     /// pass's), made when a float32 pass first asks for it, so a float64 program never
     /// pays for it: joint d of configuration j is at `d * stride_f32() + j`.
     data_f32: OnceLock<Vec<f32>>,
+    /// Each joint's range over every group of [`GROUP`] configurations, made when the
+    /// bounded minimum ([`super::SetPass::min_cost`]) first asks for it.
+    boxes: OnceLock<Box<GroupBoxes>>,
 }
 
-/// Equal sets hold the same configurations, whether or not either has made its f32 copy.
+/// Configurations a [`GroupBoxes`] box holds: two blocks of [`WIDTH`].
+pub(super) const GROUP: usize = 2 * WIDTH;
+
+/// The set's configurations reordered so that every group of [`GROUP`] consecutive ones
+/// lies close together (the leaves of a k-d tree: each split halves the widest joint's
+/// range at its median, on a multiple of [`GROUP`]), with the smallest box around each
+/// group: joint d of group g spans `lo[d * groups + g] ..= hi[d * groups + g]`. A minimum
+/// over the set is the minimum over `sorted` (the same configurations).
+#[derive(Clone, Debug)]
+pub(super) struct GroupBoxes {
+    pub sorted: ConfigSet,
+    pub groups: usize,
+    pub lo: Vec<f64>,
+    pub hi: Vec<f64>,
+    /// max_j |q_jd| per joint: what bounds the rounding of a cost.
+    pub reach: Vec<f64>,
+}
+
+impl GroupBoxes {
+    fn of(set: &ConfigSet) -> Self {
+        let mut order: Vec<usize> = (0..set.len).collect();
+        leaf_order(set, &mut order);
+        let rows: Vec<Vec<f64>> = order.iter().map(|&j| set.config(j)).collect();
+        // The rows of a valid set make a valid set.
+        let sorted = ConfigSet::from_rows(&rows).unwrap_or_else(|_| set.clone());
+        let groups = set.len.div_ceil(GROUP);
+        let (mut lo, mut hi) = (Vec::with_capacity(set.dim * groups), Vec::with_capacity(set.dim * groups));
+        for d in 0..set.dim {
+            for g in sorted.joint(d).chunks(GROUP) {
+                lo.push(g.iter().copied().fold(f64::INFINITY, f64::min));
+                hi.push(g.iter().copied().fold(f64::NEG_INFINITY, f64::max));
+            }
+        }
+        let reach = (0..set.dim).map(|d| set.joint(d).iter().fold(0.0, |m: f64, q| m.max(q.abs()))).collect();
+        GroupBoxes { sorted, groups, lo, hi, reach }
+    }
+}
+
+/// Orders `idx` as the leaves of a k-d tree with leaves of [`GROUP`] configurations.
+fn leaf_order(set: &ConfigSet, idx: &mut [usize]) {
+    if idx.len() <= GROUP {
+        return;
+    }
+    let widest = (0..set.dim)
+        .map(|d| {
+            let v = set.joint(d);
+            let (lo, hi) = idx.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &j| (l.min(v[j]), h.max(v[j])));
+            (hi - lo, d)
+        })
+        .fold((f64::NEG_INFINITY, 0), |best, c| if c.0 > best.0 { c } else { best })
+        .1;
+    let v = set.joint(widest);
+    let mid = (idx.len() / 2).div_ceil(GROUP) * GROUP;
+    idx.select_nth_unstable_by(mid, |&a, &b| v[a].total_cmp(&v[b]));
+    let (left, right) = idx.split_at_mut(mid);
+    leaf_order(set, left);
+    leaf_order(set, right);
+}
+
+/// Equal sets hold the same configurations, whether or not either has made its f32 copy or
+/// its boxes.
 impl PartialEq for ConfigSet {
     fn eq(&self, other: &Self) -> bool {
         (self.dim, self.len, self.stride, &self.data) == (other.dim, other.len, other.stride, &other.data)
@@ -63,7 +126,7 @@ impl ConfigSet {
                 data[d * stride + j] = v;
             }
         }
-        Ok(Self { dim, len, data, stride, data_f32: OnceLock::new() })
+        Ok(Self { dim, len, data, stride, data_f32: OnceLock::new(), boxes: OnceLock::new() })
     }
 
     /// Number of joints D.
@@ -105,6 +168,11 @@ impl ConfigSet {
             out
         });
         data[d * stride..(d + 1) * stride].as_chunks().0
+    }
+
+    /// The set reordered in groups of nearby configurations, with each group's box.
+    pub(super) fn group_boxes(&self) -> &GroupBoxes {
+        self.boxes.get_or_init(|| Box::new(GroupBoxes::of(self)))
     }
 
     /// Configuration j as a vector of D joint angles.

@@ -18,7 +18,7 @@
 
 use std::ops::Range;
 
-use super::config_set::ConfigSet;
+use super::config_set::{ConfigSet, GROUP};
 use super::lanes::{Lanes, Portable, WIDTH, exp_nonpositive as exp_lanes};
 use super::likelihood::Observation;
 use super::numeric::{exp_nonpositive, sum_lanes};
@@ -52,6 +52,8 @@ pub struct Scratch {
     dead_count: usize,
     /// (√w_d, −√w_d·q*_d) per joint, for the costs.
     terms: Vec<(f64, f64)>,
+    /// A lower bound of the costs in each group of the set's boxes ([`SetPass::min_cost`]).
+    bounds: Vec<f64>,
 }
 
 impl Scratch {
@@ -128,7 +130,10 @@ impl SetPass {
     }
 
     /// min_q C(q; λ) over the set: [`SetPass::run`]'s `min_cost`, the same bits, without the
-    /// weights (`scratch` then holds the costs only).
+    /// weights and without the costs that cannot be the minimum: each group of the set's
+    /// boxes ([`GROUP`] configurations) whose lower bound of the cost exceeds the lowest
+    /// cost found so far (with a margin for rounding far above the costs' own) is skipped.
+    /// The group of the lowest bound goes first. `scratch`'s costs are not filled.
     pub fn min_cost(set: &ConfigSet, q_star: &[f64], w: &[f64], scratch: &mut Scratch) -> f64 {
         scratch.prepare(set.len());
         dispatch(MinCost { set, q_star, w, scratch })
@@ -156,15 +161,8 @@ impl SetPass {
         match obs {
             Observation::Config(j) => logit(*j) - self.sum.ln(),
             Observation::Region(idx) => {
-                // log Σ_{j∈R} exp(ℓ_j) − log S: from the pass's weights while pruning cannot
-                // have changed their sum (nor underflow), else by log-sum-exp over the costs.
-                let s: f64 = idx.iter().map(|&j| scratch.exps()[j]).sum();
-                if s >= REGION_SUM_PER_CONFIG * idx.len() as f64 {
-                    return s.ln() - self.sum.ln();
-                }
-                let max = idx.iter().map(|&j| logit(j)).fold(f64::NEG_INFINITY, f64::max);
-                let s: f64 = idx.iter().map(|&j| exp_nonpositive(logit(j) - max)).sum();
-                max + s.ln() - self.sum.ln()
+                let [s] = region_weights([scratch.exps()], idx);
+                self.region_log_likelihood(idx, s, alpha, scratch)
             }
             Observation::Measured(g) => {
                 // log Σ_j exp(ℓ_j + g_j) − log S, by log-sum-exp over the costs.
@@ -175,6 +173,35 @@ impl SetPass {
             }
         }
     }
+}
+
+impl SetPass {
+    /// log P(region | Q, λ) = log Σ_{j∈R} exp(ℓ_j) − log S, given `s` = the region's weights
+    /// added in index order ([`region_weights`]): from the pass's weights while pruning
+    /// cannot have changed their sum (nor underflow), else by log-sum-exp over the costs.
+    pub fn region_log_likelihood(&self, idx: &[usize], s: f64, alpha: f64, scratch: &Scratch) -> f64 {
+        if s >= REGION_SUM_PER_CONFIG * idx.len() as f64 {
+            return s.ln() - self.sum.ln();
+        }
+        let costs = scratch.costs();
+        let logit = |j: usize| -alpha * (costs[j] - self.min_cost);
+        let max = idx.iter().map(|&j| logit(j)).fold(f64::NEG_INFINITY, f64::max);
+        let s: f64 = idx.iter().map(|&j| exp_nonpositive(logit(j) - max)).sum();
+        max + s.ln() - self.sum.ln()
+    }
+}
+
+/// Σ_{j∈idx} exps[j] added in index order, for K passes' weights at once: each sum's bits are
+/// those of adding one by one, but the K chains of additions overlap, where one chain would
+/// wait out each addition's latency.
+pub fn region_weights<const K: usize>(exps: [&[f64]; K], idx: &[usize]) -> [f64; K] {
+    let mut sums = [-0.0; K];
+    for &j in idx {
+        for (s, e) in sums.iter_mut().zip(&exps) {
+            *s += e[j];
+        }
+    }
+    sums
 }
 
 /// The costs' minimum alone: what `passive` needs of a particle.
@@ -190,13 +217,95 @@ impl WithLanes for MinCost<'_> {
 
     #[inline(always)]
     fn run<V: Lanes>(self) -> f64 {
-        let MinCost { set, q_star, w, scratch } = self;
-        match set.dim() {
-            7 => costs_and_min::<V, 7>(set, q_star, w, &mut scratch.costs, &mut scratch.terms),
-            2 => costs_and_min::<V, 2>(set, q_star, w, &mut scratch.costs, &mut scratch.terms),
-            _ => costs_and_min::<V, 0>(set, q_star, w, &mut scratch.costs, &mut scratch.terms),
+        match self.set.dim() {
+            7 => self.run_dim::<V, 7>(),
+            2 => self.run_dim::<V, 2>(),
+            _ => self.run_dim::<V, 0>(),
         }
     }
+}
+
+/// Blocks in a group of the set's boxes.
+const GROUP_BLOCKS: usize = GROUP / BLOCK;
+
+impl MinCost<'_> {
+    /// The groups' lower bounds, then the groups that may hold the minimum.
+    ///
+    /// A group's bound is Σ_d w_d·gap_d², gap_d the distance from q*_d to the group's range
+    /// of joint d: no configuration of the group costs less (eq. 2). A group is skipped when
+    /// bound·(1 − 1e-9) − slack > the lowest cost so far, slack = 1e-9·Σ_d w_d (1 + |q*_d| +
+    /// max_j |q_jd|)²: the rounding of a computed cost (and of the bound) is below 1e-15 of
+    /// that sum, so every cost of a skipped group is above the minimum, and the minimum found
+    /// is the minimum of every computed cost, the same bits ([`costs_and_min`]'s costs, lane
+    /// by lane).
+    #[inline(always)]
+    fn run_dim<V: Lanes, const D: usize>(self) -> f64 {
+        let MinCost { set, q_star, w, scratch } = self;
+        let dims = joints::<D>(set);
+        let terms = &mut scratch.terms;
+        terms.clear();
+        terms.extend(w[..dims].iter().zip(q_star).map(|(w, q)| (w.sqrt(), -(w.sqrt() * q))));
+        let boxes = set.group_boxes();
+        let groups = boxes.groups;
+        let bounds = &mut scratch.bounds;
+        bounds.clear();
+        bounds.resize(groups, 0.0);
+        let mut slack = 0.0;
+        for d in 0..dims {
+            let (q, wd) = (q_star[d], w[d]);
+            let range = d * groups..(d + 1) * groups;
+            for ((b, &lo), &hi) in bounds.iter_mut().zip(&boxes.lo[range.clone()]).zip(&boxes.hi[range]) {
+                let gap = (lo - q).max(q - hi).max(0.0);
+                *b += wd * gap * gap;
+            }
+            slack += wd * (1.0 + q.abs() + boxes.reach[d]).powi(2);
+        }
+        let slack = 1e-9 * slack;
+        let (n, sorted) = (set.len(), &boxes.sorted);
+        if D > 0 {
+            let joints: [&[[f64; BLOCK]]; D] = std::array::from_fn(|d| sorted.joint_blocks(d));
+            bounded_min::<V, _>(&joints, &terms[..dims], n, bounds, slack)
+        } else {
+            bounded_min::<V, _>(&sorted, terms, n, bounds, slack)
+        }
+    }
+}
+
+/// The minimum cost over the groups whose bound does not rule them out.
+#[inline(always)]
+fn bounded_min<V: Lanes, J: JointBlocks>(
+    joints: &J,
+    terms: &[(f64, f64)],
+    n: usize,
+    bounds: &[f64],
+    slack: f64,
+) -> f64 {
+    let first = bounds.iter().enumerate().fold(0, |best, (g, &b)| if b < bounds[best] { g } else { best });
+    let mut min = group_min::<V, J>(joints, terms, n, first);
+    for (g, &bound) in bounds.iter().enumerate() {
+        if g != first && bound * (1.0 - 1e-9) - slack <= min {
+            min = min.min(group_min::<V, J>(joints, terms, n, g));
+        }
+    }
+    min
+}
+
+/// The lowest cost in group g (padding lanes +∞).
+#[inline(always)]
+fn group_min<V: Lanes, J: JointBlocks>(joints: &J, terms: &[(f64, f64)], n: usize, g: usize) -> f64 {
+    let whole = n / BLOCK;
+    let mut mins = V::splat(f64::INFINITY);
+    for b in g * GROUP_BLOCKS..((g + 1) * GROUP_BLOCKS).min(n.div_ceil(BLOCK)) {
+        let c = block_cost::<V, J>(terms, joints, b);
+        if b < whole {
+            mins = mins.min(c);
+        } else {
+            let mut c = to_array(c);
+            c[n - whole * BLOCK..].fill(f64::INFINITY);
+            mins = mins.min(V::load(&c));
+        }
+    }
+    to_array(mins).into_iter().fold(f64::INFINITY, f64::min)
 }
 
 /// Work written once over [`Lanes`], run by [`dispatch`].
@@ -595,6 +704,63 @@ mod tests {
                     assert_eq!(bits(unsafe { avx512(&set, &q_star, &w) }), want, "AVX-512, dim {dim}");
                 }
             }
+        }
+    }
+
+    /// The bounded minimum ([`SetPass::min_cost`]) is the whole pass's, bit for bit: sets of
+    /// many groups along a curve (as a feasible set's self-motion) and scattered, q* on and far
+    /// from them, weights of 0 included, 7 joints, 2 and 3.
+    #[test]
+    fn the_bounded_minimum_is_the_whole_pass_minimum() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = crate::SeededRng::seed_from_u64(12);
+        for dim in [7, 2, 3] {
+            for n in [1, BLOCK + 3, GROUP + 1, 40 * GROUP + 5] {
+                let curve = rng.random_bool(0.5);
+                let rows: Vec<Vec<f64>> = (0..n)
+                    .map(|j| {
+                        let t = j as f64 / n as f64 * 6.0;
+                        (0..dim)
+                            .map(|d| {
+                                if curve {
+                                    (t * (d + 1) as f64 * 0.7).sin() + rng.random_range(-0.01..0.01)
+                                } else {
+                                    rng.random_range(-2.0..2.0)
+                                }
+                            })
+                            .collect()
+                    })
+                    .collect();
+                let set = ConfigSet::from_rows(&rows).unwrap();
+                for spread in [0.1, 1.0, 10.0] {
+                    for _ in 0..20 {
+                        let q_star: Vec<f64> = (0..dim).map(|_| rng.random_range(-spread..spread)).collect();
+                        let w: Vec<f64> = (0..dim)
+                            .map(|_| if rng.random_bool(0.1) { 0.0 } else { rng.random_range(0.05..2.0) })
+                            .collect();
+                        let mut whole = SetPass::scratch(n);
+                        let want = SetPass::run(&set, &q_star, &w, 5.0, &mut whole).min_cost;
+                        let mut alone = SetPass::scratch(n);
+                        let got = SetPass::min_cost(&set, &q_star, &w, &mut alone);
+                        assert_eq!(got.to_bits(), want.to_bits(), "dim {dim}, n {n}, curve {curve}, spread {spread}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// Region sums added K at a time are each the sum added one by one.
+    #[test]
+    fn region_weights_added_together_are_each_added_in_order() {
+        let exps: Vec<Vec<f64>> = (0..3).map(|k| (0..50).map(|j| 1.0 / (1 + j + 7 * k) as f64).collect()).collect();
+        let idx: Vec<usize> = (3..41).step_by(2).collect();
+        let got = region_weights([&exps[0][..], &exps[1][..], &exps[2][..]], &idx);
+        for (k, e) in exps.iter().enumerate() {
+            let mut want = 0.0;
+            for &j in &idx {
+                want += e[j];
+            }
+            assert_eq!(got[k].to_bits(), want.to_bits(), "{k}");
         }
     }
 

@@ -56,6 +56,29 @@ pub fn query_value_in(
     QueryValue { information_gain: pass.information_gain, expected_cost: pass.expected_cost }
 }
 
+/// [`query_value_in`] of every set of `menu`, in one pass over the particles for a
+/// configuration or region outcome (the same numbers as set by set).
+pub fn menu_query_values(
+    belief: &Belief,
+    menu: &[FeasibleSet],
+    alpha: f64,
+    outcomes: OutcomeModel,
+    precision: Precision,
+) -> Vec<QueryValue> {
+    let region = match outcomes {
+        OutcomeModel::Configuration => false,
+        OutcomeModel::Region => true,
+        OutcomeModel::Measured { .. } => {
+            return menu.iter().map(|set| query_value_in(belief, set, alpha, outcomes, precision)).collect();
+        }
+    };
+    let passes = match precision {
+        Precision::Float64 => discrete_passes::<Float64>(belief, menu, alpha, region),
+        Precision::Float32 => discrete_passes::<Float32>(belief, menu, alpha, region),
+    };
+    passes.iter().map(|p| QueryValue { information_gain: p.information_gain, expected_cost: p.expected_cost }).collect()
+}
+
 /// A set pass in one precision, for the passes over the particles written once.
 trait PassPrecision {
     type Scratch;
@@ -121,59 +144,85 @@ struct DiscretePass {
 }
 
 fn discrete_pass<P: PassPrecision>(belief: &Belief, set: &FeasibleSet, alpha: f64, region: bool) -> DiscretePass {
+    let mut passes = discrete_passes::<P>(belief, std::slice::from_ref(set), alpha, region);
+    passes.pop().expect("one pass for one set")
+}
+
+/// [`discrete_pass`] over every set of `menu`: each chunk of particles goes over every set in
+/// turn (one task and one scratch a chunk, the set's configurations hot for the chunk's
+/// particles), and each set's partial sums are added over the chunks in order, so every
+/// set's numbers are those of its own pass.
+fn discrete_passes<P: PassPrecision>(
+    belief: &Belief,
+    menu: &[FeasibleSet],
+    alpha: f64,
+    region: bool,
+) -> Vec<DiscretePass> {
     let d = belief.dim();
-    let k = if region { set.regions().len() } else { set.len() };
-    let partials: Vec<Partial> = chunks(belief)
+    let longest = menu.iter().map(FeasibleSet::len).max().unwrap_or(0);
+    let partials: Vec<Vec<Partial>> = chunks(belief)
         .map(|chunk| {
-            let mut scratch = P::scratch(set.len());
-            // A configuration outcome's marginal in the precision's type; a region's (a few
-            // numbers a particle) in f64 whatever the precision.
-            let mut config_marginal = vec![P::Marginal::default(); if region { 0 } else { k }];
-            let mut part = Partial {
-                marginal: vec![0.0; if region { k } else { 0 }],
-                conditional_entropy: 0.0,
-                expected_cost: 0.0,
-            };
-            let mut region_p = vec![0.0; set.regions().len()];
-            for (p, w) in chunk {
-                let pass = P::run(set.configs(), &p[..d], &p[d..], alpha, &mut scratch);
-                part.expected_cost += w * pass.min_cost;
-                let scale = w / pass.sum;
-                if region {
-                    P::range_sums(&scratch, set.regions(), &mut region_p);
-                    let mut h = 0.0;
-                    for pr in region_p.iter_mut() {
-                        *pr /= pass.sum;
-                        h -= xlogx(*pr);
+            let chunk: Vec<(&[f64], f64)> = chunk.collect();
+            let mut scratch = P::scratch(longest);
+            menu.iter()
+                .map(|set| {
+                    let k = if region { set.regions().len() } else { set.len() };
+                    // A configuration outcome's marginal in the precision's type; a region's (a
+                    // few numbers a particle) in f64 whatever the precision.
+                    let mut config_marginal = vec![P::Marginal::default(); if region { 0 } else { k }];
+                    let mut part = Partial {
+                        marginal: vec![0.0; if region { k } else { 0 }],
+                        conditional_entropy: 0.0,
+                        expected_cost: 0.0,
+                    };
+                    let mut region_p = vec![0.0; set.regions().len()];
+                    for &(p, w) in &chunk {
+                        let pass = P::run(set.configs(), &p[..d], &p[d..], alpha, &mut scratch);
+                        part.expected_cost += w * pass.min_cost;
+                        let scale = w / pass.sum;
+                        if region {
+                            P::range_sums(&scratch, set.regions(), &mut region_p);
+                            let mut h = 0.0;
+                            for pr in region_p.iter_mut() {
+                                *pr /= pass.sum;
+                                h -= xlogx(*pr);
+                            }
+                            for (m, pr) in part.marginal.iter_mut().zip(&region_p) {
+                                *m += w * pr;
+                            }
+                            part.conditional_entropy += w * h;
+                        } else {
+                            P::add_scaled_weights(&scratch, scale, &mut config_marginal);
+                            part.conditional_entropy += w * pass.config_entropy();
+                        }
                     }
-                    for (m, pr) in part.marginal.iter_mut().zip(&region_p) {
-                        *m += w * pr;
+                    if !region {
+                        part.marginal = config_marginal.into_iter().map(Into::into).collect();
                     }
-                    part.conditional_entropy += w * h;
-                } else {
-                    P::add_scaled_weights(&scratch, scale, &mut config_marginal);
-                    part.conditional_entropy += w * pass.config_entropy();
-                }
-            }
-            if !region {
-                part.marginal = config_marginal.into_iter().map(Into::into).collect();
-            }
-            part
+                    part
+                })
+                .collect()
         })
         .collect();
-    let mut marginal = vec![0.0; k];
-    let (mut conditional, mut cost) = (0.0, 0.0);
-    for p in &partials {
-        for (m, v) in marginal.iter_mut().zip(&p.marginal) {
-            *m += v;
-        }
-        conditional += p.conditional_entropy;
-        cost += p.expected_cost;
-    }
-    let marginal_entropy = -marginal.iter().map(|&m| xlogx(m)).sum::<f64>();
-    // Rounding can push the difference a hair outside [0, log K]; the true value is inside.
-    let information_gain = (marginal_entropy - conditional).clamp(0.0, (k as f64).ln());
-    DiscretePass { marginal, information_gain, expected_cost: cost }
+    menu.iter()
+        .enumerate()
+        .map(|(q, set)| {
+            let k = if region { set.regions().len() } else { set.len() };
+            let mut marginal = vec![0.0; k];
+            let (mut conditional, mut cost) = (0.0, 0.0);
+            for p in partials.iter().map(|chunk| &chunk[q]) {
+                for (m, v) in marginal.iter_mut().zip(&p.marginal) {
+                    *m += v;
+                }
+                conditional += p.conditional_entropy;
+                cost += p.expected_cost;
+            }
+            let marginal_entropy = -marginal.iter().map(|&m| xlogx(m)).sum::<f64>();
+            // Rounding can push the difference a hair outside [0, log K]; the true value is inside.
+            let information_gain = (marginal_entropy - conditional).clamp(0.0, (k as f64).ln());
+            DiscretePass { marginal, information_gain, expected_cost: cost }
+        })
+        .collect()
 }
 
 /// Points a measured outcome's information is averaged over in selection: 32 strata of the
@@ -352,25 +401,39 @@ pub fn measured_information(
 /// the same precision, the same bits (the same chunks, in the same order), without the
 /// weights' exponentials: all that `passive` decides from.
 pub fn expected_cost(belief: &Belief, set: &FeasibleSet, precision: Precision) -> f64 {
+    menu_expected_costs(belief, std::slice::from_ref(set), precision)[0]
+}
+
+/// [`expected_cost`] of every set of `menu`, in one pass over the particles (the same
+/// numbers as set by set).
+pub fn menu_expected_costs(belief: &Belief, menu: &[FeasibleSet], precision: Precision) -> Vec<f64> {
     match precision {
-        Precision::Float64 => expected_cost_in::<Float64>(belief, set),
-        Precision::Float32 => expected_cost_in::<Float32>(belief, set),
+        Precision::Float64 => expected_costs_in::<Float64>(belief, menu),
+        Precision::Float32 => expected_costs_in::<Float32>(belief, menu),
     }
 }
 
-fn expected_cost_in<P: PassPrecision>(belief: &Belief, set: &FeasibleSet) -> f64 {
+/// Each chunk of particles goes over every set in turn; each set's partial sums are added
+/// over the chunks in order.
+fn expected_costs_in<P: PassPrecision>(belief: &Belief, menu: &[FeasibleSet]) -> Vec<f64> {
     let d = belief.dim();
-    let partials: Vec<f64> = chunks(belief)
+    let longest = menu.iter().map(FeasibleSet::len).max().unwrap_or(0);
+    let partials: Vec<Vec<f64>> = chunks(belief)
         .map(|chunk| {
-            let mut scratch = P::scratch(set.len());
-            let mut cost = 0.0;
-            for (p, w) in chunk {
-                cost += w * P::min_cost(set.configs(), &p[..d], &p[d..], &mut scratch);
-            }
-            cost
+            let chunk: Vec<(&[f64], f64)> = chunk.collect();
+            let mut scratch = P::scratch(longest);
+            menu.iter()
+                .map(|set| {
+                    let mut cost = 0.0;
+                    for &(p, w) in &chunk {
+                        cost += w * P::min_cost(set.configs(), &p[..d], &p[d..], &mut scratch);
+                    }
+                    cost
+                })
+                .collect()
         })
         .collect();
-    partials.iter().fold(0.0, |a, c| a + c)
+    (0..menu.len()).map(|q| partials.iter().fold(0.0, |a, c| a + c[q])).collect()
 }
 
 /// The belief's particles (λ as q* then w) with their weights, in fixed chunks of

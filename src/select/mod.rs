@@ -14,7 +14,8 @@ use crate::belief::{Belief, Grid};
 use crate::ergo::FeasibleSet;
 
 pub use information::{
-    MEASURED_POINTS, MeasuredInformation, QueryValue, expected_cost, measured_information, query_value, query_value_in,
+    MEASURED_POINTS, MeasuredInformation, QueryValue, expected_cost, measured_information, menu_expected_costs,
+    menu_query_values, query_value, query_value_in,
 };
 pub use paper::information_gain_paper;
 
@@ -98,11 +99,7 @@ pub trait Selector: Send + Sync {
 
 /// Information gain and expected cost of every menu item.
 pub fn menu_values(problem: &Problem) -> Vec<QueryValue> {
-    problem
-        .menu
-        .iter()
-        .map(|set| query_value_in(problem.belief, set, problem.alpha, problem.outcomes, problem.precision))
-        .collect()
+    menu_query_values(problem.belief, problem.menu, problem.alpha, problem.outcomes, problem.precision)
 }
 
 /// The parameters of the selectors that trade information against comfort.

@@ -404,3 +404,24 @@ fn float32_information_gain_is_within_its_tolerance() {
     );
     assert!(worst_rel < 1e-5 && worst_abs < 1e-8 && worst_cost < 1e-6, "{worst_rel:e} {worst_abs:e} {worst_cost:e}");
 }
+
+/// The menu's values in one pass over the particles are each set's own, bit for bit:
+/// configuration and region outcomes, both precisions, and the expected costs alone.
+#[test]
+fn a_menu_in_one_pass_is_each_set_on_its_own() {
+    let study = crate::protocol::Study::default_study();
+    let belief = Belief::from_prior(&study.prior, 150, &mut SeededRng::seed_from_u64(5)).unwrap();
+    let menu: Vec<FeasibleSet> = study.training.iter().map(|q| crate::session::choice_set(&q.feasible)).collect();
+    let menu = &menu;
+    for outcomes in [OutcomeModel::Configuration, OutcomeModel::Region] {
+        for precision in [Precision::Float64, Precision::Float32] {
+            let together = menu_query_values(&belief, menu, 5.0, outcomes, precision);
+            let alone: Vec<QueryValue> =
+                menu.iter().map(|s| query_value_in(&belief, s, 5.0, outcomes, precision)).collect();
+            assert_eq!(together, alone, "{outcomes:?}, {precision:?}");
+            let costs = menu_expected_costs(&belief, menu, precision);
+            let alone: Vec<f64> = menu.iter().map(|s| expected_cost(&belief, s, precision)).collect();
+            assert_eq!(costs, alone, "{precision:?}");
+        }
+    }
+}

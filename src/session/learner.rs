@@ -28,8 +28,7 @@ pub struct LearningContext {
     /// The prior (for the MAP estimate, recomputed from it and every observation).
     pub prior: Prior,
     /// Whether only what a plan reports is computed ([`super::Session::plan_only`]): belief
-    /// summaries without the MAP estimate (a pass over every observation so far for every
-    /// particle; their `map` is then the mean), `passive`'s scores without the information
+    /// summaries of the posterior mean alone ([`BeliefSummary::of`]), `passive`'s scores without the information
     /// gain, and no suggestion after a condition's last training trial. A logged session
     /// computes everything: its `/trial/query` carries every score.
     pub plan_only: bool,
@@ -96,18 +95,31 @@ pub struct BeliefSummary {
 impl BeliefSummary {
     /// Summarises a belief after `iteration` updates, given the observations it was
     /// updated with (one pass over the grid cells gives both the mode and the entropy).
+    /// In a plan ([`LearningContext::plan_only`]) only the posterior mean is computed, all
+    /// a plan reports of a belief: the MAP estimate is the mean, and the interval, the mode,
+    /// the entropy and the ESS are NaN.
     pub fn of(belief: &Belief, iteration: usize, ctx: &LearningContext, history: &[Observed]) -> Self {
+        let mean = belief.mean();
+        if ctx.plan_only {
+            let unknown = Lambda { q_star: vec![f64::NAN; mean.dim()], w: vec![f64::NAN; mean.dim()] };
+            return BeliefSummary {
+                iteration,
+                map: mean.clone(),
+                mean,
+                ci_low: unknown.clone(),
+                ci_high: unknown.clone(),
+                grid_mode: unknown,
+                entropy: f64::NAN,
+                ess: f64::NAN,
+            };
+        }
         let cells = CellIndex::new(belief, &ctx.grid);
         let (ci_low, ci_high) = belief.credible_interval();
         BeliefSummary {
             iteration,
-            mean: belief.mean(),
             // The history's observations index their own sets (checked when observed).
-            map: if !ctx.plan_only {
-                belief.map_estimate(&ctx.prior, history, ctx.alpha).unwrap_or_else(|_| belief.mean())
-            } else {
-                belief.mean()
-            },
+            map: belief.map_estimate(&ctx.prior, history, ctx.alpha).unwrap_or_else(|_| belief.mean()),
+            mean,
             ci_low,
             ci_high,
             grid_mode: cells.mode(belief),
@@ -209,11 +221,9 @@ impl Learner {
         self.scores = if ctx.plan_only && self.condition == SelectorKind::Passive {
             // Passive decides from the expected costs alone (the same bits as the whole
             // scores'); the information gain is not computed.
-            menu.iter()
-                .map(|set| QueryValue {
-                    information_gain: f64::NAN,
-                    expected_cost: crate::select::expected_cost(&self.belief, set, ctx.precision),
-                })
+            crate::select::menu_expected_costs(&self.belief, menu, ctx.precision)
+                .into_iter()
+                .map(|expected_cost| QueryValue { information_gain: f64::NAN, expected_cost })
                 .collect()
         } else {
             menu_values(&ctx.problem(&self.belief, menu))

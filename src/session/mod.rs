@@ -399,8 +399,8 @@ impl Session {
         &self.learners
     }
 
-    /// From now on, compute only what a plan reports: belief summaries without the MAP
-    /// estimate (their `map` is the mean), `passive`'s expected costs without the
+    /// From now on, compute only what a plan reports: belief summaries of the posterior mean
+    /// alone ([`BeliefSummary::of`]), `passive`'s expected costs without the
     /// information gain, and no suggestion once a condition's training is over. The same
     /// queries are chosen and the same beliefs learned; a logged session computes everything
     /// (its `/trial/query` carries every score).
