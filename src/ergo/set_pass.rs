@@ -47,9 +47,6 @@ pub struct Scratch {
     /// first `live_count` entries.
     live: Vec<usize>,
     live_count: usize,
-    /// Start index of every other block: the first `dead_count` entries.
-    dead: Vec<usize>,
-    dead_count: usize,
     /// (√w_d, −√w_d·q*_d) per joint, for the costs.
     terms: Vec<(f64, f64)>,
     /// A lower bound of the costs in each group of the set's boxes ([`SetPass::min_cost`]).
@@ -96,9 +93,7 @@ impl Scratch {
         self.costs.resize(blocks * BLOCK, 0.0);
         self.exps.resize(blocks * BLOCK, 0.0);
         self.live.resize(blocks, 0);
-        self.dead.resize(blocks, 0);
         self.live_count = 0;
-        self.dead_count = 0;
     }
 }
 
@@ -366,47 +361,37 @@ impl WithLanes for Pass<'_> {
 }
 
 impl Pass<'_> {
-    /// Three sweeps over the blocks: the costs and their minimum; the logits, with the
-    /// blocks listed as live (a logit above the cut) or dead; the weights and their sums
-    /// over the live blocks, zeros over the dead. No branch depends on the data.
+    /// Two sweeps over the blocks: the costs and their minimum; then block by block the
+    /// logits, and for a block with a logit above the cut (listed as live) the weights and
+    /// their sums, zeros for any other. The sums go over the live blocks in order.
     #[inline(always)]
     fn run_dim<V: Lanes, const D: usize>(self) -> SetPass {
         let Pass { set, q_star, w, alpha, scratch } = self;
         let min_cost = costs_and_min::<V, D>(set, q_star, w, &mut scratch.costs, &mut scratch.terms);
 
-        let (neg_alpha, min, cut) = (V::splat(-alpha), V::splat(min_cost), V::splat(PRUNE_LOGIT));
-        let (mut live, mut dead) = (0, 0);
+        let (neg_alpha, min, cut, zero) = (V::splat(-alpha), V::splat(min_cost), V::splat(PRUNE_LOGIT), V::splat(0.0));
+        let mut live = 0;
+        let (mut sums, mut sums_logit) = (zero, zero);
         let costs = scratch.costs.as_chunks::<BLOCK>().0;
         let exps = scratch.exps.as_chunks_mut::<BLOCK>().0;
         for (b, (c, e)) in costs.iter().zip(exps.iter_mut()).enumerate() {
             let logit = neg_alpha.mul(V::load(c).sub(min));
-            logit.store(e);
-            let any = V::any(logit.ge(cut));
-            scratch.live[live] = b * BLOCK;
-            scratch.dead[dead] = b * BLOCK;
-            live += usize::from(any);
-            dead += usize::from(!any);
+            let keep = logit.ge(cut);
+            if V::any(keep) {
+                scratch.live[live] = b * BLOCK;
+                live += 1;
+                // A pruned lane adds nothing, not 0 · ℓ: its logit may be −∞ (a padding
+                // lane, or a cost so large that α·C overflows), and 0 · −∞ is NaN.
+                let x = V::select(keep, exp_lanes(logit), zero);
+                let logit = V::select(keep, logit, zero);
+                x.store(e);
+                sums = sums.add(x);
+                sums_logit = x.mul_add(logit, sums_logit);
+            } else {
+                zero.store(e);
+            }
         }
         scratch.live_count = live;
-        scratch.dead_count = dead;
-
-        let zero = V::splat(0.0);
-        for &start in &scratch.dead[..dead] {
-            zero.store(&mut exps[start / BLOCK]);
-        }
-        let (mut sums, mut sums_logit) = (zero, zero);
-        for &start in &scratch.live[..live] {
-            let e = &mut exps[start / BLOCK];
-            let logit = V::load(e);
-            // A pruned lane adds nothing, not 0 · ℓ: its logit may be −∞ (a padding lane, or
-            // a cost so large that α·C overflows), and 0 · −∞ is NaN.
-            let keep = logit.ge(cut);
-            let x = V::select(keep, exp_lanes(logit), zero);
-            let logit = V::select(keep, logit, zero);
-            x.store(e);
-            sums = sums.add(x);
-            sums_logit = x.mul_add(logit, sums_logit);
-        }
         SetPass { min_cost, sum: sum_lanes(to_array(sums)), sum_exp_logit: sum_lanes(to_array(sums_logit)) }
     }
 }

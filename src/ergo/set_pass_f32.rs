@@ -28,9 +28,6 @@ pub struct ScratchF32 {
     /// Start index of every block with a weight above the cut: the first `live_count`.
     live: Vec<usize>,
     live_count: usize,
-    /// Start index of every other block: the first `dead_count`.
-    dead: Vec<usize>,
-    dead_count: usize,
     /// (√w_d, −√w_d·q*_d) per joint, rounded to f32.
     terms: Vec<(f32, f32)>,
 }
@@ -67,9 +64,7 @@ impl ScratchF32 {
         self.costs.resize(blocks * BLOCK, 0.0);
         self.exps.resize(blocks * BLOCK, 0.0);
         self.live.resize(blocks, 0);
-        self.dead.resize(blocks, 0);
         self.live_count = 0;
-        self.dead_count = 0;
     }
 }
 
@@ -146,43 +141,36 @@ struct Pass<'a> {
 impl WithLanes32 for Pass<'_> {
     type Output = SetPass;
 
-    /// The float64 pass's three sweeps: costs and their minimum; logits, blocks listed live
-    /// or dead; weights and their sums over the live blocks, zeros over the dead.
+    /// The float64 pass's two sweeps: costs and their minimum; then block by block the
+    /// logits, and for a block with a logit above the cut (listed as live) the weights and
+    /// their sums, zeros for any other.
     #[inline(always)]
     fn run<V: Lanes32>(self) -> SetPass {
         let Pass { set, q_star, w, alpha, scratch } = self;
         let min_cost = costs_and_min::<V>(set, q_star, w, &mut scratch.costs, &mut scratch.terms);
         let (neg_alpha, min, cut) = (V::splat(-alpha as f32), V::splat(min_cost), V::splat(PRUNE_LOGIT as f32));
-        let (mut live, mut dead) = (0, 0);
+        let zero = V::splat(0.0);
+        let mut live = 0;
+        let (mut sums, mut sums_logit) = (zero, zero);
         let costs = scratch.costs.as_chunks::<BLOCK>().0;
         let exps = scratch.exps.as_chunks_mut::<BLOCK>().0;
         for (b, (c, e)) in costs.iter().zip(exps.iter_mut()).enumerate() {
             let logit = neg_alpha.mul(V::load(c).sub(min));
-            logit.store(e);
-            let any = V::any(logit.ge(cut));
-            scratch.live[live] = b * BLOCK;
-            scratch.dead[dead] = b * BLOCK;
-            live += usize::from(any);
-            dead += usize::from(!any);
+            let keep = logit.ge(cut);
+            if V::any(keep) {
+                scratch.live[live] = b * BLOCK;
+                live += 1;
+                // A pruned lane adds nothing, not 0 · ℓ (its logit may be −∞: 0 · −∞ is NaN).
+                let x = V::select(keep, exp_nonpositive_f32(logit), zero);
+                let logit = V::select(keep, logit, zero);
+                x.store(e);
+                sums = sums.add(x);
+                sums_logit = x.mul_add(logit, sums_logit);
+            } else {
+                zero.store(e);
+            }
         }
         scratch.live_count = live;
-        scratch.dead_count = dead;
-        let zero = V::splat(0.0);
-        for &start in &scratch.dead[..dead] {
-            zero.store(&mut exps[start / BLOCK]);
-        }
-        let (mut sums, mut sums_logit) = (zero, zero);
-        for &start in &scratch.live[..live] {
-            let e = &mut exps[start / BLOCK];
-            let logit = V::load(e);
-            // A pruned lane adds nothing, not 0 · ℓ (its logit may be −∞: 0 · −∞ is NaN).
-            let keep = logit.ge(cut);
-            let x = V::select(keep, exp_nonpositive_f32(logit), zero);
-            let logit = V::select(keep, logit, zero);
-            x.store(e);
-            sums = sums.add(x);
-            sums_logit = x.mul_add(logit, sums_logit);
-        }
         SetPass { min_cost: f64::from(min_cost), sum: sum_lanes_f64(sums), sum_exp_logit: sum_lanes_f64(sums_logit) }
     }
 }
