@@ -110,24 +110,25 @@ fn region_log_likelihoods(
     set: &FeasibleSet,
     idx: &[usize],
     ps: &[f64],
+    stride: usize,
     alpha: f64,
     base: &impl Fn(&[f64]) -> f64,
 ) -> Vec<f64> {
     const K: usize = 4;
-    let d = set.dim();
+    let d = stride / 2;
     let mut scratch: [crate::ergo::Scratch; K] = std::array::from_fn(|_| SetPass::scratch(set.len()));
-    let mut out = Vec::with_capacity(ps.len() / (2 * d));
-    for group in ps.chunks(K * 2 * d) {
+    let mut out = Vec::with_capacity(ps.len() / stride);
+    for group in ps.chunks(K * stride) {
         let mut passes = [None; K];
         let mut bases = [0.0; K];
-        for (k, (p, sc)) in group.chunks_exact(2 * d).zip(&mut scratch).enumerate() {
+        for (k, (p, sc)) in group.chunks_exact(stride).zip(&mut scratch).enumerate() {
             bases[k] = base(p);
             if bases[k] != f64::NEG_INFINITY {
                 passes[k] = Some(SetPass::run(set.configs(), &p[..d], &p[d..], alpha, sc));
             }
         }
         let sums = region_weights::<K>(std::array::from_fn(|k| scratch[k].exps()), idx);
-        for k in 0..group.len() / (2 * d) {
+        for k in 0..group.len() / stride {
             out.push(match passes[k] {
                 Some(pass) => bases[k] + pass.region_log_likelihood(idx, sums[k], alpha, &scratch[k]),
                 None => bases[k],
@@ -270,7 +271,7 @@ impl Belief {
             .particles
             .par_chunks(PARTICLE_CHUNK * s)
             .map(|ps| match observed {
-                [(set, Observation::Region(idx))] => region_log_likelihoods(set, idx, ps, alpha, &base),
+                [(set, Observation::Region(idx))] => region_log_likelihoods(set, idx, ps, s, alpha, &base),
                 _ => {
                     let mut scratch = scratch_for(observed);
                     ps.chunks_exact(s).map(|p| log_likelihood_at(observed, p, alpha, base(p), &mut scratch)).collect()

@@ -291,14 +291,9 @@ fn group_min<V: Lanes, J: JointBlocks>(joints: &J, terms: &[(f64, f64)], n: usiz
     let whole = n / BLOCK;
     let mut mins = V::splat(f64::INFINITY);
     for b in g * GROUP_BLOCKS..((g + 1) * GROUP_BLOCKS).min(n.div_ceil(BLOCK)) {
-        let c = block_cost::<V, J>(terms, joints, b);
-        if b < whole {
-            mins = mins.min(c);
-        } else {
-            let mut c = to_array(c);
-            c[n - whole * BLOCK..].fill(f64::INFINITY);
-            mins = mins.min(V::load(&c));
-        }
+        let c =
+            if b < whole { block_cost::<V, J>(terms, joints, b) } else { partial_block_cost::<V, J>(terms, joints, n) };
+        mins = mins.min(c);
     }
     to_array(mins).into_iter().fold(f64::INFINITY, f64::min)
 }
@@ -543,14 +538,20 @@ fn costs_of_blocks<V: Lanes, J: JointBlocks>(
         c.store(o);
     }
     if whole < out.len() {
-        // The last, partial block: its padding lanes +∞.
-        let mut c = to_array(block_cost::<V, J>(terms, joints, whole));
-        c[n - whole * BLOCK..].fill(f64::INFINITY);
-        let c = V::load(&c);
+        let c = partial_block_cost::<V, J>(terms, joints, n);
         mins = mins.min(c);
         c.store(&mut out[whole]);
     }
     to_array(mins).into_iter().fold(f64::INFINITY, f64::min)
+}
+
+/// The costs of the last, partial block of a set of n configurations, its padding lanes +∞.
+#[inline(always)]
+fn partial_block_cost<V: Lanes, J: JointBlocks>(terms: &[(f64, f64)], joints: &J, n: usize) -> V {
+    let whole = n / BLOCK;
+    let mut c = to_array(block_cost::<V, J>(terms, joints, whole));
+    c[n - whole * BLOCK..].fill(f64::INFINITY);
+    V::load(&c)
 }
 
 /// The costs of block b: Σ_d u_d², u_d = √w_d·q_d + shift_d, `terms` = (√w_d, shift_d).

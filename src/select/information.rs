@@ -44,10 +44,7 @@ pub fn query_value_in(
     let region = match outcomes {
         OutcomeModel::Configuration => false,
         OutcomeModel::Region => true,
-        OutcomeModel::Measured { sigma } => {
-            let m = measured_information(belief, set, alpha, sigma, MEASURED_POINTS);
-            return QueryValue { information_gain: m.estimate, expected_cost: m.expected_cost };
-        }
+        OutcomeModel::Measured { sigma } => return measured_value(belief, set, alpha, sigma),
     };
     let pass = match precision {
         Precision::Float64 => discrete_pass::<Float64>(belief, set, alpha, region),
@@ -68,8 +65,8 @@ pub fn menu_query_values(
     let region = match outcomes {
         OutcomeModel::Configuration => false,
         OutcomeModel::Region => true,
-        OutcomeModel::Measured { .. } => {
-            return menu.iter().map(|set| query_value_in(belief, set, alpha, outcomes, precision)).collect();
+        OutcomeModel::Measured { sigma } => {
+            return menu.iter().map(|set| measured_value(belief, set, alpha, sigma)).collect();
         }
     };
     let passes = match precision {
@@ -77,6 +74,12 @@ pub fn menu_query_values(
         Precision::Float32 => discrete_passes::<Float32>(belief, menu, alpha, region),
     };
     passes.iter().map(|p| QueryValue { information_gain: p.information_gain, expected_cost: p.expected_cost }).collect()
+}
+
+/// A measured outcome's value: [`measured_information`] with [`MEASURED_POINTS`] points.
+fn measured_value(belief: &Belief, set: &FeasibleSet, alpha: f64, sigma: &[f64]) -> QueryValue {
+    let m = measured_information(belief, set, alpha, sigma, MEASURED_POINTS);
+    QueryValue { information_gain: m.estimate, expected_cost: m.expected_cost }
 }
 
 /// A set pass in one precision, for the passes over the particles written once.
@@ -144,8 +147,8 @@ struct DiscretePass {
 }
 
 fn discrete_pass<P: PassPrecision>(belief: &Belief, set: &FeasibleSet, alpha: f64, region: bool) -> DiscretePass {
-    let mut passes = discrete_passes::<P>(belief, std::slice::from_ref(set), alpha, region);
-    passes.pop().expect("one pass for one set")
+    let partials = chunk_partials::<P>(belief, std::slice::from_ref(set), alpha, region);
+    reduce(set, region, partials.iter().flatten())
 }
 
 /// [`discrete_pass`] over every set of `menu`: each chunk of particles goes over every set in
@@ -158,9 +161,20 @@ fn discrete_passes<P: PassPrecision>(
     alpha: f64,
     region: bool,
 ) -> Vec<DiscretePass> {
+    let partials = chunk_partials::<P>(belief, menu, alpha, region);
+    menu.iter().enumerate().map(|(q, set)| reduce(set, region, partials.iter().filter_map(|c| c.get(q)))).collect()
+}
+
+/// Each chunk's partial sums for every set of `menu`, chunk by chunk.
+fn chunk_partials<P: PassPrecision>(
+    belief: &Belief,
+    menu: &[FeasibleSet],
+    alpha: f64,
+    region: bool,
+) -> Vec<Vec<Partial>> {
     let d = belief.dim();
     let longest = menu.iter().map(FeasibleSet::len).max().unwrap_or(0);
-    let partials: Vec<Vec<Partial>> = chunks(belief)
+    chunks(belief)
         .map(|chunk| {
             let chunk: Vec<(&[f64], f64)> = chunk.collect();
             let mut scratch = P::scratch(longest);
@@ -203,26 +217,25 @@ fn discrete_passes<P: PassPrecision>(
                 })
                 .collect()
         })
-        .collect();
-    menu.iter()
-        .enumerate()
-        .map(|(q, set)| {
-            let k = if region { set.regions().len() } else { set.len() };
-            let mut marginal = vec![0.0; k];
-            let (mut conditional, mut cost) = (0.0, 0.0);
-            for p in partials.iter().map(|chunk| &chunk[q]) {
-                for (m, v) in marginal.iter_mut().zip(&p.marginal) {
-                    *m += v;
-                }
-                conditional += p.conditional_entropy;
-                cost += p.expected_cost;
-            }
-            let marginal_entropy = -marginal.iter().map(|&m| xlogx(m)).sum::<f64>();
-            // Rounding can push the difference a hair outside [0, log K]; the true value is inside.
-            let information_gain = (marginal_entropy - conditional).clamp(0.0, (k as f64).ln());
-            DiscretePass { marginal, information_gain, expected_cost: cost }
-        })
         .collect()
+}
+
+/// A set's pass from its chunks' partial sums, added in chunk order.
+fn reduce<'a>(set: &FeasibleSet, region: bool, partials: impl Iterator<Item = &'a Partial>) -> DiscretePass {
+    let k = if region { set.regions().len() } else { set.len() };
+    let mut marginal = vec![0.0; k];
+    let (mut conditional, mut cost) = (0.0, 0.0);
+    for p in partials {
+        for (m, v) in marginal.iter_mut().zip(&p.marginal) {
+            *m += v;
+        }
+        conditional += p.conditional_entropy;
+        cost += p.expected_cost;
+    }
+    let marginal_entropy = -marginal.iter().map(|&m| xlogx(m)).sum::<f64>();
+    // Rounding can push the difference a hair outside [0, log K]; the true value is inside.
+    let information_gain = (marginal_entropy - conditional).clamp(0.0, (k as f64).ln());
+    DiscretePass { marginal, information_gain, expected_cost: cost }
 }
 
 /// Points a measured outcome's information is averaged over in selection: 32 strata of the
@@ -401,24 +414,29 @@ pub fn measured_information(
 /// the same precision, the same bits (the same chunks, in the same order), without the
 /// weights' exponentials: all that `passive` decides from.
 pub fn expected_cost(belief: &Belief, set: &FeasibleSet, precision: Precision) -> f64 {
-    menu_expected_costs(belief, std::slice::from_ref(set), precision)[0]
+    let partials = match precision {
+        Precision::Float64 => chunk_costs::<Float64>(belief, std::slice::from_ref(set)),
+        Precision::Float32 => chunk_costs::<Float32>(belief, std::slice::from_ref(set)),
+    };
+    partials.iter().flatten().fold(0.0, |a, c| a + c)
 }
 
 /// [`expected_cost`] of every set of `menu`, in one pass over the particles (the same
 /// numbers as set by set).
 pub fn menu_expected_costs(belief: &Belief, menu: &[FeasibleSet], precision: Precision) -> Vec<f64> {
-    match precision {
-        Precision::Float64 => expected_costs_in::<Float64>(belief, menu),
-        Precision::Float32 => expected_costs_in::<Float32>(belief, menu),
-    }
+    let partials = match precision {
+        Precision::Float64 => chunk_costs::<Float64>(belief, menu),
+        Precision::Float32 => chunk_costs::<Float32>(belief, menu),
+    };
+    (0..menu.len()).map(|q| partials.iter().filter_map(|c| c.get(q)).fold(0.0, |a, c| a + c)).collect()
 }
 
-/// Each chunk of particles goes over every set in turn; each set's partial sums are added
-/// over the chunks in order.
-fn expected_costs_in<P: PassPrecision>(belief: &Belief, menu: &[FeasibleSet]) -> Vec<f64> {
+/// Each chunk's Σ_i ω_i min_q C(q; λ_i) for every set of `menu`, chunk by chunk (a chunk
+/// goes over every set in turn); a set's expected cost is its partials added in chunk order.
+fn chunk_costs<P: PassPrecision>(belief: &Belief, menu: &[FeasibleSet]) -> Vec<Vec<f64>> {
     let d = belief.dim();
     let longest = menu.iter().map(FeasibleSet::len).max().unwrap_or(0);
-    let partials: Vec<Vec<f64>> = chunks(belief)
+    chunks(belief)
         .map(|chunk| {
             let chunk: Vec<(&[f64], f64)> = chunk.collect();
             let mut scratch = P::scratch(longest);
@@ -432,8 +450,7 @@ fn expected_costs_in<P: PassPrecision>(belief: &Belief, menu: &[FeasibleSet]) ->
                 })
                 .collect()
         })
-        .collect();
-    (0..menu.len()).map(|q| partials.iter().fold(0.0, |a, c| a + c[q])).collect()
+        .collect()
 }
 
 /// The belief's particles (λ as q* then w) with their weights, in fixed chunks of

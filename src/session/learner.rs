@@ -28,9 +28,9 @@ pub struct LearningContext {
     /// The prior (for the MAP estimate, recomputed from it and every observation).
     pub prior: Prior,
     /// Whether only what a plan reports is computed ([`super::Session::plan_only`]): belief
-    /// summaries of the posterior mean alone ([`BeliefSummary::of`]), `passive`'s scores without the information
-    /// gain, and no suggestion after a condition's last training trial. A logged session
-    /// computes everything: its `/trial/query` carries every score.
+    /// summaries of the posterior mean alone ([`BeliefSummary::of`]), `passive`'s scores
+    /// without the information gain, and no suggestion after a condition's last training
+    /// trial. A logged session computes everything: its `/trial/query` carries every score.
     pub plan_only: bool,
     /// Training trials per condition (when a learner's training is over).
     pub training_trials: usize,
@@ -118,7 +118,7 @@ impl BeliefSummary {
         BeliefSummary {
             iteration,
             // The history's observations index their own sets (checked when observed).
-            map: belief.map_estimate(&ctx.prior, history, ctx.alpha).unwrap_or_else(|_| belief.mean()),
+            map: belief.map_estimate(&ctx.prior, history, ctx.alpha).unwrap_or_else(|_| mean.clone()),
             mean,
             ci_low,
             ci_high,
