@@ -175,6 +175,11 @@ impl ConfigSet {
         self.boxes.get_or_init(|| Box::new(GroupBoxes::of(self)))
     }
 
+    /// max_j |q_jd| for every joint d: what bounds the rounding of a cost.
+    pub fn reach(&self) -> &[f64] {
+        &self.group_boxes().reach
+    }
+
     /// Configuration j as a vector of D joint angles.
     pub fn config(&self, j: usize) -> Vec<f64> {
         (0..self.dim).map(|d| self.data[d * self.stride + j]).collect()

@@ -18,5 +18,6 @@ pub use config_set::{ConfigSet, ConfigSetError, FeasibleSet};
 pub use lambda::{Lambda, LearnMask};
 pub use likelihood::{Observation, ObservationError, SIGMA_DEG, cost, log_likelihood, most_likely_in_region};
 pub use numeric::{exp_nonpositive, log_sum_exp, xlogx};
+pub(crate) use set_pass::PRUNE_LOGIT;
 pub use set_pass::{Scratch, SetPass, region_weights};
 pub use set_pass_f32::{ScratchF32, min_cost_f32, run_f32};

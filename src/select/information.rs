@@ -20,6 +20,9 @@ struct Partial {
     marginal: Vec<f64>,
     conditional_entropy: f64,
     expected_cost: f64,
+    /// The largest bounds on the float32 and float64 passes' logit errors over the chunk's
+    /// particles ([`super::screen::logit_errors`]), when asked for; else 0.
+    logit_errors: [f64; 2],
 }
 
 /// I = H[Σ_i ω_i L_i(·)] − Σ_i ω_i H[L_i(·)], where L_i is the distribution of the outcome
@@ -69,9 +72,10 @@ pub fn menu_query_values(
             return menu.iter().map(|set| measured_value(belief, set, alpha, sigma)).collect();
         }
     };
+    let sets: Vec<&FeasibleSet> = menu.iter().collect();
     let passes = match precision {
-        Precision::Float64 => discrete_passes::<Float64>(belief, menu, alpha, region),
-        Precision::Float32 => discrete_passes::<Float32>(belief, menu, alpha, region),
+        Precision::Float64 => discrete_passes::<Float64>(belief, &sets, alpha, region, false),
+        Precision::Float32 => discrete_passes::<Float32>(belief, &sets, alpha, region, false),
     };
     passes.iter().map(|p| QueryValue { information_gain: p.information_gain, expected_cost: p.expected_cost }).collect()
 }
@@ -83,7 +87,7 @@ fn measured_value(belief: &Belief, set: &FeasibleSet, alpha: f64, sigma: &[f64])
 }
 
 /// A set pass in one precision, for the passes over the particles written once.
-trait PassPrecision {
+pub(super) trait PassPrecision {
     type Scratch;
     /// The accumulator of a configuration outcome's marginal.
     type Marginal: Copy + Default + Into<f64> + Send;
@@ -94,7 +98,7 @@ trait PassPrecision {
     fn add_scaled_weights(scratch: &Self::Scratch, scale: f64, marginal: &mut [Self::Marginal]);
 }
 
-struct Float64;
+pub(super) struct Float64;
 
 impl PassPrecision for Float64 {
     type Scratch = Scratch;
@@ -116,7 +120,7 @@ impl PassPrecision for Float64 {
     }
 }
 
-struct Float32;
+pub(super) struct Float32;
 
 impl PassPrecision for Float32 {
     type Scratch = ScratchF32;
@@ -140,14 +144,16 @@ impl PassPrecision for Float32 {
 
 /// What one pass over a belief yields for a discrete outcome (the configuration or the
 /// region): the marginal of the outcome, I(λ; outcome) and eq. 10's expected cost.
-struct DiscretePass {
+pub(super) struct DiscretePass {
     marginal: Vec<f64>,
-    information_gain: f64,
-    expected_cost: f64,
+    pub information_gain: f64,
+    pub expected_cost: f64,
+    /// The largest logit-error bounds over the particles, when asked for ([`Partial`]).
+    pub logit_errors: [f64; 2],
 }
 
 fn discrete_pass<P: PassPrecision>(belief: &Belief, set: &FeasibleSet, alpha: f64, region: bool) -> DiscretePass {
-    let partials = chunk_partials::<P>(belief, std::slice::from_ref(set), alpha, region);
+    let partials = chunk_partials::<P>(belief, &[set], alpha, region, false);
     reduce(set, region, partials.iter().flatten())
 }
 
@@ -155,25 +161,29 @@ fn discrete_pass<P: PassPrecision>(belief: &Belief, set: &FeasibleSet, alpha: f6
 /// turn (one task and one scratch a chunk, the set's configurations hot for the chunk's
 /// particles), and each set's partial sums are added over the chunks in order, so every
 /// set's numbers are those of its own pass.
-fn discrete_passes<P: PassPrecision>(
+/// With `bound`, each pass also carries its logit-error bounds (a float32 pass's: its own
+/// and float64's, [`super::screen::logit_errors`]).
+pub(super) fn discrete_passes<P: PassPrecision>(
     belief: &Belief,
-    menu: &[FeasibleSet],
+    menu: &[&FeasibleSet],
     alpha: f64,
     region: bool,
+    bound: bool,
 ) -> Vec<DiscretePass> {
-    let partials = chunk_partials::<P>(belief, menu, alpha, region);
+    let partials = chunk_partials::<P>(belief, menu, alpha, region, bound);
     menu.iter().enumerate().map(|(q, set)| reduce(set, region, partials.iter().filter_map(|c| c.get(q)))).collect()
 }
 
 /// Each chunk's partial sums for every set of `menu`, chunk by chunk.
 fn chunk_partials<P: PassPrecision>(
     belief: &Belief,
-    menu: &[FeasibleSet],
+    menu: &[&FeasibleSet],
     alpha: f64,
     region: bool,
+    bound: bool,
 ) -> Vec<Vec<Partial>> {
     let d = belief.dim();
-    let longest = menu.iter().map(FeasibleSet::len).max().unwrap_or(0);
+    let longest = menu.iter().map(|s| s.len()).max().unwrap_or(0);
     chunks(belief)
         .map(|chunk| {
             let chunk: Vec<(&[f64], f64)> = chunk.collect();
@@ -188,11 +198,16 @@ fn chunk_partials<P: PassPrecision>(
                         marginal: vec![0.0; if region { k } else { 0 }],
                         conditional_entropy: 0.0,
                         expected_cost: 0.0,
+                        logit_errors: [0.0; 2],
                     };
                     let mut region_p = vec![0.0; set.regions().len()];
                     for &(p, w) in &chunk {
                         let pass = P::run(set.configs(), &p[..d], &p[d..], alpha, &mut scratch);
                         part.expected_cost += w * pass.min_cost;
+                        if bound {
+                            let e = super::screen::logit_errors(set.configs(), &p[..d], &p[d..], alpha, pass.min_cost);
+                            part.logit_errors = [part.logit_errors[0].max(e[0]), part.logit_errors[1].max(e[1])];
+                        }
                         let scale = w / pass.sum;
                         if region {
                             P::range_sums(&scratch, set.regions(), &mut region_p);
@@ -224,18 +239,19 @@ fn chunk_partials<P: PassPrecision>(
 fn reduce<'a>(set: &FeasibleSet, region: bool, partials: impl Iterator<Item = &'a Partial>) -> DiscretePass {
     let k = if region { set.regions().len() } else { set.len() };
     let mut marginal = vec![0.0; k];
-    let (mut conditional, mut cost) = (0.0, 0.0);
+    let (mut conditional, mut cost, mut logit_errors) = (0.0, 0.0, [0.0f64; 2]);
     for p in partials {
         for (m, v) in marginal.iter_mut().zip(&p.marginal) {
             *m += v;
         }
         conditional += p.conditional_entropy;
         cost += p.expected_cost;
+        logit_errors = [logit_errors[0].max(p.logit_errors[0]), logit_errors[1].max(p.logit_errors[1])];
     }
     let marginal_entropy = -marginal.iter().map(|&m| xlogx(m)).sum::<f64>();
     // Rounding can push the difference a hair outside [0, log K]; the true value is inside.
     let information_gain = (marginal_entropy - conditional).clamp(0.0, (k as f64).ln());
-    DiscretePass { marginal, information_gain, expected_cost: cost }
+    DiscretePass { marginal, information_gain, expected_cost: cost, logit_errors }
 }
 
 /// Points a measured outcome's information is averaged over in selection: 32 strata of the

@@ -29,7 +29,9 @@ pub struct LearningContext {
     pub prior: Prior,
     /// Whether only what a plan reports is computed ([`super::Session::plan_only`]): belief
     /// summaries of the posterior mean alone ([`BeliefSummary::of`]), `passive`'s scores
-    /// without the information gain, and no suggestion after a condition's last training
+    /// without the information gain, float64 `active`'s choice of a region outcome by the
+    /// float32 screen ([`crate::select::screened_active_choice`]: the same choice, float64's
+    /// scores only where it scored), and no suggestion after a condition's last training
     /// trial. A logged session computes everything: its `/trial/query` carries every score.
     pub plan_only: bool,
     /// Training trials per condition (when a learner's training is over).
@@ -218,6 +220,18 @@ impl Learner {
     }
 
     fn suggest(&mut self, menu: &[FeasibleSet], ctx: &LearningContext) {
+        if ctx.plan_only
+            && self.condition == SelectorKind::Active
+            && ctx.precision == Precision::Float64
+            && ctx.selection_outcomes() == OutcomeModel::Region
+        {
+            // Float64's choice, scored in float32 where a proven bound decides it; the scores
+            // are float64's where it scored, NaN elsewhere.
+            let screened = crate::select::screened_active_choice(&self.belief, menu, ctx.alpha);
+            self.scores = screened.values;
+            self.suggestion = screened.index;
+            return;
+        }
         self.scores = if ctx.plan_only && self.condition == SelectorKind::Passive {
             // Passive decides from the expected costs alone (the same bits as the whole
             // scores'); the information gain is not computed.

@@ -401,7 +401,9 @@ impl Session {
 
     /// From now on, compute only what a plan reports: belief summaries of the posterior mean
     /// alone ([`BeliefSummary::of`]), `passive`'s expected costs without the
-    /// information gain, and no suggestion once a condition's training is over. The same
+    /// information gain, float64 `active`'s choice by the float32 screen
+    /// ([`crate::select::screened_active_choice`]), and no suggestion once a condition's
+    /// training is over. The same
     /// queries are chosen and the same beliefs learned; a logged session computes everything
     /// (its `/trial/query` carries every score).
     pub fn plan_only(&mut self) {
