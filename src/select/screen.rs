@@ -6,7 +6,7 @@
 //! compute). A query q with I_f32(q) + E_q < I_f32(b) − E_b for the float32 best b has
 //! I_f64(q) < I_f64(b), so it cannot be float64's choice; the remaining queries are scored
 //! in float64 and the earliest of the largest is taken: float64's own argmax over the whole
-//! menu, bit for bit. docs/engine.md ("Float32 screen") derives the bound step by step; the
+//! menu, bit for bit. docs/engine.md ("The float32 screen") derives the bound step by step; the
 //! comments below name the steps.
 
 use super::information::{Float32, Float64, discrete_passes};
