@@ -295,7 +295,17 @@ fn group_min<V: Lanes, J: JointBlocks>(joints: &J, terms: &[(f64, f64)], n: usiz
             if b < whole { block_cost::<V, J>(terms, joints, b) } else { partial_block_cost::<V, J>(terms, joints, n) };
         mins = mins.min(c);
     }
-    to_array(mins).into_iter().fold(f64::INFINITY, f64::min)
+    // Halving rather than a chain of eight dependent minima: the same value (a minimum does
+    // not round, and a cost is never −0 or NaN).
+    let mut m = to_array(mins);
+    let mut width = BLOCK;
+    while width > 1 {
+        width /= 2;
+        for k in 0..width {
+            m[k] = m[k].min(m[k + width]);
+        }
+    }
+    m[0]
 }
 
 /// Work written once over [`Lanes`], run by [`dispatch`].

@@ -20,8 +20,9 @@ struct Partial {
     marginal: Vec<f64>,
     conditional_entropy: f64,
     expected_cost: f64,
-    /// The largest bounds on the float32 and float64 passes' logit errors over the chunk's
-    /// particles ([`super::screen::logit_errors`]), when asked for; else 0.
+    /// Bounds on the float32 and float64 passes' logit errors for every particle of the
+    /// chunk ([`super::screen::logit_errors`] at the chunk's largest reach and minimum cost),
+    /// when asked for; else 0.
     logit_errors: [f64; 2],
 }
 
@@ -201,12 +202,14 @@ fn chunk_partials<P: PassPrecision>(
                         logit_errors: [0.0; 2],
                     };
                     let mut region_p = vec![0.0; set.regions().len()];
+                    // With `bound`: the chunk's largest Σ_d w_d (reach_d + |q*_d|)² and minimum cost.
+                    let (reach, mut extent) = (set.configs().reach(), [0.0f64; 2]);
                     for &(p, w) in &chunk {
                         let pass = P::run(set.configs(), &p[..d], &p[d..], alpha, &mut scratch);
                         part.expected_cost += w * pass.min_cost;
                         if bound {
-                            let e = super::screen::logit_errors(set.configs(), &p[..d], &p[d..], alpha, pass.min_cost);
-                            part.logit_errors = [part.logit_errors[0].max(e[0]), part.logit_errors[1].max(e[1])];
+                            let terms = super::screen::reach_terms(reach, &p[..d], &p[d..]);
+                            extent = [extent[0].max(terms), extent[1].max(pass.min_cost)];
                         }
                         let scale = w / pass.sum;
                         if region {
@@ -227,6 +230,9 @@ fn chunk_partials<P: PassPrecision>(
                     }
                     if !region {
                         part.marginal = config_marginal.into_iter().map(Into::into).collect();
+                    }
+                    if bound {
+                        part.logit_errors = super::screen::logit_errors(set.dim(), extent[0], extent[1], alpha);
                     }
                     part
                 })

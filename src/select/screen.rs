@@ -12,7 +12,7 @@
 use super::information::{Float32, Float64, discrete_passes};
 use super::{QueryValue, argmax};
 use crate::belief::{Belief, PARTICLE_CHUNK};
-use crate::ergo::{ConfigSet, FeasibleSet};
+use crate::ergo::FeasibleSet;
 
 /// What one precision's set pass rounds.
 #[derive(Clone, Copy, Debug)]
@@ -84,14 +84,18 @@ fn logit_error(r: Rounding, cost: &CostError, computed_min: f64, alpha: f64) -> 
     alpha * cost.at(highest) + span * gamma(3.0, r.unit)
 }
 
-/// Λ of a float32 pass of this particle with computed minimum `min_f32`, and Λ of the
-/// float64 pass of the same particle and set. Float64's computed minimum is at most the
-/// computed cost of the exactly cheapest configuration, whose exact cost is at most that of
-/// float32's cheapest.
-pub(super) fn logit_errors(set: &ConfigSet, q_star: &[f64], w: &[f64], alpha: f64, min_f32: f64) -> [f64; 2] {
-    let reach_terms: f64 = set.reach().iter().zip(q_star).zip(w).map(|((r, q), w)| w * (r + q.abs()).powi(2)).sum();
-    let (single, double) =
-        (CostError::new(FLOAT32, set.dim(), reach_terms), CostError::new(FLOAT64, set.dim(), reach_terms));
+/// Σ_d w_d·(reach_d + |q*_d|)² of a particle (q*, w) on a set of the given reach: G²/3.03².
+pub(super) fn reach_terms(reach: &[f64], q_star: &[f64], w: &[f64]) -> f64 {
+    reach.iter().zip(q_star).zip(w).map(|((r, q), w)| w * (r + q.abs()).powi(2)).sum()
+}
+
+/// Λ of a float32 pass with computed minimum `min_f32`, and Λ of the float64 pass of the
+/// same particle and set, for a particle of the given [`reach_terms`]. Both grow with the
+/// reach terms and the minimum, so one call at a chunk's largest of each bounds every
+/// particle of the chunk. Float64's computed minimum is at most the computed cost of the
+/// exactly cheapest configuration, whose exact cost is at most that of float32's cheapest.
+pub(super) fn logit_errors(dim: usize, reach_terms: f64, min_f32: f64, alpha: f64) -> [f64; 2] {
+    let (single, double) = (CostError::new(FLOAT32, dim, reach_terms), CostError::new(FLOAT64, dim, reach_terms));
     let exact_min = single.exact_at_most(min_f32);
     [
         logit_error(FLOAT32, &single, min_f32, alpha),
@@ -221,7 +225,7 @@ mod tests {
 
     use super::*;
     use crate::SeededRng;
-    use crate::ergo::{Lambda, Observation, ScratchF32, min_cost_f32};
+    use crate::ergo::{ConfigSet, Lambda, Observation, ScratchF32, min_cost_f32};
     use crate::select::{OutcomeModel, Precision, menu_query_values};
 
     fn default_menu() -> (crate::protocol::Study, Vec<FeasibleSet>) {
@@ -317,8 +321,7 @@ mod tests {
                     &set,
                     Precision::Float64,
                 );
-                let reach_terms: f64 =
-                    set.configs().reach().iter().zip(q).zip(w).map(|((r, q), w)| w * (r + q.abs()).powi(2)).sum();
+                let reach_terms = reach_terms(set.configs().reach(), q, w);
                 let allowed = CostError::new(FLOAT32, d, reach_terms).at(double)
                     + CostError::new(FLOAT64, d, reach_terms).at(double);
                 worst = worst.max((single - double).abs() / allowed);
