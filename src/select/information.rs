@@ -203,7 +203,9 @@ fn chunk_partials<P: PassPrecision>(
                     };
                     let mut region_p = vec![0.0; set.regions().len()];
                     // With `bound`: the chunk's largest Σ_d w_d (reach_d + |q*_d|)² and minimum cost.
-                    let (reach, mut extent) = (set.configs().reach(), [0.0f64; 2]);
+                    // (The reach only then: it builds the set's k-d groups on first use.)
+                    let reach = if bound { set.configs().reach() } else { &[] };
+                    let mut extent = [0.0f64; 2];
                     for &(p, w) in &chunk {
                         let pass = P::run(set.configs(), &p[..d], &p[d..], alpha, &mut scratch);
                         part.expected_cost += w * pass.min_cost;
