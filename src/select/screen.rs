@@ -209,13 +209,11 @@ pub fn screened_active_choice(belief: &Belief, menu: &[FeasibleSet], alpha: f64)
     }
     let double_sets: Vec<&FeasibleSet> = candidates.iter().map(|&q| &menu[q]).collect();
     let double = discrete_passes::<Float64>(belief, &double_sets, alpha, true, false);
-    let mut index = candidates[0];
     for (&q, pass) in candidates.iter().zip(&double) {
         values[q] = QueryValue { information_gain: pass.information_gain, expected_cost: pass.expected_cost };
-        if pass.information_gain > values[index].information_gain {
-            index = q;
-        }
     }
+    // Candidates are in menu order, so the earliest of the largest among them is float64's.
+    let index = candidates[argmax(&double.iter().map(|p| p.information_gain).collect::<Vec<_>>())];
     ScreenedChoice { index, values, float64_scored: candidates.len() }
 }
 
