@@ -24,6 +24,9 @@ struct Partial {
     /// chunk ([`super::screen::logit_errors`] at the chunk's largest reach and minimum cost),
     /// when asked for; else 0.
     logit_errors: [f64; 2],
+    /// A bound on |m̂_f32 − m̂_f64| for every particle of the chunk, the two passes' computed
+    /// minimum costs ([`super::screen::min_cost_error`]), when asked for; else 0.
+    min_cost_error: f64,
 }
 
 /// I = H[Σ_i ω_i L_i(·)] − Σ_i ω_i H[L_i(·)], where L_i is the distribution of the outcome
@@ -151,6 +154,8 @@ pub(super) struct DiscretePass {
     pub expected_cost: f64,
     /// The largest logit-error bounds over the particles, when asked for ([`Partial`]).
     pub logit_errors: [f64; 2],
+    /// The largest bound on a particle's |m̂_f32 − m̂_f64|, when asked for ([`Partial`]).
+    pub min_cost_error: f64,
 }
 
 fn discrete_pass<P: PassPrecision>(belief: &Belief, set: &FeasibleSet, alpha: f64, region: bool) -> DiscretePass {
@@ -163,7 +168,8 @@ fn discrete_pass<P: PassPrecision>(belief: &Belief, set: &FeasibleSet, alpha: f6
 /// particles), and each set's partial sums are added over the chunks in order, so every
 /// set's numbers are those of its own pass.
 /// With `bound`, each pass also carries its logit-error bounds (a float32 pass's: its own
-/// and float64's, [`super::screen::logit_errors`]).
+/// and float64's, [`super::screen::logit_errors`]) and its minimum-cost error bound
+/// ([`super::screen::min_cost_error`]).
 pub(super) fn discrete_passes<P: PassPrecision>(
     belief: &Belief,
     menu: &[&FeasibleSet],
@@ -200,6 +206,7 @@ fn chunk_partials<P: PassPrecision>(
                         conditional_entropy: 0.0,
                         expected_cost: 0.0,
                         logit_errors: [0.0; 2],
+                        min_cost_error: 0.0,
                     };
                     let mut region_p = vec![0.0; set.regions().len()];
                     // With `bound`: the chunk's largest Σ_d w_d (reach_d + |q*_d|)² and minimum cost.
@@ -235,6 +242,7 @@ fn chunk_partials<P: PassPrecision>(
                     }
                     if bound {
                         part.logit_errors = super::screen::logit_errors(set.dim(), extent[0], extent[1], alpha);
+                        part.min_cost_error = super::screen::min_cost_error(set.dim(), extent[0], extent[1]);
                     }
                     part
                 })
@@ -247,7 +255,7 @@ fn chunk_partials<P: PassPrecision>(
 fn reduce<'a>(set: &FeasibleSet, region: bool, partials: impl Iterator<Item = &'a Partial>) -> DiscretePass {
     let k = if region { set.regions().len() } else { set.len() };
     let mut marginal = vec![0.0; k];
-    let (mut conditional, mut cost, mut logit_errors) = (0.0, 0.0, [0.0f64; 2]);
+    let (mut conditional, mut cost, mut logit_errors, mut min_cost_error) = (0.0, 0.0, [0.0f64; 2], 0.0f64);
     for p in partials {
         for (m, v) in marginal.iter_mut().zip(&p.marginal) {
             *m += v;
@@ -255,11 +263,12 @@ fn reduce<'a>(set: &FeasibleSet, region: bool, partials: impl Iterator<Item = &'
         conditional += p.conditional_entropy;
         cost += p.expected_cost;
         logit_errors = [logit_errors[0].max(p.logit_errors[0]), logit_errors[1].max(p.logit_errors[1])];
+        min_cost_error = min_cost_error.max(p.min_cost_error);
     }
     let marginal_entropy = -marginal.iter().map(|&m| xlogx(m)).sum::<f64>();
     // Rounding can push the difference a hair outside [0, log K]; the true value is inside.
     let information_gain = (marginal_entropy - conditional).clamp(0.0, (k as f64).ln());
-    DiscretePass { marginal, information_gain, expected_cost: cost, logit_errors }
+    DiscretePass { marginal, information_gain, expected_cost: cost, logit_errors, min_cost_error }
 }
 
 /// Points a measured outcome's information is averaged over in selection: 32 strata of the
@@ -439,8 +448,8 @@ pub fn measured_information(
 /// weights' exponentials: all that `passive` decides from.
 pub fn expected_cost(belief: &Belief, set: &FeasibleSet, precision: Precision) -> f64 {
     let partials = match precision {
-        Precision::Float64 => chunk_costs::<Float64>(belief, std::slice::from_ref(set)),
-        Precision::Float32 => chunk_costs::<Float32>(belief, std::slice::from_ref(set)),
+        Precision::Float64 => chunk_costs::<Float64>(belief, &[set]),
+        Precision::Float32 => chunk_costs::<Float32>(belief, &[set]),
     };
     partials.iter().flatten().fold(0.0, |a, c| a + c)
 }
@@ -448,18 +457,24 @@ pub fn expected_cost(belief: &Belief, set: &FeasibleSet, precision: Precision) -
 /// [`expected_cost`] of every set of `menu`, in one pass over the particles (the same
 /// numbers as set by set).
 pub fn menu_expected_costs(belief: &Belief, menu: &[FeasibleSet], precision: Precision) -> Vec<f64> {
+    let sets: Vec<&FeasibleSet> = menu.iter().collect();
+    expected_costs(belief, &sets, precision)
+}
+
+/// [`expected_cost`] of every set of `sets`, in one pass over the particles.
+pub(super) fn expected_costs(belief: &Belief, sets: &[&FeasibleSet], precision: Precision) -> Vec<f64> {
     let partials = match precision {
-        Precision::Float64 => chunk_costs::<Float64>(belief, menu),
-        Precision::Float32 => chunk_costs::<Float32>(belief, menu),
+        Precision::Float64 => chunk_costs::<Float64>(belief, sets),
+        Precision::Float32 => chunk_costs::<Float32>(belief, sets),
     };
-    (0..menu.len()).map(|q| partials.iter().filter_map(|c| c.get(q)).fold(0.0, |a, c| a + c)).collect()
+    (0..sets.len()).map(|q| partials.iter().filter_map(|c| c.get(q)).fold(0.0, |a, c| a + c)).collect()
 }
 
 /// Each chunk's Σ_i ω_i min_q C(q; λ_i) for every set of `menu`, chunk by chunk (a chunk
 /// goes over every set in turn); a set's expected cost is its partials added in chunk order.
-fn chunk_costs<P: PassPrecision>(belief: &Belief, menu: &[FeasibleSet]) -> Vec<Vec<f64>> {
+fn chunk_costs<P: PassPrecision>(belief: &Belief, menu: &[&FeasibleSet]) -> Vec<Vec<f64>> {
     let d = belief.dim();
-    let longest = menu.iter().map(FeasibleSet::len).max().unwrap_or(0);
+    let longest = menu.iter().map(|s| s.len()).max().unwrap_or(0);
     chunks(belief)
         .map(|chunk| {
             let chunk: Vec<(&[f64], f64)> = chunk.collect();

@@ -1,15 +1,19 @@
-//! `active`'s float64 choice of a region outcome, found with float32 passes where a proven
-//! error bound decides it (what a plan runs: it reports the choice, not the scores).
+//! `active`'s and `passive`'s float64 choices for a region outcome, found with float32
+//! passes where a proven error bound decides them (what a plan runs: it reports the choice,
+//! not the scores).
 //!
 //! Every query is scored in float32 together with a bound E_q ≥ |I_f32 − I| + |I_f64 − I|
 //! (I the exact information gain of the particles, I_f32 and I_f64 what the two passes
 //! compute). A query q with I_f32(q) + E_q < I_f32(b) − E_b for the float32 best b has
 //! I_f64(q) < I_f64(b), so it cannot be float64's choice; the remaining queries are scored
 //! in float64 and the earliest of the largest is taken: float64's own argmax over the whole
-//! menu, bit for bit. docs/engine.md ("The float32 screen") derives the bound step by step; the
-//! comments below name the steps.
+//! menu, bit for bit. `passive` is screened the same way on the expected cost, whose float32
+//! error is bounded through each particle's minimum cost ([`min_cost_error`]). One float32
+//! pass serves both ([`Screen`]): a session's conditions start from the same belief.
+//! docs/engine.md ("The float32 screen") derives the bounds step by step; the comments below
+//! name the steps.
 
-use super::information::{Float32, Float64, discrete_passes};
+use super::information::{DiscretePass, Float32, Float64, discrete_passes, expected_costs};
 use super::{QueryValue, argmax};
 use crate::belief::{Belief, PARTICLE_CHUNK};
 use crate::ergo::FeasibleSet;
@@ -103,6 +107,19 @@ pub(super) fn logit_errors(dim: usize, reach_terms: f64, min_f32: f64, alpha: f6
     ]
 }
 
+/// A bound on |m̂_f32 − m̂_f64|, the float32 and float64 passes' computed minimum costs of
+/// one particle, given its [`reach_terms`] and `min_f32` (step 1 at the minimum): with m the
+/// exact minimum, each computed minimum is within ΔC of m at the exact cost of its own
+/// argmin, at most X = the largest exact cost whose float32 cost can be ≤ m̂_f32 (so X ≥ m)
+/// for float32, and at most the largest whose float64 cost can be ≤ X + ΔC_f64(X) for
+/// float64. Increasing in both arguments: one call at a chunk's largest bounds the chunk.
+pub(super) fn min_cost_error(dim: usize, reach_terms: f64, min_f32: f64) -> f64 {
+    let (single, double) = (CostError::new(FLOAT32, dim, reach_terms), CostError::new(FLOAT64, dim, reach_terms));
+    let x = single.exact_at_most(min_f32);
+    let y = double.exact_at_most(x + double.at(x));
+    single.at(x) + double.at(y)
+}
+
 /// max Σ_r t_r·|ln t_r| over K non-negative t_r of sum at most `mass` (≤ 1 up to rounding):
 /// s·ln(K/s) at the best s ≤ mass, and what parts above 1 could add.
 fn entropy_room(k: f64, mass: f64) -> f64 {
@@ -166,55 +183,123 @@ pub(super) fn information_gain_error(
     marginal + conditional + 2.0 * U64 * (entropy_room(kf, w) + w * one)
 }
 
-/// `active`'s choice by the float32 screen, and what it cost.
+/// A selector's choice by the float32 screen, and what it cost.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ScreenedChoice {
-    /// The query float64's scores choose (the earliest of the largest information gains).
+    /// The query float64's scores choose (the earliest of the best).
     pub index: usize,
     /// Float64's information gain and expected cost of every query it scored; NaN for the
-    /// queries the screen left out, and for all when float32 alone decided.
+    /// queries the screen left out, and for all when float32 alone decided (`passive`'s
+    /// information gain is NaN: it is not computed).
     pub values: Vec<QueryValue>,
     /// Queries scored in float64 (0 when float32 alone decided).
     pub float64_scored: usize,
 }
 
-/// `active`'s choice from `menu` for a region outcome, the same index as the argmax of
-/// float64's [`super::menu_query_values`] (module docs).
+/// One belief's float32 passes over a menu with their error bounds, for a region outcome:
+/// what `active`'s and `passive`'s screened choices are made from.
+pub struct Screen<'a> {
+    belief: &'a Belief,
+    menu: &'a [FeasibleSet],
+    alpha: f64,
+    passes: Vec<DiscretePass>,
+    /// Particles of positive weight, and their weights' sum.
+    particles: usize,
+    weight_sum: f64,
+}
+
+impl<'a> Screen<'a> {
+    /// The float32 passes of every query of `menu` for `belief`.
+    pub fn new(belief: &'a Belief, menu: &'a [FeasibleSet], alpha: f64) -> Self {
+        let sets: Vec<&FeasibleSet> = menu.iter().collect();
+        let passes = discrete_passes::<Float32>(belief, &sets, alpha, true, true);
+        let kept = belief.weights().iter().filter(|&&w| w > 0.0);
+        let (particles, weight_sum) = kept.fold((0, 0.0), |(n, s), w| (n + 1, s + w));
+        Screen { belief, menu, alpha, passes, particles, weight_sum }
+    }
+
+    /// `active`'s choice: the same index as the argmax of float64's
+    /// [`super::menu_query_values`] (module docs).
+    pub fn active(&self) -> ScreenedChoice {
+        let bounds: Vec<f64> = self
+            .passes
+            .iter()
+            .zip(self.menu)
+            .map(|(pass, set)| {
+                let (n, k) = (set.len(), set.regions().len());
+                let error = |r, logit| information_gain_error(r, logit, n, k, self.particles, self.weight_sum);
+                SAFETY * (error(FLOAT32, pass.logit_errors[0]) + error(FLOAT64, pass.logit_errors[1]))
+            })
+            .collect();
+        let gains: Vec<f64> = self.passes.iter().map(|p| p.information_gain).collect();
+        let candidates = contenders(&gains, &bounds);
+        if candidates.len() == 1 {
+            return self.decided(candidates[0]);
+        }
+        let double_sets: Vec<&FeasibleSet> = candidates.iter().map(|&q| &self.menu[q]).collect();
+        let double = discrete_passes::<Float64>(self.belief, &double_sets, self.alpha, true, false);
+        let mut values = self.unknown();
+        for (&q, pass) in candidates.iter().zip(&double) {
+            values[q] = QueryValue { information_gain: pass.information_gain, expected_cost: pass.expected_cost };
+        }
+        // Candidates are in menu order, so the earliest of the largest among them is float64's.
+        let index = candidates[argmax(&double.iter().map(|p| p.information_gain).collect::<Vec<_>>())];
+        ScreenedChoice { index, values, float64_scored: candidates.len() }
+    }
+
+    /// `passive`'s choice: the same index as the argmax of −[`super::menu_expected_costs`]
+    /// in float64 (the earliest of the lowest expected costs). A particle's float32 and
+    /// float64 minimum costs differ by at most its [`min_cost_error`], so the two expected
+    /// costs by at most their weighted sum, plus the rounding of the two sums (step 6's γ).
+    pub fn passive(&self) -> ScreenedChoice {
+        let gamma_n = gamma((PARTICLE_CHUNK + self.particles.div_ceil(PARTICLE_CHUNK) + 2) as f64, U64);
+        let w = self.weight_sum;
+        let (costs, bounds): (Vec<f64>, Vec<f64>) = self
+            .passes
+            .iter()
+            .map(|p| {
+                let spread = w * p.min_cost_error;
+                // −E, so that the best is the largest, as for the information gain.
+                (-p.expected_cost, SAFETY * (spread + gamma_n * (2.0 * p.expected_cost.abs() + spread)))
+            })
+            .unzip();
+        let candidates = contenders(&costs, &bounds);
+        if candidates.len() == 1 {
+            return self.decided(candidates[0]);
+        }
+        let double_sets: Vec<&FeasibleSet> = candidates.iter().map(|&q| &self.menu[q]).collect();
+        let double = expected_costs(self.belief, &double_sets, super::Precision::Float64);
+        let mut values = self.unknown();
+        for (&q, &expected_cost) in candidates.iter().zip(&double) {
+            values[q] = QueryValue { information_gain: f64::NAN, expected_cost };
+        }
+        let index = candidates[argmax(&double.iter().map(|c| -c).collect::<Vec<_>>())];
+        ScreenedChoice { index, values, float64_scored: candidates.len() }
+    }
+
+    fn unknown(&self) -> Vec<QueryValue> {
+        vec![QueryValue { information_gain: f64::NAN, expected_cost: f64::NAN }; self.menu.len()]
+    }
+
+    fn decided(&self, index: usize) -> ScreenedChoice {
+        ScreenedChoice { index, values: self.unknown(), float64_scored: 0 }
+    }
+}
+
+/// The queries that may be float64's argmax, in menu order, given float32's scores (the
+/// larger the better) and their bounds: all but those whose ceiling is below the float32
+/// best's floor. A NaN anywhere keeps a query (and a NaN floor keeps every one).
+fn contenders(scores: &[f64], bounds: &[f64]) -> Vec<usize> {
+    let best = argmax(scores);
+    let floor = scores[best] - bounds[best];
+    (0..scores.len())
+        .filter(|&q| q == best || (scores[q] + bounds[q]).partial_cmp(&floor) != Some(std::cmp::Ordering::Less))
+        .collect()
+}
+
+/// `active`'s choice from `menu` for a region outcome ([`Screen::active`]).
 pub fn screened_active_choice(belief: &Belief, menu: &[FeasibleSet], alpha: f64) -> ScreenedChoice {
-    let sets: Vec<&FeasibleSet> = menu.iter().collect();
-    let single = discrete_passes::<Float32>(belief, &sets, alpha, true, true);
-    let kept = belief.weights().iter().filter(|&&w| w > 0.0);
-    let (particles, weight_sum) = kept.fold((0, 0.0), |(n, s), w| (n + 1, s + w));
-    let bounds: Vec<f64> = single
-        .iter()
-        .zip(menu)
-        .map(|(pass, set)| {
-            let error =
-                |r, logit| information_gain_error(r, logit, set.len(), set.regions().len(), particles, weight_sum);
-            SAFETY * (error(FLOAT32, pass.logit_errors[0]) + error(FLOAT64, pass.logit_errors[1]))
-        })
-        .collect();
-    let gains: Vec<f64> = single.iter().map(|p| p.information_gain).collect();
-    let best = argmax(&gains);
-    let floor = gains[best] - bounds[best];
-    // A query is left out only when its ceiling is below the floor: a NaN anywhere keeps it
-    // (and a NaN floor keeps every one).
-    let candidates: Vec<usize> = (0..menu.len())
-        .filter(|&q| q == best || (gains[q] + bounds[q]).partial_cmp(&floor) != Some(std::cmp::Ordering::Less))
-        .collect();
-    let unknown = QueryValue { information_gain: f64::NAN, expected_cost: f64::NAN };
-    let mut values = vec![unknown; menu.len()];
-    if candidates.len() == 1 {
-        return ScreenedChoice { index: best, values, float64_scored: 0 };
-    }
-    let double_sets: Vec<&FeasibleSet> = candidates.iter().map(|&q| &menu[q]).collect();
-    let double = discrete_passes::<Float64>(belief, &double_sets, alpha, true, false);
-    for (&q, pass) in candidates.iter().zip(&double) {
-        values[q] = QueryValue { information_gain: pass.information_gain, expected_cost: pass.expected_cost };
-    }
-    // Candidates are in menu order, so the earliest of the largest among them is float64's.
-    let index = candidates[argmax(&double.iter().map(|p| p.information_gain).collect::<Vec<_>>())];
-    ScreenedChoice { index, values, float64_scored: candidates.len() }
+    Screen::new(belief, menu, alpha).active()
 }
 
 #[cfg(test)]
@@ -323,6 +408,9 @@ mod tests {
                 let allowed = CostError::new(FLOAT32, d, reach_terms).at(double)
                     + CostError::new(FLOAT64, d, reach_terms).at(double);
                 worst = worst.max((single - double).abs() / allowed);
+                // What the screen uses, from the float32 minimum alone, is wider still.
+                let screened = min_cost_error(d, reach_terms, single);
+                assert!(screened >= allowed && (single - double).abs() <= screened, "{single} {double} {screened}");
                 checked += 1;
             }
         }
@@ -366,33 +454,45 @@ mod tests {
         assert!(widest.is_finite());
     }
 
-    /// The screen chooses float64's argmax, on the default menu (beliefs from the prior and
-    /// after handovers), on a menu with a query repeated (a tie the earlier one wins) and on
-    /// menus of stressing sets; float32 alone decides most of the default menu's choices.
+    /// The screen chooses float64's argmax for `active` (the largest information gain) and
+    /// for `passive` (the lowest expected cost), from one float32 pass, on the default menu
+    /// (beliefs from the prior and after handovers), on a menu with the chosen query
+    /// repeated (a tie the earlier one wins) and on menus of stressing sets; float32 alone
+    /// decides most of the default menu's choices.
     #[test]
-    fn the_screened_choice_is_float64s() {
+    fn the_screened_choices_are_float64s() {
         let (study, menu) = default_menu();
         let alpha = study.protocol.learning.alpha;
         let mut rng = SeededRng::seed_from_u64(44);
         let check = |belief: &Belief, menu: &[FeasibleSet], alpha: f64| {
             let full = menu_query_values(belief, menu, alpha, OutcomeModel::Region, Precision::Float64);
-            let want = argmax(&full.iter().map(|v| v.information_gain).collect::<Vec<_>>());
-            let got = screened_active_choice(belief, menu, alpha);
-            assert_eq!(got.index, want, "α {alpha}");
-            for (g, f) in got.values.iter().zip(&full) {
+            let screen = Screen::new(belief, menu, alpha);
+            let (active, passive) = (screen.active(), screen.passive());
+            let gains: Vec<f64> = full.iter().map(|v| v.information_gain).collect();
+            assert_eq!(active.index, argmax(&gains), "active, α {alpha}");
+            for (g, f) in active.values.iter().zip(&full) {
                 assert!(g.information_gain.is_nan() || g == f, "a value scored in float64 is float64's");
             }
-            got
+            let costs = crate::select::menu_expected_costs(belief, menu, Precision::Float64);
+            assert_eq!(passive.index, argmax(&costs.iter().map(|c| -c).collect::<Vec<_>>()), "passive, α {alpha}");
+            for (g, c) in passive.values.iter().zip(&costs) {
+                assert!(g.expected_cost.is_nan() || g.expected_cost == *c, "a cost scored in float64 is float64's");
+            }
+            (active, passive)
         };
-        let (mut alone, mut total) = (0, 0);
+        let (mut alone, mut total) = ([0, 0], 0);
         for belief in beliefs(&study, &menu, 1000, 45) {
-            let got = check(&belief, &menu, alpha);
+            let (active, passive) = check(&belief, &menu, alpha);
             total += 1;
-            alone += usize::from(got.float64_scored == 0);
-            // The best query repeated ahead of itself: both stay, the earlier is chosen.
-            let mut repeated = menu.clone();
-            repeated.insert(0, menu[got.index].clone());
-            assert!(check(&belief, &repeated, alpha).float64_scored >= 2);
+            alone[0] += usize::from(active.float64_scored == 0);
+            alone[1] += usize::from(passive.float64_scored == 0);
+            // Each chosen query repeated ahead of itself: both stay, the earlier is chosen.
+            for (which, index) in [(0, active.index), (1, passive.index)] {
+                let mut repeated = menu.clone();
+                repeated.insert(0, menu[index].clone());
+                let again = check(&belief, &repeated, alpha);
+                assert!([again.0, again.1][which].float64_scored >= 2);
+            }
         }
         for _ in 0..4 {
             let belief = wide_belief(&mut rng, 300);
@@ -400,7 +500,7 @@ mod tests {
                 check(&belief, &hard_sets(&mut rng), alpha);
             }
         }
-        println!("screened choices on the default menu: {alone} of {total} decided by float32 alone");
-        assert!(alone * 2 > total, "{alone} of {total}");
+        println!("screened choices on the default menu: of {total}, float32 alone decided {alone:?} (active, passive)");
+        assert!(alone.iter().all(|&a| a * 2 > total), "{alone:?} of {total}");
     }
 }

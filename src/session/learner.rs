@@ -5,7 +5,9 @@ use crate::belief::Observed;
 use crate::belief::{Belief, CellIndex, Grid, Prior, ResamplePolicy};
 use crate::ergo::{FeasibleSet, Lambda, Observation};
 use crate::protocol::ObservationModel;
-use crate::select::{OutcomeModel, Precision, Problem, QueryValue, SelectorKind, Tradeoff, menu_values};
+use crate::select::{
+    OutcomeModel, Precision, Problem, QueryValue, Screen, ScreenedChoice, SelectorKind, Tradeoff, menu_values,
+};
 
 /// Settings shared by both learners of a session.
 #[derive(Clone, Debug)]
@@ -27,12 +29,12 @@ pub struct LearningContext {
     pub label_model: Lambda,
     /// The prior (for the MAP estimate, recomputed from it and every observation).
     pub prior: Prior,
-    /// Whether only what a plan reports is computed ([`super::Session::plan_only`]): belief
+    /// Whether only what a plan reports is computed ([`super::Session::for_plan`]): belief
     /// summaries of the posterior mean alone ([`BeliefSummary::of`]), `passive`'s scores
-    /// without the information gain, float64 `active`'s choice of a region outcome by the
-    /// float32 screen ([`crate::select::screened_active_choice`]: the same choice, float64's
-    /// scores only where it scored), and no suggestion after a condition's last training
-    /// trial. A logged session computes everything: its `/trial/query` carries every score.
+    /// without the information gain, float64 choices of region outcomes by the float32
+    /// screen ([`LearningContext::screens`]), and no suggestion after a condition's last
+    /// training trial. A logged session computes everything: its `/trial/query` carries
+    /// every score.
     pub plan_only: bool,
     /// Training trials per condition (when a learner's training is over).
     pub training_trials: usize,
@@ -43,6 +45,12 @@ pub struct LearningContext {
 }
 
 impl LearningContext {
+    /// Whether a plan's float64 choices of region outcomes are made by the float32 screen
+    /// ([`Screen`]): the same choices, float64's scores only where it scored.
+    pub fn screens(&self) -> bool {
+        self.plan_only && self.precision == Precision::Float64 && self.selection_outcomes() == OutcomeModel::Region
+    }
+
     /// What the selectors decide from: this belief over the menu, with the session's α,
     /// outcomes and precision.
     pub fn problem<'a>(&'a self, belief: &'a Belief, menu: &'a [FeasibleSet]) -> Problem<'a> {
@@ -190,46 +198,61 @@ impl Learner {
         l
     }
 
-    /// A learner of another condition starting from this one's belief (a session's
-    /// conditions start from the same draw of the prior): the prior's summary and the
-    /// menu's scores are the same numbers, so they are this one's, computed once; only the
-    /// choice is its own.
-    pub(super) fn sibling(
-        &self,
-        condition: SelectorKind,
-        rng: SeededRng,
+    /// The learners of a session's conditions, in order, all from the same draw of the prior
+    /// (`belief`), each with its own random stream: the prior's summary and the menu's scores
+    /// are the same numbers for every condition, so they are computed once; only the choice
+    /// is each one's own (what [`Learner::new`] would choose). In a plan whose choices are
+    /// screened ([`LearningContext::screens`]) one float32 [`Screen`] of the prior gives
+    /// `active`'s and `passive`'s first choices.
+    pub(super) fn first(
+        conditions: &[SelectorKind],
+        belief: Belief,
+        rngs: impl Iterator<Item = SeededRng>,
         menu: &[FeasibleSet],
         ctx: &LearningContext,
-    ) -> Self {
-        assert!(self.history.is_empty() && self.scores.len() == menu.len(), "a sibling of a new learner");
-        let mut l = Self {
-            condition,
-            belief: self.belief.clone(),
-            rng,
-            iteration: 0,
-            suggestion: 0,
-            scores: self.scores.clone(),
-            entropies: self.entropies.clone(),
-            estimates: self.estimates.clone(),
-            summary: self.summary.clone(),
-            history: Vec::new(),
-            generation: next_generation(),
-        };
-        l.choose(menu, ctx);
-        l
+    ) -> Vec<Self> {
+        let summary = BeliefSummary::of(&belief, 0, ctx, &[]);
+        let screenable = |c: SelectorKind| ctx.screens() && matches!(c, SelectorKind::Active | SelectorKind::Passive);
+        let screen = conditions.iter().any(|&c| screenable(c)).then(|| Screen::new(&belief, menu, ctx.alpha));
+        let mut shared: Option<Vec<QueryValue>> = None;
+        let mut learners = Vec::with_capacity(conditions.len());
+        for (&condition, rng) in conditions.iter().zip(rngs) {
+            let mut l = Self {
+                condition,
+                belief: belief.clone(),
+                rng,
+                iteration: 0,
+                suggestion: 0,
+                scores: Vec::new(),
+                entropies: vec![summary.entropy],
+                estimates: vec![summary.mean.clone()],
+                summary: summary.clone(),
+                history: Vec::new(),
+                generation: next_generation(),
+            };
+            match (&screen, condition) {
+                (Some(screen), SelectorKind::Active) => l.adopt(screen.active()),
+                (Some(screen), SelectorKind::Passive) => l.adopt(screen.passive()),
+                _ => {
+                    l.scores = shared.get_or_insert_with(|| menu_values(&ctx.problem(&belief, menu))).clone();
+                    l.choose(menu, ctx);
+                }
+            }
+            learners.push(l);
+        }
+        learners
+    }
+
+    /// Takes a screened choice: float64's scores where it scored, NaN elsewhere.
+    fn adopt(&mut self, screened: ScreenedChoice) {
+        self.scores = screened.values;
+        self.suggestion = screened.index;
     }
 
     fn suggest(&mut self, menu: &[FeasibleSet], ctx: &LearningContext) {
-        if ctx.plan_only
-            && self.condition == SelectorKind::Active
-            && ctx.precision == Precision::Float64
-            && ctx.selection_outcomes() == OutcomeModel::Region
-        {
-            // Float64's choice, scored in float32 where a proven bound decides it; the scores
-            // are float64's where it scored, NaN elsewhere.
-            let screened = crate::select::screened_active_choice(&self.belief, menu, ctx.alpha);
-            self.scores = screened.values;
-            self.suggestion = screened.index;
+        if ctx.screens() && self.condition == SelectorKind::Active {
+            // Float64's choice, scored in float32 where a proven bound decides it.
+            self.adopt(Screen::new(&self.belief, menu, ctx.alpha).active());
             return;
         }
         self.scores = if ctx.plan_only && self.condition == SelectorKind::Passive {

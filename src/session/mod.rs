@@ -303,7 +303,22 @@ impl Session {
     /// A new session at its first prompt.
     /// A session without a `selection` scores what its protocol's sessions learn from (the
     /// measured arm, or the region); one with it (a log's) scores what it says.
-    pub fn new(study: Arc<Study>, mut start: SessionStart) -> Result<Self, SessionError> {
+    pub fn new(study: Arc<Study>, start: SessionStart) -> Result<Self, SessionError> {
+        Self::build(study, start, false)
+    }
+
+    /// A new session that computes only what a plan reports: belief summaries of the
+    /// posterior mean alone ([`BeliefSummary::of`]), `passive`'s expected costs without the
+    /// information gain, float64 choices of region outcomes by the float32 screen
+    /// ([`crate::select::Screen`]: one screen of the prior belief serves both conditions'
+    /// first choices, then `active`'s), and no suggestion once a condition's training is
+    /// over. The same queries are chosen and the same beliefs learned as by [`Session::new`];
+    /// a logged session computes everything (its `/trial/query` carries every score).
+    pub fn for_plan(study: Arc<Study>, start: SessionStart) -> Result<Self, SessionError> {
+        Self::build(study, start, true)
+    }
+
+    fn build(study: Arc<Study>, mut start: SessionStart, plan_only: bool) -> Result<Self, SessionError> {
         let spec = &study.protocol.session;
         if start.condition_order.len() != spec.conditions.len()
             || spec.conditions.iter().any(|c| !start.condition_order.contains(c))
@@ -338,7 +353,7 @@ impl Session {
             tradeoff: crate::select::Tradeoff { beta: learning.hybrid_beta, epsilon: learning.budget_epsilon },
             label_model: learning.label_model.to_lambda(),
             prior: prior.clone(),
-            plan_only: false,
+            plan_only,
             training_trials: spec.trials_per_condition,
             selection,
             precision: learning.precision,
@@ -349,15 +364,9 @@ impl Session {
         let mut particle_rng = SeededRng::seed_from_u64(derive_seed(start.seed, 0, purpose::PARTICLES));
         let belief = Belief::from_prior(&prior, learning.particles, &mut particle_rng)
             .map_err(|e| SessionError::BadStart(e.to_string()))?;
-        let mut learners: Vec<Learner> = Vec::with_capacity(start.condition_order.len());
-        for (run, &c) in start.condition_order.iter().enumerate() {
-            let rng = SeededRng::seed_from_u64(derive_seed(start.seed, run as u64, purpose::LEARNER));
-            let learner = match learners.first() {
-                Some(first) => first.sibling(c, rng, &menu, &ctx),
-                None => Learner::new(c, belief.clone(), rng, &menu, &ctx),
-            };
-            learners.push(learner);
-        }
+        let rngs = (0..start.condition_order.len())
+            .map(|run| SeededRng::seed_from_u64(derive_seed(start.seed, run as u64, purpose::LEARNER)));
+        let learners = Learner::first(&start.condition_order, belief, rngs, &menu, &ctx);
         let mut test_order: Vec<usize> = (0..study.test.len()).collect();
         if spec.shuffle_test {
             test_order.shuffle(&mut SeededRng::seed_from_u64(derive_seed(start.seed, 0, purpose::TEST_ORDER)));
@@ -397,17 +406,6 @@ impl Session {
 
     pub fn learners(&self) -> &[Learner] {
         &self.learners
-    }
-
-    /// From now on, compute only what a plan reports: belief summaries of the posterior mean
-    /// alone ([`BeliefSummary::of`]), `passive`'s expected costs without the
-    /// information gain, float64 `active`'s choice by the float32 screen
-    /// ([`crate::select::screened_active_choice`]), and no suggestion once a condition's
-    /// training is over. The same
-    /// queries are chosen and the same beliefs learned; a logged session computes everything
-    /// (its `/trial/query` carries every score).
-    pub fn plan_only(&mut self) {
-        self.ctx.plan_only = true;
     }
 
     pub fn context(&self) -> &LearningContext {

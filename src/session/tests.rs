@@ -366,7 +366,9 @@ fn a_second_condition_shares_the_first_ones_scores_and_chooses_as_if_it_had_its_
     let first = &s.learners()[0];
     for kind in SelectorKind::ALL {
         let rng = || SeededRng::seed_from_u64(5);
-        let shared = first.sibling(kind, rng(), &s.menu, &s.ctx);
+        let rngs = [SeededRng::seed_from_u64(4), rng()].into_iter();
+        let both = Learner::first(&[first.condition, kind], first.belief.clone(), rngs, &s.menu, &s.ctx);
+        let shared = &both[1];
         let own = Learner::new(kind, first.belief.clone(), rng(), &s.menu, &s.ctx);
         assert_eq!(format!("{:?}", shared.scores), format!("{:?}", own.scores), "{kind:?}");
         assert_eq!(shared.suggestion, own.suggestion, "{kind:?}");
