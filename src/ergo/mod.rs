@@ -20,4 +20,4 @@ pub use likelihood::{Observation, ObservationError, SIGMA_DEG, cost, log_likelih
 pub use numeric::{exp_nonpositive, log_sum_exp, xlogx};
 pub(crate) use set_pass::PRUNE_LOGIT;
 pub use set_pass::{Scratch, SetPass, region_weights};
-pub use set_pass_f32::{ScratchF32, min_cost_f32, run_f32};
+pub use set_pass_f32::{ScratchF32, cross_min_f32, min_cost_f32, run_f32, weighted_norms_f32};

@@ -81,6 +81,79 @@ pub fn min_cost_f32(set: &ConfigSet, q_star: &[f64], w: &[f64], scratch: &mut Sc
     dispatch(MinCost { set, q_star, w, scratch })
 }
 
+/// Σ_d w_d·q_jd² of every configuration j for one w, computed in f64 and rounded to f32, in
+/// blocks of [`WIDTH_F32`] (padding +∞): what [`cross_min_f32`] adds the cross terms to.
+pub fn weighted_norms_f32(set: &ConfigSet, w: &[f64]) -> Vec<[f32; BLOCK]> {
+    let mut norms = vec![[f32::INFINITY; BLOCK]; set.len().div_ceil(BLOCK)];
+    for j in 0..set.len() {
+        let norm: f64 = (0..set.dim()).map(|d| w[d] * set.joint(d)[j] * set.joint(d)[j]).sum();
+        norms[j / BLOCK][j % BLOCK] = norm as f32;
+    }
+    norms
+}
+
+/// min_j (A_j − 2·Σ_d w_d·q*_d·q_jd) in float32, A = [`weighted_norms_f32`] of the same w:
+/// the minimum cost (eq. 2) less Σ_d w_d·q*_d², one fused multiply-add a joint where the
+/// cost's own form takes two. Its rounding does not shrink with the cost (the terms
+/// cancel), so it serves a screen with a bound of the size of Σ_d w_d (|q_jd| + |q*_d|)²
+/// (`select::screen`), not a cost.
+pub fn cross_min_f32(set: &ConfigSet, norms: &[[f32; BLOCK]], q_star: &[f64], w: &[f64]) -> f32 {
+    assert_eq!(norms.len(), set.len().div_ceil(BLOCK), "the set's norms");
+    dispatch(CrossMin { set, norms, q_star, w })
+}
+
+struct CrossMin<'a> {
+    set: &'a ConfigSet,
+    norms: &'a [[f32; BLOCK]],
+    q_star: &'a [f64],
+    w: &'a [f64],
+}
+
+impl WithLanes32 for CrossMin<'_> {
+    type Output = f32;
+
+    #[inline(always)]
+    fn run<V: Lanes32>(self) -> f32 {
+        match self.set.dim() {
+            7 => self.run_dim::<V, 7>(),
+            2 => self.run_dim::<V, 2>(),
+            _ => self.run_dim::<V, 0>(),
+        }
+    }
+}
+
+impl CrossMin<'_> {
+    #[inline(always)]
+    fn run_dim<V: Lanes32, const D: usize>(self) -> f32 {
+        let CrossMin { set, norms, q_star, w } = self;
+        let dims = if D > 0 { D } else { set.dim() };
+        let mut mins = V::splat(f32::INFINITY);
+        if D > 0 {
+            let slopes: [V; D] = std::array::from_fn(|d| V::splat((-2.0 * w[d] * q_star[d]) as f32));
+            let joints: [&[[f32; BLOCK]]; D] = std::array::from_fn(|d| set.joint_blocks_f32(d));
+            for (b, norm) in norms.iter().enumerate() {
+                let mut acc = V::load(norm);
+                for d in 0..D {
+                    acc = slopes[d].mul_add(V::load(&joints[d][b]), acc);
+                }
+                mins = mins.min(acc);
+            }
+        } else {
+            let slopes: Vec<V> = (0..dims).map(|d| V::splat((-2.0 * w[d] * q_star[d]) as f32)).collect();
+            for (b, norm) in norms.iter().enumerate() {
+                let mut acc = V::load(norm);
+                for (d, slope) in slopes.iter().enumerate() {
+                    acc = slope.mul_add(V::load(&set.joint_blocks_f32(d)[b]), acc);
+                }
+                mins = mins.min(acc);
+            }
+        }
+        let mut m = [0.0; BLOCK];
+        mins.store(&mut m);
+        m.into_iter().fold(f32::INFINITY, f32::min)
+    }
+}
+
 /// Work written once over [`Lanes32`], run by [`dispatch`].
 trait WithLanes32 {
     type Output;

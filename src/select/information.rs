@@ -495,7 +495,7 @@ fn chunk_costs<P: PassPrecision>(belief: &Belief, menu: &[&FeasibleSet]) -> Vec<
 /// The belief's particles (λ as q* then w) with their weights, in fixed chunks of
 /// [`PARTICLE_CHUNK`] so that a sum over chunks does not depend on the number of threads;
 /// particles of weight 0 are left out.
-fn chunks(belief: &Belief) -> impl IndexedParallelIterator<Item = impl Iterator<Item = (&[f64], f64)>> {
+pub(super) fn chunks(belief: &Belief) -> impl IndexedParallelIterator<Item = impl Iterator<Item = (&[f64], f64)>> {
     let s = 2 * belief.dim();
     belief
         .particles()

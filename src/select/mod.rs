@@ -19,7 +19,7 @@ pub use information::{
     menu_query_values, query_value, query_value_in,
 };
 pub use paper::information_gain_paper;
-pub use screen::{Screen, ScreenedChoice, screened_active_choice};
+pub use screen::{Screen, ScreenedChoice, screened_active_choice, screened_passive_choice};
 
 /// What the robot observes of the person's choice, and so what an outcome is.
 #[derive(Clone, Copy, Debug, PartialEq)]

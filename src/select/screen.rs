@@ -13,10 +13,12 @@
 //! docs/engine.md ("The float32 screen") derives the bounds step by step; the comments below
 //! name the steps.
 
-use super::information::{DiscretePass, Float32, Float64, discrete_passes, expected_costs};
+use rayon::prelude::*;
+
+use super::information::{DiscretePass, Float32, Float64, chunks, discrete_passes, expected_costs};
 use super::{QueryValue, argmax};
 use crate::belief::{Belief, PARTICLE_CHUNK};
-use crate::ergo::FeasibleSet;
+use crate::ergo::{FeasibleSet, cross_min_f32, weighted_norms_f32};
 
 /// What one precision's set pass rounds.
 #[derive(Clone, Copy, Debug)]
@@ -297,6 +299,83 @@ fn contenders(scores: &[f64], bounds: &[f64]) -> Vec<usize> {
         .collect()
 }
 
+/// A bound on |m̃ − m̂_f64| for one particle of [`reach_terms`] R, m̃ its minimum cost from
+/// [`cross_min_f32`] plus Σ_d w_d·q*_d² in f64 and m̂_f64 the float64 pass's: every term of
+/// A_j − 2Σ_d w_d q*_d q_jd is at most R in size, so its rounding (the inputs to f32, D
+/// fused multiply-adds) is within γ_{D+4}·R in f32; Σ_d w_d q*_d² ≤ R and the last addition
+/// round in f64; and the float64 pass's cost is within ΔC_f64(R) of the exact one, every
+/// cost being at most R.
+fn cross_min_error(dim: usize, reach_terms: f64) -> f64 {
+    let f64_rounding = 2.0 * gamma(dim as f64 + 3.0, U64);
+    (gamma(dim as f64 + 4.0, FLOAT32.unit) + f64_rounding) * reach_terms
+        + CostError::new(FLOAT64, dim, reach_terms).at(reach_terms)
+}
+
+/// `passive`'s choice from `menu`: the same index as the argmax of −[`super::menu_expected_costs`]
+/// in float64 (the earliest of the lowest expected costs). When every particle has the same
+/// w (q* alone learned), each particle's minimum cost is screened in float32 in the
+/// cross-term form ([`cross_min_f32`], half the arithmetic of a cost) within
+/// [`cross_min_error`], and only the queries the bound cannot rule out are costed in
+/// float64; otherwise every query is.
+pub fn screened_passive_choice(belief: &Belief, menu: &[FeasibleSet]) -> ScreenedChoice {
+    let d = belief.dim();
+    let particles = belief.particles();
+    let w = &particles[d..2 * d];
+    let same = |p: &[f64]| p[d..].iter().zip(w).all(|(a, b)| a.to_bits() == b.to_bits());
+    if !particles.chunks_exact(2 * d).all(same) {
+        let sets: Vec<&FeasibleSet> = menu.iter().collect();
+        let costs = expected_costs(belief, &sets, super::Precision::Float64);
+        let values = costs.iter().map(|&expected_cost| QueryValue { information_gain: f64::NAN, expected_cost });
+        let index = argmax(&costs.iter().map(|c| -c).collect::<Vec<_>>());
+        return ScreenedChoice { index, values: values.collect(), float64_scored: menu.len() };
+    }
+    let norms: Vec<_> = menu.iter().map(|set| weighted_norms_f32(set.configs(), w)).collect();
+    let reaches: Vec<&[f64]> = menu.iter().map(|set| set.configs().reach()).collect();
+    // Each chunk's Σ ω m̃ and largest reach terms for every query, added over chunks in order.
+    let partials: Vec<Vec<(f64, f64)>> = chunks(belief)
+        .map(|chunk| {
+            let chunk: Vec<(&[f64], f64)> = chunk.collect();
+            menu.iter()
+                .zip(&norms)
+                .zip(&reaches)
+                .map(|((set, norms), reach)| {
+                    let (mut cost, mut widest) = (0.0, 0.0f64);
+                    for &(p, weight) in &chunk {
+                        let q = &p[..d];
+                        let base: f64 = q.iter().zip(w).map(|(q, w)| w * q * q).sum();
+                        cost += weight * (base + f64::from(cross_min_f32(set.configs(), norms, q, w)));
+                        widest = widest.max(reach_terms(reach, q, w));
+                    }
+                    (cost, widest)
+                })
+                .collect()
+        })
+        .collect();
+    let kept = belief.weights().iter().filter(|&&w| w > 0.0);
+    let (count, weight_sum) = kept.fold((0usize, 0.0), |(n, s), w| (n + 1, s + w));
+    let gamma_n = gamma((PARTICLE_CHUNK + count.div_ceil(PARTICLE_CHUNK) + 2) as f64, U64);
+    let (scores, bounds): (Vec<f64>, Vec<f64>) = (0..menu.len())
+        .map(|q| {
+            let (cost, widest) = partials.iter().map(|c| c[q]).fold((0.0, 0.0f64), |(s, m), (c, r)| (s + c, m.max(r)));
+            let spread = weight_sum * cross_min_error(d, widest);
+            (-cost, SAFETY * (spread + gamma_n * (2.0 * cost.abs() + spread)))
+        })
+        .unzip();
+    let unknown = QueryValue { information_gain: f64::NAN, expected_cost: f64::NAN };
+    let candidates = contenders(&scores, &bounds);
+    if candidates.len() == 1 {
+        return ScreenedChoice { index: candidates[0], values: vec![unknown; menu.len()], float64_scored: 0 };
+    }
+    let double_sets: Vec<&FeasibleSet> = candidates.iter().map(|&q| &menu[q]).collect();
+    let double = expected_costs(belief, &double_sets, super::Precision::Float64);
+    let mut values = vec![unknown; menu.len()];
+    for (&q, &expected_cost) in candidates.iter().zip(&double) {
+        values[q] = QueryValue { information_gain: f64::NAN, expected_cost };
+    }
+    let index = candidates[argmax(&double.iter().map(|c| -c).collect::<Vec<_>>())];
+    ScreenedChoice { index, values, float64_scored: candidates.len() }
+}
+
 /// `active`'s choice from `menu` for a region outcome ([`Screen::active`]).
 pub fn screened_active_choice(belief: &Belief, menu: &[FeasibleSet], alpha: f64) -> ScreenedChoice {
     Screen::new(belief, menu, alpha).active()
@@ -373,6 +452,79 @@ mod tests {
             .collect();
         let weights: Vec<f64> = (0..particles).map(|_| rng.random::<f64>()).collect();
         Belief::from_particles(&lambdas, &weights).unwrap()
+    }
+
+    /// Beliefs with q* spread wide (±3 rad) and one w for every particle (up to 10 a joint),
+    /// as when q* alone is learned.
+    fn shared_w_belief(rng: &mut SeededRng, particles: usize) -> Belief {
+        let w: Vec<f64> = (0..7).map(|_| 10.0 * rng.random::<f64>()).collect();
+        let lambdas: Vec<Lambda> = (0..particles)
+            .map(|_| Lambda { q_star: (0..7).map(|_| 6.0 * rng.random::<f64>() - 3.0).collect(), w: w.clone() })
+            .collect();
+        let weights: Vec<f64> = (0..particles).map(|_| rng.random::<f64>()).collect();
+        Belief::from_particles(&lambdas, &weights).unwrap()
+    }
+
+    /// A particle's minimum cost in the cross-term form (float32, plus Σ w q*² in f64) is
+    /// within [`cross_min_error`] of float64's, for stressing sets and the default menu.
+    #[test]
+    fn a_cross_term_minimum_is_within_its_bound() {
+        let (_, menu) = default_menu();
+        let mut rng = SeededRng::seed_from_u64(46);
+        let (mut worst, mut checked) = (0.0f64, 0);
+        for set in hard_sets(&mut rng).iter().chain(&menu) {
+            let belief = shared_w_belief(&mut rng, 200);
+            let d = belief.dim();
+            let w = &belief.particles()[d..2 * d];
+            let norms = weighted_norms_f32(set.configs(), w);
+            for p in belief.particles().chunks_exact(2 * d) {
+                let q = &p[..d];
+                let base: f64 = q.iter().zip(w).map(|(q, w)| w * q * q).sum();
+                let single = base + f64::from(cross_min_f32(set.configs(), &norms, q, w));
+                let one = Belief::from_particles(&[Lambda::from_slice(p)], &[1.0]).unwrap();
+                let double = crate::select::expected_cost(&one, set, Precision::Float64);
+                let bound = cross_min_error(d, reach_terms(set.configs().reach(), q, w));
+                assert!((single - double).abs() <= bound, "{single} {double} {bound}");
+                worst = worst.max((single - double).abs() / bound);
+                checked += 1;
+            }
+        }
+        println!("cross-term minimum cost: worst error {worst:.3} of its bound over {checked} particles");
+    }
+
+    /// `passive`'s screened choice is float64's (the earliest of the lowest expected costs)
+    /// on the default menu (beliefs from the prior and after handovers), on menus with the
+    /// chosen query repeated ahead of itself, on stressing sets with one w (screened) and with
+    /// a w per particle (costed in float64); float32 alone decides most default-menu choices.
+    #[test]
+    fn the_screened_passive_choice_is_float64s() {
+        let (study, menu) = default_menu();
+        let mut rng = SeededRng::seed_from_u64(47);
+        let check = |belief: &Belief, menu: &[FeasibleSet]| {
+            let costs = crate::select::menu_expected_costs(belief, menu, Precision::Float64);
+            let got = screened_passive_choice(belief, menu);
+            assert_eq!(got.index, argmax(&costs.iter().map(|c| -c).collect::<Vec<_>>()));
+            for (g, c) in got.values.iter().zip(&costs) {
+                assert!(g.expected_cost.is_nan() || g.expected_cost == *c, "a cost scored in float64 is float64's");
+            }
+            got
+        };
+        let (mut alone, mut total) = (0, 0);
+        for belief in beliefs(&study, &menu, 1000, 48) {
+            let got = check(&belief, &menu);
+            total += 1;
+            alone += usize::from(got.float64_scored == 0);
+            let mut repeated = menu.clone();
+            repeated.insert(0, menu[got.index].clone());
+            assert!(check(&belief, &repeated).float64_scored >= 2);
+        }
+        for _ in 0..4 {
+            check(&shared_w_belief(&mut rng, 300), &hard_sets(&mut rng));
+            let everyone = check(&wide_belief(&mut rng, 300), &hard_sets(&mut rng));
+            assert_eq!(everyone.float64_scored, everyone.values.len(), "a w per particle: all in float64");
+        }
+        println!("screened passive choices on the default menu: {alone} of {total} decided by float32 alone");
+        assert!(alone * 2 > total, "{alone} of {total}");
     }
 
     /// The bound of one set's float32 pass and float64 pass, and the two values.

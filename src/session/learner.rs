@@ -255,6 +255,11 @@ impl Learner {
             self.adopt(Screen::new(&self.belief, menu, ctx.alpha).active());
             return;
         }
+        if ctx.plan_only && ctx.precision == Precision::Float64 && self.condition == SelectorKind::Passive {
+            // Float64's choice from float32 minimum costs where a proven bound decides it.
+            self.adopt(crate::select::screened_passive_choice(&self.belief, menu));
+            return;
+        }
         self.scores = if ctx.plan_only && self.condition == SelectorKind::Passive {
             // Passive decides from the expected costs alone (the same bits as the whole
             // scores'); the information gain is not computed.
