@@ -16,7 +16,7 @@
 use rayon::prelude::*;
 
 use super::information::{DiscretePass, Float32, Float64, chunks, discrete_passes, expected_costs};
-use super::{QueryValue, argmax};
+use super::{Precision, QueryValue, argmax};
 use crate::belief::{Belief, PARTICLE_CHUNK};
 use crate::ergo::{FeasibleSet, cross_min_f32, weighted_norms_f32};
 
@@ -188,14 +188,15 @@ pub(super) fn information_gain_error(
 /// A selector's choice by the float32 screen, and what it cost.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ScreenedChoice {
-    /// The query float64's scores choose (the earliest of the best).
+    /// The query the full-precision scores choose (the earliest of the best): float64's, or
+    /// for `passive` the protocol's precision's.
     pub index: usize,
-    /// Float64's information gain and expected cost of every query it scored; NaN for the
-    /// queries the screen left out, and for all when float32 alone decided (`passive`'s
-    /// information gain is NaN: it is not computed).
+    /// The full-precision information gain and expected cost of every query so scored; NaN
+    /// for the queries the screen left out, and for all when the screen alone decided
+    /// (`passive`'s information gain is NaN: it is not computed).
     pub values: Vec<QueryValue>,
-    /// Queries scored in float64 (0 when float32 alone decided).
-    pub float64_scored: usize,
+    /// Queries scored in full precision (0 when the screen alone decided).
+    pub scored: usize,
 }
 
 /// One belief's float32 passes over a menu with their error bounds, for a region outcome:
@@ -246,46 +247,32 @@ impl<'a> Screen<'a> {
         }
         // Candidates are in menu order, so the earliest of the largest among them is float64's.
         let index = candidates[argmax(&double.iter().map(|p| p.information_gain).collect::<Vec<_>>())];
-        ScreenedChoice { index, values, float64_scored: candidates.len() }
+        ScreenedChoice { index, values, scored: candidates.len() }
     }
 
     /// `passive`'s choice: the same index as the argmax of −[`super::menu_expected_costs`]
     /// in float64 (the earliest of the lowest expected costs). A particle's float32 and
     /// float64 minimum costs differ by at most its [`min_cost_error`], so the two expected
-    /// costs by at most their weighted sum, plus the rounding of the two sums (step 6's γ).
+    /// costs by at most their weighted sum, plus the rounding of the two sums
+    /// ([`passive_choice`]).
     pub fn passive(&self) -> ScreenedChoice {
-        let gamma_n = gamma((PARTICLE_CHUNK + self.particles.div_ceil(PARTICLE_CHUNK) + 2) as f64, U64);
-        let w = self.weight_sum;
-        let (costs, bounds): (Vec<f64>, Vec<f64>) = self
-            .passes
-            .iter()
-            .map(|p| {
-                let spread = w * p.min_cost_error;
-                // −E, so that the best is the largest, as for the information gain.
-                (-p.expected_cost, SAFETY * (spread + gamma_n * (2.0 * p.expected_cost.abs() + spread)))
-            })
-            .unzip();
-        let candidates = contenders(&costs, &bounds);
-        if candidates.len() == 1 {
-            return self.decided(candidates[0]);
-        }
-        let double_sets: Vec<&FeasibleSet> = candidates.iter().map(|&q| &self.menu[q]).collect();
-        let double = expected_costs(self.belief, &double_sets, super::Precision::Float64);
-        let mut values = self.unknown();
-        for (&q, &expected_cost) in candidates.iter().zip(&double) {
-            values[q] = QueryValue { information_gain: f64::NAN, expected_cost };
-        }
-        let index = candidates[argmax(&double.iter().map(|c| -c).collect::<Vec<_>>())];
-        ScreenedChoice { index, values, float64_scored: candidates.len() }
+        let screened: Vec<(f64, f64)> =
+            self.passes.iter().map(|p| (p.expected_cost, self.weight_sum * p.min_cost_error)).collect();
+        passive_choice(self.belief, self.menu, &screened, Precision::Float64)
     }
 
     fn unknown(&self) -> Vec<QueryValue> {
-        vec![QueryValue { information_gain: f64::NAN, expected_cost: f64::NAN }; self.menu.len()]
+        unknown(self.menu.len())
     }
 
     fn decided(&self, index: usize) -> ScreenedChoice {
-        ScreenedChoice { index, values: self.unknown(), float64_scored: 0 }
+        ScreenedChoice { index, values: self.unknown(), scored: 0 }
     }
+}
+
+/// Scores of `n` queries not computed.
+fn unknown(n: usize) -> Vec<QueryValue> {
+    vec![QueryValue { information_gain: f64::NAN, expected_cost: f64::NAN }; n]
 }
 
 /// The queries that may be float64's argmax, in menu order, given float32's scores (the
@@ -299,36 +286,40 @@ fn contenders(scores: &[f64], bounds: &[f64]) -> Vec<usize> {
         .collect()
 }
 
-/// A bound on |m̃ − m̂_f64| for one particle of [`reach_terms`] R, m̃ its minimum cost from
-/// [`cross_min_f32`] plus Σ_d w_d·q*_d² in f64 and m̂_f64 the float64 pass's: every term of
-/// A_j − 2Σ_d w_d q*_d q_jd is at most R in size, so its rounding (the inputs to f32, D
-/// fused multiply-adds) is within γ_{D+4}·R in f32; Σ_d w_d q*_d² ≤ R and the last addition
-/// round in f64; and the float64 pass's cost is within ΔC_f64(R) of the exact one, every
-/// cost being at most R.
-fn cross_min_error(dim: usize, reach_terms: f64) -> f64 {
+/// A bound on |m̃ − m̂| for one particle of [`reach_terms`] R, m̃ its minimum cost from
+/// [`cross_min_f32`] plus Σ_d w_d·q*_d² in f64 and m̂ the minimum cost of a pass in rounding
+/// `r`: every term of A_j − 2Σ_d w_d q*_d q_jd is at most R in size, so its rounding (the
+/// inputs to f32, D fused multiply-adds) is within γ_{D+4}·R in f32; Σ_d w_d q*_d² ≤ R and
+/// the last addition round in f64; and the pass's cost is within ΔC(R) of the exact one,
+/// every cost being at most R.
+fn cross_min_error(dim: usize, reach_terms: f64, r: Rounding) -> f64 {
     let f64_rounding = 2.0 * gamma(dim as f64 + 3.0, U64);
     (gamma(dim as f64 + 4.0, FLOAT32.unit) + f64_rounding) * reach_terms
-        + CostError::new(FLOAT64, dim, reach_terms).at(reach_terms)
+        + CostError::new(r, dim, reach_terms).at(reach_terms)
 }
 
-/// `passive`'s choice from `menu`: the same index as the argmax of −[`super::menu_expected_costs`]
-/// in float64 (the earliest of the lowest expected costs). When every particle has the same
-/// w (q* alone learned), each particle's minimum cost is screened in float32 in the
-/// cross-term form ([`cross_min_f32`], half the arithmetic of a cost) within
-/// [`cross_min_error`], and only the queries the bound cannot rule out are costed in
-/// float64; otherwise every query is.
-pub fn screened_passive_choice(belief: &Belief, menu: &[FeasibleSet]) -> ScreenedChoice {
+/// `passive`'s choice from `menu`: the same index as the argmax of
+/// −[`super::menu_expected_costs`] in `precision` (the earliest of the lowest expected
+/// costs). When every particle has the same w (q* alone learned), each particle's minimum
+/// cost is screened in float32 in the cross-term form ([`cross_min_f32`], half the
+/// arithmetic of a cost) within [`cross_min_error`], and only the queries the bound cannot
+/// rule out are costed in `precision`; otherwise every query is.
+pub fn screened_passive_choice(belief: &Belief, menu: &[FeasibleSet], precision: Precision) -> ScreenedChoice {
     let d = belief.dim();
     let particles = belief.particles();
     let w = &particles[d..2 * d];
     let same = |p: &[f64]| p[d..].iter().zip(w).all(|(a, b)| a.to_bits() == b.to_bits());
     if !particles.chunks_exact(2 * d).all(same) {
         let sets: Vec<&FeasibleSet> = menu.iter().collect();
-        let costs = expected_costs(belief, &sets, super::Precision::Float64);
+        let costs = expected_costs(belief, &sets, precision);
         let values = costs.iter().map(|&expected_cost| QueryValue { information_gain: f64::NAN, expected_cost });
         let index = argmax(&costs.iter().map(|c| -c).collect::<Vec<_>>());
-        return ScreenedChoice { index, values: values.collect(), float64_scored: menu.len() };
+        return ScreenedChoice { index, values: values.collect(), scored: menu.len() };
     }
+    let rounding = match precision {
+        Precision::Float64 => FLOAT64,
+        Precision::Float32 => FLOAT32,
+    };
     let norms: Vec<_> = menu.iter().map(|set| weighted_norms_f32(set.configs(), w)).collect();
     let reaches: Vec<&[f64]> = menu.iter().map(|set| set.configs().reach()).collect();
     // Each chunk's Σ ω m̃ and largest reach terms for every query, added over chunks in order.
@@ -351,29 +342,46 @@ pub fn screened_passive_choice(belief: &Belief, menu: &[FeasibleSet]) -> Screene
                 .collect()
         })
         .collect();
-    let kept = belief.weights().iter().filter(|&&w| w > 0.0);
-    let (count, weight_sum) = kept.fold((0usize, 0.0), |(n, s), w| (n + 1, s + w));
-    let gamma_n = gamma((PARTICLE_CHUNK + count.div_ceil(PARTICLE_CHUNK) + 2) as f64, U64);
-    let (scores, bounds): (Vec<f64>, Vec<f64>) = (0..menu.len())
+    let weight_sum: f64 = belief.weights().iter().filter(|&&w| w > 0.0).sum();
+    let screened: Vec<(f64, f64)> = (0..menu.len())
         .map(|q| {
             let (cost, widest) = partials.iter().map(|c| c[q]).fold((0.0, 0.0f64), |(s, m), (c, r)| (s + c, m.max(r)));
-            let spread = weight_sum * cross_min_error(d, widest);
-            (-cost, SAFETY * (spread + gamma_n * (2.0 * cost.abs() + spread)))
+            (cost, weight_sum * cross_min_error(d, widest, rounding))
         })
+        .collect();
+    passive_choice(belief, menu, &screened, precision)
+}
+
+/// `passive`'s choice in `precision` from each query's screened expected cost and the
+/// weighted sum of its particles' minimum-cost error bounds (`screened`, per query): the
+/// two sums' rounding (step 6's γ) is added and the whole doubled; a query whose screened
+/// cost less its bound is above the screened best's plus its bound costs more in
+/// `precision`, and the rest are costed in `precision`, the earliest of the lowest taken.
+fn passive_choice(
+    belief: &Belief,
+    menu: &[FeasibleSet],
+    screened: &[(f64, f64)],
+    precision: Precision,
+) -> ScreenedChoice {
+    let particles = belief.weights().iter().filter(|&&w| w > 0.0).count();
+    let gamma_n = gamma((PARTICLE_CHUNK + particles.div_ceil(PARTICLE_CHUNK) + 2) as f64, U64);
+    // −E, so that the best is the largest, as for the information gain.
+    let (scores, bounds): (Vec<f64>, Vec<f64>) = screened
+        .iter()
+        .map(|&(cost, spread)| (-cost, SAFETY * (spread + gamma_n * (2.0 * cost.abs() + spread))))
         .unzip();
-    let unknown = QueryValue { information_gain: f64::NAN, expected_cost: f64::NAN };
     let candidates = contenders(&scores, &bounds);
     if candidates.len() == 1 {
-        return ScreenedChoice { index: candidates[0], values: vec![unknown; menu.len()], float64_scored: 0 };
+        return ScreenedChoice { index: candidates[0], values: unknown(menu.len()), scored: 0 };
     }
-    let double_sets: Vec<&FeasibleSet> = candidates.iter().map(|&q| &menu[q]).collect();
-    let double = expected_costs(belief, &double_sets, super::Precision::Float64);
-    let mut values = vec![unknown; menu.len()];
-    for (&q, &expected_cost) in candidates.iter().zip(&double) {
+    let sets: Vec<&FeasibleSet> = candidates.iter().map(|&q| &menu[q]).collect();
+    let costs = expected_costs(belief, &sets, precision);
+    let mut values = unknown(menu.len());
+    for (&q, &expected_cost) in candidates.iter().zip(&costs) {
         values[q] = QueryValue { information_gain: f64::NAN, expected_cost };
     }
-    let index = candidates[argmax(&double.iter().map(|c| -c).collect::<Vec<_>>())];
-    ScreenedChoice { index, values, float64_scored: candidates.len() }
+    let index = candidates[argmax(&costs.iter().map(|c| -c).collect::<Vec<_>>())];
+    ScreenedChoice { index, values, scored: candidates.len() }
 }
 
 /// `active`'s choice from `menu` for a region outcome ([`Screen::active`]).
@@ -466,7 +474,8 @@ mod tests {
     }
 
     /// A particle's minimum cost in the cross-term form (float32, plus Σ w q*² in f64) is
-    /// within [`cross_min_error`] of float64's, for stressing sets and the default menu.
+    /// within [`cross_min_error`] of float64's and of float32's, for stressing sets and the
+    /// default menu.
     #[test]
     fn a_cross_term_minimum_is_within_its_bound() {
         let (_, menu) = default_menu();
@@ -482,49 +491,55 @@ mod tests {
                 let base: f64 = q.iter().zip(w).map(|(q, w)| w * q * q).sum();
                 let single = base + f64::from(cross_min_f32(set.configs(), &norms, q, w));
                 let one = Belief::from_particles(&[Lambda::from_slice(p)], &[1.0]).unwrap();
-                let double = crate::select::expected_cost(&one, set, Precision::Float64);
-                let bound = cross_min_error(d, reach_terms(set.configs().reach(), q, w));
-                assert!((single - double).abs() <= bound, "{single} {double} {bound}");
-                worst = worst.max((single - double).abs() / bound);
-                checked += 1;
+                let r = reach_terms(set.configs().reach(), q, w);
+                for (precision, rounding) in [(Precision::Float64, FLOAT64), (Precision::Float32, FLOAT32)] {
+                    let pass = crate::select::expected_cost(&one, set, precision);
+                    let bound = cross_min_error(d, r, rounding);
+                    assert!((single - pass).abs() <= bound, "{precision:?}: {single} {pass} {bound}");
+                    worst = worst.max((single - pass).abs() / bound);
+                    checked += 1;
+                }
             }
         }
-        println!("cross-term minimum cost: worst error {worst:.3} of its bound over {checked} particles");
+        println!("cross-term minimum cost: worst error {worst:.3} of its bound over {checked} comparisons");
     }
 
-    /// `passive`'s screened choice is float64's (the earliest of the lowest expected costs)
-    /// on the default menu (beliefs from the prior and after handovers), on menus with the
-    /// chosen query repeated ahead of itself, on stressing sets with one w (screened) and with
-    /// a w per particle (costed in float64); float32 alone decides most default-menu choices.
+    /// `passive`'s screened choice is that of its precision's expected costs (the earliest of
+    /// the lowest), float64's and float32's, on the default menu (beliefs from the prior and
+    /// after handovers), on menus with the chosen query repeated ahead of itself, on stressing
+    /// sets with one w (screened) and with a w per particle (all costed in the precision);
+    /// the screen alone decides most default-menu choices.
     #[test]
-    fn the_screened_passive_choice_is_float64s() {
+    fn a_screened_passive_choice_is_that_of_its_precision() {
         let (study, menu) = default_menu();
         let mut rng = SeededRng::seed_from_u64(47);
-        let check = |belief: &Belief, menu: &[FeasibleSet]| {
-            let costs = crate::select::menu_expected_costs(belief, menu, Precision::Float64);
-            let got = screened_passive_choice(belief, menu);
-            assert_eq!(got.index, argmax(&costs.iter().map(|c| -c).collect::<Vec<_>>()));
-            for (g, c) in got.values.iter().zip(&costs) {
-                assert!(g.expected_cost.is_nan() || g.expected_cost == *c, "a cost scored in float64 is float64's");
+        for precision in [Precision::Float64, Precision::Float32] {
+            let check = |belief: &Belief, menu: &[FeasibleSet]| {
+                let costs = crate::select::menu_expected_costs(belief, menu, precision);
+                let got = screened_passive_choice(belief, menu, precision);
+                assert_eq!(got.index, argmax(&costs.iter().map(|c| -c).collect::<Vec<_>>()), "{precision:?}");
+                for (g, c) in got.values.iter().zip(&costs) {
+                    assert!(g.expected_cost.is_nan() || g.expected_cost == *c, "a cost scored is the precision's");
+                }
+                got
+            };
+            let (mut alone, mut total) = (0, 0);
+            for belief in beliefs(&study, &menu, 1000, 48) {
+                let got = check(&belief, &menu);
+                total += 1;
+                alone += usize::from(got.scored == 0);
+                let mut repeated = menu.clone();
+                repeated.insert(0, menu[got.index].clone());
+                assert!(check(&belief, &repeated).scored >= 2);
             }
-            got
-        };
-        let (mut alone, mut total) = (0, 0);
-        for belief in beliefs(&study, &menu, 1000, 48) {
-            let got = check(&belief, &menu);
-            total += 1;
-            alone += usize::from(got.float64_scored == 0);
-            let mut repeated = menu.clone();
-            repeated.insert(0, menu[got.index].clone());
-            assert!(check(&belief, &repeated).float64_scored >= 2);
+            for _ in 0..4 {
+                check(&shared_w_belief(&mut rng, 300), &hard_sets(&mut rng));
+                let everyone = check(&wide_belief(&mut rng, 300), &hard_sets(&mut rng));
+                assert_eq!(everyone.scored, everyone.values.len(), "a w per particle: all in the precision");
+            }
+            println!("screened passive choices, {precision:?}, default menu: {alone} of {total} decided by the screen");
+            assert!(alone * 2 > total, "{alone} of {total}");
         }
-        for _ in 0..4 {
-            check(&shared_w_belief(&mut rng, 300), &hard_sets(&mut rng));
-            let everyone = check(&wide_belief(&mut rng, 300), &hard_sets(&mut rng));
-            assert_eq!(everyone.float64_scored, everyone.values.len(), "a w per particle: all in float64");
-        }
-        println!("screened passive choices on the default menu: {alone} of {total} decided by float32 alone");
-        assert!(alone * 2 > total, "{alone} of {total}");
     }
 
     /// The bound of one set's float32 pass and float64 pass, and the two values.
@@ -636,14 +651,14 @@ mod tests {
         for belief in beliefs(&study, &menu, 1000, 45) {
             let (active, passive) = check(&belief, &menu, alpha);
             total += 1;
-            alone[0] += usize::from(active.float64_scored == 0);
-            alone[1] += usize::from(passive.float64_scored == 0);
+            alone[0] += usize::from(active.scored == 0);
+            alone[1] += usize::from(passive.scored == 0);
             // Each chosen query repeated ahead of itself: both stay, the earlier is chosen.
             for (which, index) in [(0, active.index), (1, passive.index)] {
                 let mut repeated = menu.clone();
                 repeated.insert(0, menu[index].clone());
                 let again = check(&belief, &repeated, alpha);
-                assert!([again.0, again.1][which].float64_scored >= 2);
+                assert!([again.0, again.1][which].scored >= 2);
             }
         }
         for _ in 0..4 {

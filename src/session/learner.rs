@@ -30,11 +30,11 @@ pub struct LearningContext {
     /// The prior (for the MAP estimate, recomputed from it and every observation).
     pub prior: Prior,
     /// Whether only what a plan reports is computed ([`super::Session::for_plan`]): belief
-    /// summaries of the posterior mean alone ([`BeliefSummary::of`]), `passive`'s scores
-    /// without the information gain, float64 choices of region outcomes by the float32
-    /// screen ([`LearningContext::screens`]), and no suggestion after a condition's last
-    /// training trial. A logged session computes everything: its `/trial/query` carries
-    /// every score.
+    /// summaries of the posterior mean alone ([`BeliefSummary::of`]), `passive`'s choice by
+    /// expected costs alone, screened ([`crate::select::screened_passive_choice`]), float64
+    /// choices of region outcomes by the float32 screen ([`LearningContext::screens`]), and
+    /// no suggestion after a condition's last training trial. A logged session computes
+    /// everything: its `/trial/query` carries every score.
     pub plan_only: bool,
     /// Training trials per condition (when a learner's training is over).
     pub training_trials: usize,
@@ -255,21 +255,14 @@ impl Learner {
             self.adopt(Screen::new(&self.belief, menu, ctx.alpha).active());
             return;
         }
-        if ctx.plan_only && ctx.precision == Precision::Float64 && self.condition == SelectorKind::Passive {
-            // Float64's choice from float32 minimum costs where a proven bound decides it.
-            self.adopt(crate::select::screened_passive_choice(&self.belief, menu));
+        if ctx.plan_only && self.condition == SelectorKind::Passive {
+            // The choice in the protocol's precision, from the expected costs alone (no
+            // information gain), screened by float32 minimum costs where a proven bound
+            // decides it.
+            self.adopt(crate::select::screened_passive_choice(&self.belief, menu, ctx.precision));
             return;
         }
-        self.scores = if ctx.plan_only && self.condition == SelectorKind::Passive {
-            // Passive decides from the expected costs alone (the same bits as the whole
-            // scores'); the information gain is not computed.
-            crate::select::menu_expected_costs(&self.belief, menu, ctx.precision)
-                .into_iter()
-                .map(|expected_cost| QueryValue { information_gain: f64::NAN, expected_cost })
-                .collect()
-        } else {
-            menu_values(&ctx.problem(&self.belief, menu))
-        };
+        self.scores = menu_values(&ctx.problem(&self.belief, menu));
         self.choose(menu, ctx);
     }
 
