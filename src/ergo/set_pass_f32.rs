@@ -126,32 +126,33 @@ impl CrossMin<'_> {
     #[inline(always)]
     fn run_dim<V: Lanes32, const D: usize>(self) -> f32 {
         let CrossMin { set, norms, q_star, w } = self;
-        let dims = if D > 0 { D } else { set.dim() };
-        let mut mins = V::splat(f32::INFINITY);
+        let slope = |d: usize| (-2.0 * w[d] * q_star[d]) as f32;
         if D > 0 {
-            let slopes: [V; D] = std::array::from_fn(|d| V::splat((-2.0 * w[d] * q_star[d]) as f32));
+            // The joints' blocks looked up once, not once per block; no allocation a call.
             let joints: [&[[f32; BLOCK]]; D] = std::array::from_fn(|d| set.joint_blocks_f32(d));
-            for (b, norm) in norms.iter().enumerate() {
-                let mut acc = V::load(norm);
-                for d in 0..D {
-                    acc = slopes[d].mul_add(V::load(&joints[d][b]), acc);
-                }
-                mins = mins.min(acc);
-            }
+            let slopes: [f32; D] = std::array::from_fn(slope);
+            cross_min_with::<V, _>(&joints, &slopes, norms)
         } else {
-            let slopes: Vec<V> = (0..dims).map(|d| V::splat((-2.0 * w[d] * q_star[d]) as f32)).collect();
-            for (b, norm) in norms.iter().enumerate() {
-                let mut acc = V::load(norm);
-                for (d, slope) in slopes.iter().enumerate() {
-                    acc = slope.mul_add(V::load(&set.joint_blocks_f32(d)[b]), acc);
-                }
-                mins = mins.min(acc);
-            }
+            let slopes: Vec<f32> = (0..set.dim()).map(slope).collect();
+            cross_min_with::<V, _>(&set, &slopes, norms)
         }
-        let mut m = [0.0; BLOCK];
-        mins.store(&mut m);
-        m.into_iter().fold(f32::INFINITY, f32::min)
     }
+}
+
+/// min over the blocks of A + Σ_d slope_d·q_d (padding lanes +∞ through A).
+#[inline(always)]
+fn cross_min_with<V: Lanes32, J: JointBlocks32>(joints: &J, slopes: &[f32], norms: &[[f32; BLOCK]]) -> f32 {
+    let mut mins = V::splat(f32::INFINITY);
+    for (b, norm) in norms.iter().enumerate() {
+        let mut acc = V::load(norm);
+        for (d, &slope) in slopes.iter().enumerate() {
+            acc = V::splat(slope).mul_add(V::load(joints.block(d, b)), acc);
+        }
+        mins = mins.min(acc);
+    }
+    let mut m = [0.0; BLOCK];
+    mins.store(&mut m);
+    m.into_iter().fold(f32::INFINITY, f32::min)
 }
 
 /// Work written once over [`Lanes32`], run by [`dispatch`].
