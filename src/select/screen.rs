@@ -216,8 +216,7 @@ impl<'a> Screen<'a> {
     pub fn new(belief: &'a Belief, menu: &'a [FeasibleSet], alpha: f64) -> Self {
         let sets: Vec<&FeasibleSet> = menu.iter().collect();
         let passes = discrete_passes::<Float32>(belief, &sets, alpha, true, true);
-        let kept = belief.weights().iter().filter(|&&w| w > 0.0);
-        let (particles, weight_sum) = kept.fold((0, 0.0), |(n, s), w| (n + 1, s + w));
+        let (particles, weight_sum) = kept(belief);
         Screen { belief, menu, alpha, passes, particles, weight_sum }
     }
 
@@ -270,6 +269,11 @@ impl<'a> Screen<'a> {
     }
 }
 
+/// The particles of positive weight: how many, and their weights' sum.
+fn kept(belief: &Belief) -> (usize, f64) {
+    belief.weights().iter().filter(|&&w| w > 0.0).fold((0, 0.0), |(n, s), w| (n + 1, s + w))
+}
+
 /// Scores of `n` queries not computed.
 fn unknown(n: usize) -> Vec<QueryValue> {
     vec![QueryValue { information_gain: f64::NAN, expected_cost: f64::NAN }; n]
@@ -310,11 +314,8 @@ pub fn screened_passive_choice(belief: &Belief, menu: &[FeasibleSet], precision:
     let w = &particles[d..2 * d];
     let same = |p: &[f64]| p[d..].iter().zip(w).all(|(a, b)| a.to_bits() == b.to_bits());
     if !particles.chunks_exact(2 * d).all(same) {
-        let sets: Vec<&FeasibleSet> = menu.iter().collect();
-        let costs = expected_costs(belief, &sets, precision);
-        let values = costs.iter().map(|&expected_cost| QueryValue { information_gain: f64::NAN, expected_cost });
-        let index = argmax(&costs.iter().map(|c| -c).collect::<Vec<_>>());
-        return ScreenedChoice { index, values: values.collect(), scored: menu.len() };
+        // Nothing screened: an unbounded error keeps every query.
+        return passive_choice(belief, menu, &vec![(0.0, f64::INFINITY); menu.len()], precision);
     }
     let rounding = match precision {
         Precision::Float64 => FLOAT64,
@@ -342,7 +343,7 @@ pub fn screened_passive_choice(belief: &Belief, menu: &[FeasibleSet], precision:
                 .collect()
         })
         .collect();
-    let weight_sum: f64 = belief.weights().iter().filter(|&&w| w > 0.0).sum();
+    let (_, weight_sum) = kept(belief);
     let screened: Vec<(f64, f64)> = (0..menu.len())
         .map(|q| {
             let (cost, widest) = partials.iter().map(|c| c[q]).fold((0.0, 0.0f64), |(s, m), (c, r)| (s + c, m.max(r)));
@@ -363,7 +364,7 @@ fn passive_choice(
     screened: &[(f64, f64)],
     precision: Precision,
 ) -> ScreenedChoice {
-    let particles = belief.weights().iter().filter(|&&w| w > 0.0).count();
+    let (particles, _) = kept(belief);
     let gamma_n = gamma((PARTICLE_CHUNK + particles.div_ceil(PARTICLE_CHUNK) + 2) as f64, U64);
     // −E, so that the best is the largest, as for the information gain.
     let (scores, bounds): (Vec<f64>, Vec<f64>) = screened
