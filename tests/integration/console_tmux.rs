@@ -9,8 +9,11 @@ use std::time::{Duration, Instant};
 
 use handover::record::{mcap_files, read_log};
 
-fn tmux(args: &[&str]) -> String {
-    let out = Command::new("tmux").args(args).output().expect("tmux runs");
+/// Runs tmux on the server of session `name`. Every session has a server of its own
+/// (`-L name`): tests run in parallel, and a shared server exits when its last session is
+/// killed, racing another test's `new-session` into a session that never starts.
+fn tmux(name: &str, args: &[&str]) -> String {
+    let out = Command::new("tmux").args(["-L", name]).args(args).output().expect("tmux runs");
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
@@ -18,17 +21,39 @@ fn has_tmux() -> bool {
     Command::new("tmux").arg("-V").output().is_ok_and(|o| o.status.success())
 }
 
-struct Session(String);
+/// A detached tmux session on its own server, killed with its server (and the server's
+/// socket file, which tmux leaves behind) when dropped.
+struct Session {
+    name: String,
+    socket: String,
+}
+
+impl Session {
+    /// Starts `cmd` in a `cols`×`rows` terminal; fails naming tmux's error if it does not start.
+    fn start(name: &str, cols: u16, rows: u16, cmd: &str) -> Session {
+        let (cols, rows) = (cols.to_string(), rows.to_string());
+        let out = Command::new("tmux")
+            .args(["-L", name, "new-session", "-d", "-s", name, "-x", &cols, "-y", &rows, cmd])
+            .output()
+            .expect("tmux runs");
+        assert!(out.status.success(), "tmux new-session {name}: {}", String::from_utf8_lossy(&out.stderr));
+        let socket = tmux(name, &["display-message", "-p", "-t", name, "#{socket_path}"]).trim().to_string();
+        Session { name: name.to_string(), socket }
+    }
+}
 
 impl Drop for Session {
     fn drop(&mut self) {
-        tmux(&["kill-session", "-t", &self.0]);
+        tmux(&self.name, &["kill-server"]);
+        if !self.socket.is_empty() {
+            let _ = std::fs::remove_file(&self.socket);
+        }
     }
 }
 
 fn send(name: &str, keys: &[&str]) {
     for k in keys {
-        tmux(&["send-keys", "-t", name, k]);
+        tmux(name, &["send-keys", "-t", name, k]);
         std::thread::sleep(Duration::from_millis(40));
     }
 }
@@ -36,11 +61,14 @@ fn send(name: &str, keys: &[&str]) {
 fn wait_for(name: &str, text: &str) -> String {
     let t0 = Instant::now();
     loop {
-        let screen = tmux(&["capture-pane", "-t", name, "-p"]);
+        let screen = tmux(name, &["capture-pane", "-t", name, "-p"]);
         if screen.contains(text) {
             return screen;
         }
-        assert!(t0.elapsed() < Duration::from_secs(60), "'{text}' never appeared; the screen:\n{screen}");
+        if t0.elapsed() > Duration::from_secs(60) {
+            let alive = tmux(name, &["list-panes", "-t", name, "-F", "#{pane_dead} #{pane_current_command}"]);
+            panic!("'{text}' never appeared in {name} (pane: '{}'); the screen:\n{screen}", alive.trim());
+        }
         std::thread::sleep(Duration::from_millis(50));
     }
 }
@@ -101,8 +129,7 @@ fn the_console_runs_a_session_in_a_real_terminal() {
         dir.join("logs").display(),
         dir.join("participants").display()
     );
-    tmux(&["new-session", "-d", "-s", &name, "-x", "80", "-y", "24", &cmd]);
-    let _guard = Session(name.clone());
+    let _guard = Session::start(&name, 80, 24, &cmd);
     wait_for(&name, "Press Enter to start the session.");
     send(&name, &["Enter"]);
     let mut shown = Vec::new();
@@ -225,7 +252,7 @@ fn wait_gone(pid: &str) {
 
 /// The console's own process id (the child of the tmux pane's shell).
 fn console_pid(name: &str) -> String {
-    let shell = tmux(&["display-message", "-p", "-t", name, "#{pane_pid}"]).trim().to_string();
+    let shell = tmux(name, &["display-message", "-p", "-t", name, "#{pane_pid}"]).trim().to_string();
     let out = Command::new("pgrep").args(["-P", &shell]).output().expect("pgrep runs");
     String::from_utf8_lossy(&out.stdout).lines().next().expect("the console runs").trim().to_string()
 }
@@ -245,18 +272,7 @@ fn signals_restore_the_terminal_and_leave_the_session_resumable() {
     {
         let status = dir.join(format!("status-{signal}"));
         let name = format!("handover-sig-{}-{k}", std::process::id());
-        tmux(&[
-            "new-session",
-            "-d",
-            "-s",
-            &name,
-            "-x",
-            "100",
-            "-y",
-            "30",
-            &console_cmd(&dir, &proto, "--seed 5", &status),
-        ]);
-        let _guard = Session(name.clone());
+        let _guard = Session::start(&name, 100, 30, &console_cmd(&dir, &proto, "--seed 5", &status));
         wait_for(&name, "Press Enter to start the session.");
         send(&name, &["Enter"]);
         wait_for(&name, "trial 1/5");
@@ -269,18 +285,8 @@ fn signals_restore_the_terminal_and_leave_the_session_resumable() {
             let participant = read_log(&logs[0]).unwrap().start.participant;
             let second = format!("{name}-2");
             let status2 = dir.join("status-second");
-            tmux(&[
-                "new-session",
-                "-d",
-                "-s",
-                &second,
-                "-x",
-                "100",
-                "-y",
-                "30",
-                &console_cmd(&dir, &proto, &format!("--participant {participant}"), &status2),
-            ]);
-            let g2 = Session(second.clone());
+            let extra = format!("--participant {participant}");
+            let g2 = Session::start(&second, 100, 30, &console_cmd(&dir, &proto, &extra, &status2));
             wait_for(&second, "Press Enter to start the session.");
             send(&second, &["Enter"]);
             let screen = wait_for(&second, "already has a live session");
@@ -326,8 +332,7 @@ fn follow_in_a_second_terminal_tracks_the_console() {
         proto.display(),
         dir.display()
     );
-    tmux(&["new-session", "-d", "-s", &console, "-x", "80", "-y", "24", &cmd]);
-    let _g1 = Session(console.clone());
+    let _g1 = Session::start(&console, 80, 24, &cmd);
     wait_for(&console, "Press Enter to start the session.");
     send(&console, &["Enter"]);
     let query_of = |screen: &str| -> String {
@@ -338,8 +343,7 @@ fn follow_in_a_second_terminal_tracks_the_console() {
     let log = mcap_files(&dir.join("logs")).pop().expect("the console's log");
     let follower = format!("handover-follow-reader-{}", std::process::id());
     let fcmd = format!("{} follow {}; echo \"exit=$?\"; sleep 30", env!("CARGO_BIN_EXE_handover"), log.display());
-    tmux(&["new-session", "-d", "-s", &follower, "-x", "80", "-y", "24", &fcmd]);
-    let _g2 = Session(follower.clone());
+    let _g2 = Session::start(&follower, 80, 24, &fcmd);
     let screen = wait_for(&follower, &format!("(query {first})"));
     assert!(screen.contains("of the object's centre") && screen.contains("read-only"), "{screen}");
     send(&console, &["Enter"]);
@@ -374,8 +378,7 @@ fn follow_says_when_the_console_is_lost_and_follows_its_resumption() {
     let console = format!("handover-lost-console-{}", std::process::id());
     let bin = env!("CARGO_BIN_EXE_handover");
     let cmd = format!("{bin} run --protocol {} --study-dir {} --seed 5; sleep 30", proto.display(), dir.display());
-    tmux(&["new-session", "-d", "-s", &console, "-x", "80", "-y", "24", &cmd]);
-    let _g1 = Session(console.clone());
+    let _g1 = Session::start(&console, 80, 24, &cmd);
     wait_for(&console, "Press Enter to start the session.");
     send(&console, &["Enter"]);
     wait_for(&console, "trial 1/5");
@@ -384,8 +387,7 @@ fn follow_says_when_the_console_is_lost_and_follows_its_resumption() {
     let log = mcap_files(&dir.join("logs")).pop().expect("the console's log");
     let follower = format!("handover-lost-reader-{}", std::process::id());
     let fcmd = format!("{bin} follow {}; sleep 30", log.display());
-    tmux(&["new-session", "-d", "-s", &follower, "-x", "80", "-y", "24", &fcmd]);
-    let _g2 = Session(follower.clone());
+    let _g2 = Session::start(&follower, 80, 24, &fcmd);
     wait_for(&follower, "trial 2/5");
     let pid = console_pid(&console);
     Command::new("kill").args(["-9", &pid]).status().unwrap();
@@ -394,8 +396,7 @@ fn follow_says_when_the_console_is_lost_and_follows_its_resumption() {
     // The session is resumed in another terminal: the follower moves to the continuation.
     let resumer = format!("handover-lost-resume-{}", std::process::id());
     let rcmd = format!("{bin} resume {}; sleep 30", log.display());
-    tmux(&["new-session", "-d", "-s", &resumer, "-x", "80", "-y", "24", &rcmd]);
-    let _g3 = Session(resumer.clone());
+    let _g3 = Session::start(&resumer, 80, 24, &rcmd);
     wait_for(&resumer, "trial 2/5");
     let continuation = mcap_files(&dir.join("logs")).into_iter().find(|p| *p != log).expect("a continuation");
     let name = continuation.file_name().unwrap().to_string_lossy().into_owned();
