@@ -8,10 +8,14 @@
 //!
 //! What the robot is guaranteed: a command's pose (with its trial message) is published when
 //! the command is sent if any subscriber of the pose topic is matched, again as soon as
-//! another subscriber matches (a robot that starts after a recorder is not kept waiting),
-//! and every `resend_s` until the robot answers. A volatile subscription gets nothing
-//! published before it matched. Statuses carry no command id: one is taken to answer the
-//! command under way. When nothing answers, discovery says why ([`super::discovery`]).
+//! another subscriber matches and [`AFTER_MATCH`] after any match until a status comes back
+//! (a robot that starts after a recorder is not kept waiting), and every `resend_s` until
+//! the robot answers. A volatile subscription gets nothing published before it matched, and
+//! discovery is not symmetric: this side can see a subscriber matched before the subscriber
+//! has matched this publisher, and what is published in between is lost to it. The
+//! publications after a match cover that window. Statuses carry no command id: one is taken
+//! to answer the command under way. When nothing answers, discovery says why
+//! ([`super::discovery`]).
 
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, channel};
 use std::time::{Duration, Instant};
@@ -241,14 +245,40 @@ impl Ros2Link {
     }
 }
 
+/// When a command still unanswered is published again after a subscriber of the pose topic
+/// matched, counted from the match, until a status comes back: the subscriber may match this
+/// publisher only after this side matched it (under load, a second or more), and misses what
+/// came before. A status proves the robot has matched; a robot slower than the first of these
+/// to say `moving` gets the command twice, as it would at a resend.
+const AFTER_MATCH: [Duration; 3] = [Duration::from_millis(500), Duration::from_secs(1), Duration::from_secs(3)];
+
 /// A command being delivered.
 struct Delivery {
     command: RobotCommand,
     since: Instant,
     last_sent: Option<Instant>,
-    /// Subscribers of the pose topic matched when it was last published.
-    subscribers: usize,
     answered: bool,
+}
+
+/// Whether a command sent at `since` and last published at `sent` is published now, with
+/// `subscribers` matched, the last of them at `matched`: first when anyone subscribes, again
+/// at a match and [`AFTER_MATCH`] after it if not published since, and every `resend`.
+fn publish_due(
+    since: Instant,
+    sent: Option<Instant>,
+    now: Instant,
+    subscribers: usize,
+    matched: Option<Instant>,
+    resend: Duration,
+) -> bool {
+    let Some(sent) = sent else {
+        return subscribers > 0 || now.duration_since(since) >= resend;
+    };
+    let checkpoint = matched.and_then(|m| {
+        let reached = std::iter::once(Duration::ZERO).chain(AFTER_MATCH).rfind(|&d| m + d <= now)?;
+        Some(m + reached)
+    });
+    checkpoint.is_some_and(|t| sent < t) || now.duration_since(sent) >= resend
 }
 
 /// The ROS 2 thread: publishes commands, re-sends until answered, forwards statuses.
@@ -256,38 +286,36 @@ fn serve(e: Endpoints, settings: &RobotSettings, jobs: &Receiver<Job>, reports: 
     let resend = Duration::from_secs_f64(settings.ros2.resend_s);
     let mut current: Option<Delivery> = None;
     let mut last_query: Option<String> = None;
+    // Subscribers of the pose topic matched at the last look, and when one last matched.
+    let mut seen = 0;
+    let mut matched: Option<Instant> = None;
     loop {
         match jobs.recv_timeout(Duration::from_millis(10)) {
             Ok(Job::Send(command)) => {
                 last_query = Some(command.query.clone());
-                current = Some(Delivery {
-                    command: *command,
-                    since: Instant::now(),
-                    last_sent: None,
-                    subscribers: 0,
-                    answered: false,
-                });
+                current = Some(Delivery { command: *command, since: Instant::now(), last_sent: None, answered: false });
             }
             Ok(Job::Cancel) => current = None,
             Err(RecvTimeoutError::Timeout) => {}
             Err(RecvTimeoutError::Disconnected) => return,
         }
-        if let Some(d) = current.as_mut().filter(|d| !d.answered) {
-            let subscribers = e.pose.get_subscription_count(&e.node);
-            let due = subscribers > d.subscribers
-                || match d.last_sent {
-                    None => d.since.elapsed() >= resend,
-                    Some(t) => t.elapsed() >= resend,
-                };
-            if due {
-                let json = serde_json::to_string(&d.command).unwrap_or_default();
-                let _ = e.trial.publish(json);
-                let _ = e.pose.publish(PoseStamped::of(&d.command));
-                d.last_sent = Some(Instant::now());
-            }
-            d.subscribers = subscribers;
+        let subscribers = e.pose.get_subscription_count(&e.node);
+        let now = Instant::now();
+        if subscribers > seen {
+            matched = Some(now);
+        }
+        seen = subscribers;
+        if let Some(d) = current.as_mut().filter(|d| !d.answered)
+            && publish_due(d.since, d.last_sent, now, subscribers, matched, resend)
+        {
+            let json = serde_json::to_string(&d.command).unwrap_or_default();
+            let _ = e.trial.publish(json);
+            let _ = e.pose.publish(PoseStamped::of(&d.command));
+            d.last_sent = Some(now);
         }
         while let Ok(Some((text, _))) = e.status.take() {
+            // The robot answered, so it has matched this publisher: no window left to cover.
+            matched = None;
             // A status before any command is about nothing the session knows.
             let Some(query) = last_query.clone() else { continue };
             let (state, detail) = parse_status(&text);
@@ -328,5 +356,44 @@ impl Link for Ros2Link {
             .filter_map(|ours| diagnose(ours, &peers(&self.participant, ours.side), self.domain))
             .collect();
         (!problems.is_empty()).then(|| problems.join("; "))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// When a command is published: at once if anyone subscribes, at a later match and
+    /// 0.5, 1 and 3 s after it unless published since, and every resend otherwise.
+    #[test]
+    fn a_command_is_published_again_after_a_subscriber_matches() {
+        let t0 = Instant::now();
+        let s = |secs: f64| t0 + Duration::from_secs_f64(secs);
+        let resend = Duration::from_secs(30);
+        // Nobody subscribes: only the resend publishes.
+        assert!(!publish_due(t0, None, s(1.0), 0, None, resend));
+        assert!(publish_due(t0, None, s(30.0), 0, None, resend));
+        // A subscriber matched long before the command: published at once, then at the resend.
+        let old = Some(t0 - Duration::from_secs(60));
+        assert!(publish_due(t0, None, s(0.0), 1, old, resend));
+        assert!(!publish_due(t0, Some(s(0.0)), s(29.0), 1, old, resend));
+        assert!(publish_due(t0, Some(s(0.0)), s(30.0), 1, old, resend));
+        // A robot matches at 5 s: published then, and at 5.5, 6 and 8 s, each once.
+        let m = Some(s(5.0));
+        let mut sent = s(0.0);
+        let mut published = Vec::new();
+        for k in 0..=1500 {
+            let now = s(4.0 + k as f64 * 0.01);
+            let matched = m.filter(|&m| m <= now);
+            if publish_due(t0, Some(sent), now, 1 + usize::from(matched.is_some()), matched, resend) {
+                sent = now;
+                published.push((now - t0).as_secs_f64());
+            }
+        }
+        let expected = [5.0, 5.5, 6.0, 8.0];
+        assert_eq!(published.len(), expected.len(), "{published:?}");
+        for (p, e) in published.iter().zip(expected) {
+            assert!((p - e).abs() < 0.011, "{published:?}");
+        }
     }
 }
