@@ -73,13 +73,16 @@ impl Belief {
         let shrink = SCALE / (self.free.len() as f64).sqrt();
         let mut scale = vec![0.0; s];
         for &c in &self.free {
-            let var: f64 =
-                self.particles.chunks_exact(s).zip(&self.weights).map(|(p, w)| w * (p[c] - mean[c]).powi(2)).sum();
+            let var: f64 = self
+                .particles
+                .chunks_exact(s)
+                .zip(self.weights.iter())
+                .map(|(p, w)| w * (p[c] - mean[c]).powi(2))
+                .sum();
             scale[c] = (shrink * var.sqrt()).max(floor.get(c).copied().unwrap_or(0.0));
         }
         let (free, support) = (&self.free, &self.support);
-        let accepted: usize = self
-            .particles
+        let accepted: usize = std::sync::Arc::make_mut(&mut self.particles)
             .par_chunks_mut(PARTICLE_CHUNK * s)
             .enumerate()
             .map(|(chunk, ps)| {

@@ -292,3 +292,36 @@ fn region_likelihoods_four_at_a_time_are_each_particles_own() {
         }
     }
 }
+
+/// A copy shares the particles and weights (a session is copied on every event) and each
+/// change — an update, a resampling, moves — leaves the other copy as it was.
+#[test]
+fn copies_share_particles_until_one_changes() {
+    let prior =
+        Prior::new(vec![ComponentPrior::Uniform { min: -2.0, max: 2.0 }], vec![ComponentPrior::Fixed { value: 1.0 }])
+            .unwrap();
+    let start = Belief::from_prior(&prior, 64, &mut SeededRng::seed_from_u64(1)).unwrap();
+    let kept = Belief {
+        particles: Arc::new(start.particles().to_vec()),
+        weights: Arc::new(start.weights().to_vec()),
+        ..start.clone()
+    };
+    let copy = start.clone();
+    assert!(std::ptr::eq(copy.particles().as_ptr(), start.particles().as_ptr()));
+    assert!(std::ptr::eq(copy.weights().as_ptr(), start.weights().as_ptr()));
+    let set = set(&[&[-1.0], &[0.5]]);
+    let obs = Observation::Config(1);
+    let mut updated = start.clone();
+    updated.update(&set, 2.0, &obs).unwrap();
+    assert!(std::ptr::eq(updated.particles().as_ptr(), start.particles().as_ptr()), "an update keeps the particles");
+    assert_ne!(updated.weights(), start.weights());
+    let mut resampled = updated.clone();
+    resampled.resample(&[0.1, 0.0], &mut SeededRng::seed_from_u64(2));
+    assert_ne!(resampled.particles(), updated.particles());
+    let mut moved = start.clone();
+    let history = [(&set, &obs)];
+    moved.move_particles(&prior, &history, 2.0, 3, &[0.1, 0.0], &mut SeededRng::seed_from_u64(3)).unwrap();
+    assert_ne!(moved.particles(), start.particles());
+    assert_eq!(start, kept, "the first copy is as it was");
+    assert_eq!(copy, kept);
+}
