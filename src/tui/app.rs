@@ -7,7 +7,7 @@
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use ratatui::crossterm::event::KeyEvent;
 
@@ -498,9 +498,11 @@ impl App {
         }
     }
 
-    /// Takes every report of the worker, waiting for them when `block`.
-    fn poll_worker(&mut self, block: bool) {
-        while let Some(heard) = self.driver.poll(block) {
+    /// Takes every report of the worker that comes by `deadline` (`None`: waits for all).
+    fn poll_worker(&mut self, deadline: Option<Instant>) {
+        loop {
+            let wait = deadline.map_or(Duration::MAX, |d| d.saturating_duration_since(Instant::now()));
+            let Some(heard) = self.driver.poll(wait) else { break };
             match heard {
                 Ok(heard) => self.react(heard),
                 Err(e) => {
@@ -513,17 +515,22 @@ impl App {
 
     /// Takes the worker's reports that are ready; whether there was one (the screen changed).
     pub fn collect_reports(&mut self) -> bool {
+        self.await_reports(Duration::ZERO)
+    }
+
+    /// Takes the worker's reports that come `within` from now; whether there was one.
+    pub fn await_reports(&mut self, within: Duration) -> bool {
         let before = self.driver.outstanding();
-        self.collect();
+        self.poll_worker(Some(Instant::now() + within));
         self.driver.outstanding() < before
     }
 
     fn wait_worker(&mut self) {
-        self.poll_worker(true);
+        self.poll_worker(None);
     }
 
     fn collect(&mut self) {
-        self.poll_worker(false);
+        self.poll_worker(Some(Instant::now()));
     }
 
     /// What the screens show of what the session did.

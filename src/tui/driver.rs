@@ -170,11 +170,11 @@ impl Driver {
         Some(why)
     }
 
-    /// The worker's next report, waiting for it when `block`; `None` when there is none (or
+    /// The worker's next report, waiting up to `wait` for it; `None` when there is none (or
     /// no worker). What concerns the session is taken here (the session shown, a robot
     /// command sent once its event is on disk, the event to retry); the rest is the view's.
-    pub fn poll(&mut self, block: bool) -> Option<Result<Heard, &'static str>> {
-        let done = match self.worker.as_mut()?.poll(block) {
+    pub fn poll(&mut self, wait: Duration) -> Option<Result<Heard, &'static str>> {
+        let done = match self.worker.as_mut()?.poll(wait) {
             Ok(Some(done)) => done,
             Ok(None) => return None,
             Err(e) => return Some(Err(e)),

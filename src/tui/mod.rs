@@ -89,7 +89,14 @@ where
         };
         if ready {
             match event::read() {
-                Ok(TermEvent::Key(k)) => app.key(k),
+                Ok(TermEvent::Key(k)) => {
+                    app.key(k);
+                    // Most keys' work is done in a few milliseconds (a grip learned ahead):
+                    // its screen is then the next drawn, with no "computing" frame before it.
+                    if app.busy() {
+                        app.await_reports(KEY_WAIT);
+                    }
+                }
                 Ok(_) => {}
                 Err(_) if stop().is_some() => continue,
                 Err(e) => return Err(e.to_string()),
@@ -101,6 +108,9 @@ where
 
 /// The loop's tick: the screen is redrawn at least this often (clocks, robot reports).
 const TICK: Duration = Duration::from_millis(50);
+
+/// How long a key's work is waited for before the screen shows it under way: half a frame.
+const KEY_WAIT: Duration = Duration::from_millis(8);
 
 /// How long the loop has to leave by itself after a signal or a vanished terminal.
 const WATCHDOG_GRACE: Duration = Duration::from_secs(3);

@@ -2,8 +2,9 @@
 //! event is applied and made durable there, off the drawing loop, in the order submitted.
 
 use std::path::PathBuf;
-use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, TryRecvError, channel};
 use std::thread::JoinHandle;
+use std::time::Duration;
 
 use super::app::SummaryView;
 use crate::analysis::analyse;
@@ -137,20 +138,24 @@ impl Worker {
         self.send(Job::Close);
     }
 
-    /// A report, if one is ready (`block`: wait for it while a job is under way). `Err` when
-    /// the thread is gone with work outstanding.
-    pub fn poll(&mut self, block: bool) -> Result<Option<Done>, &'static str> {
+    /// A report, if one is ready or comes within `wait` while a job is under way
+    /// (`Duration::MAX`: until it comes). `Err` when the thread is gone with work outstanding.
+    pub fn poll(&mut self, wait: Duration) -> Result<Option<Done>, &'static str> {
         if self.outstanding == 0 {
             return Ok(None);
         }
-        let got = if block { self.done.recv().map_err(|_| TryRecvError::Disconnected) } else { self.done.try_recv() };
+        let got = if wait.is_zero() {
+            self.done.try_recv().map_err(|e| e == TryRecvError::Disconnected)
+        } else {
+            self.done.recv_timeout(wait).map_err(|e| e == RecvTimeoutError::Disconnected)
+        };
         match got {
             Ok(done) => {
                 self.outstanding -= 1;
                 Ok(Some(done))
             }
-            Err(TryRecvError::Empty) => Ok(None),
-            Err(TryRecvError::Disconnected) => {
+            Err(false) => Ok(None),
+            Err(true) => {
                 self.outstanding = 0;
                 Err("internal error: the worker stopped")
             }

@@ -253,6 +253,28 @@ fn a_whole_session_by_keys_logs_26_responses() {
     assert!(a.quit);
 }
 
+/// After a key, the loop waits up to half a frame for the key's work before it draws
+/// (`App::await_reports`): a grip's update is taken as soon as the worker reports it, and
+/// with nothing under way the wait returns at once.
+#[test]
+fn a_key_s_work_is_taken_as_soon_as_it_is_done() {
+    let dir = tmpdir("await");
+    let mut a = app(&dir);
+    press(&mut a, KeyCode::Enter);
+    press(&mut a, KeyCode::Enter);
+    let before = a.screen_mode();
+    a.key(KeyEvent::new(KeyCode::Char('1'), KeyModifiers::NONE));
+    assert!(a.busy(), "the grip is with the worker");
+    let t = std::time::Instant::now();
+    assert!(a.await_reports(Duration::from_secs(60)), "its report came");
+    assert!(t.elapsed() < Duration::from_secs(30), "taken when it came, not at the end of the wait");
+    assert!(!a.busy());
+    assert_ne!(a.screen_mode(), before, "the next trial awaits its presentation");
+    let t = std::time::Instant::now();
+    assert!(!a.await_reports(Duration::from_secs(60)), "nothing under way");
+    assert!(t.elapsed() < Duration::from_secs(1));
+}
+
 /// A number answers the statement shown and stays there (a double press changes the answer,
 /// never answers the next one); Enter on an unanswered statement asks before skipping it.
 #[test]
