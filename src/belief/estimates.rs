@@ -34,7 +34,7 @@ impl Belief {
         let mut column: Vec<(f64, f64)> = Vec::with_capacity(self.len());
         for c in 0..s {
             column.clear();
-            column.extend(self.particles.chunks_exact(s).zip(self.weights.iter()).map(|(x, &w)| (x[c], w)));
+            column.extend(self.particles.chunks_exact(s).zip(self.weights()).map(|(x, &w)| (x[c], w)));
             let first = column.first().map_or(0.0, |f| f.0);
             if column.iter().all(|&(x, _)| x.to_bits() == first.to_bits()) {
                 // Every step of the distribution is at that one value.
@@ -100,7 +100,7 @@ impl Belief {
         let s = 2 * self.dim;
         let mut sum = vec![0.0; s];
         let mut total = 0.0;
-        for ((p, &w), &l) in self.particles.chunks_exact(s).zip(self.weights.iter()).zip(&lp) {
+        for ((p, &w), &l) in self.particles.chunks_exact(s).zip(self.weights()).zip(&lp) {
             if best.is_finite() && l >= best - MAP_TIE * best.abs().max(1.0) {
                 // Equal weights for tied particles: duplicates after resampling count once each.
                 let w = if w > 0.0 { w } else { 1.0 / self.len() as f64 };

@@ -338,7 +338,7 @@ impl Belief {
     pub fn mean(&self) -> Lambda {
         let s = 2 * self.dim;
         let mut m = vec![0.0; s];
-        for (p, w) in self.particles.chunks_exact(s).zip(self.weights.iter()) {
+        for (p, w) in self.particles.chunks_exact(s).zip(self.weights()) {
             for c in 0..s {
                 m[c] += w * p[c];
             }
@@ -371,7 +371,7 @@ impl Belief {
         let terms: Vec<f64> = self
             .particles
             .chunks_exact(s)
-            .zip(self.weights.iter())
+            .zip(self.weights())
             .map(|(p, &w)| {
                 if w <= 0.0 {
                     return f64::NEG_INFINITY;

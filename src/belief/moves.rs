@@ -7,6 +7,8 @@
 //! updates; jitter then only blurs those few. A move instead re-explores the posterior, at
 //! the price of one pass over the history per particle and step.
 
+use std::sync::Arc;
+
 use rand::{Rng, RngExt, SeedableRng};
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
@@ -73,16 +75,12 @@ impl Belief {
         let shrink = SCALE / (self.free.len() as f64).sqrt();
         let mut scale = vec![0.0; s];
         for &c in &self.free {
-            let var: f64 = self
-                .particles
-                .chunks_exact(s)
-                .zip(self.weights.iter())
-                .map(|(p, w)| w * (p[c] - mean[c]).powi(2))
-                .sum();
+            let var: f64 =
+                self.particles.chunks_exact(s).zip(self.weights()).map(|(p, w)| w * (p[c] - mean[c]).powi(2)).sum();
             scale[c] = (shrink * var.sqrt()).max(floor.get(c).copied().unwrap_or(0.0));
         }
         let (free, support) = (&self.free, &self.support);
-        let accepted: usize = std::sync::Arc::make_mut(&mut self.particles)
+        let accepted: usize = Arc::make_mut(&mut self.particles)
             .par_chunks_mut(PARTICLE_CHUNK * s)
             .enumerate()
             .map(|(chunk, ps)| {

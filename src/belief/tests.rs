@@ -12,6 +12,12 @@ fn set(rows: &[&[f64]]) -> FeasibleSet {
     FeasibleSet::new(ConfigSet::from_rows(rows).unwrap())
 }
 
+/// One joint: q* uniform on [−2, 2], w known (1).
+fn interval_prior() -> Prior {
+    Prior::new(vec![ComponentPrior::Uniform { min: -2.0, max: 2.0 }], vec![ComponentPrior::Fixed { value: 1.0 }])
+        .unwrap()
+}
+
 #[test]
 fn update_matches_bayes_rule_by_hand() {
     let mut b = Belief::from_particles(&[lam(&[0.0], &[1.0]), lam(&[2.0], &[1.0])], &[1.0, 1.0]).unwrap();
@@ -211,9 +217,7 @@ fn moves_take_any_equally_weighted_cloud_to_the_posterior_by_quadrature() {
     let rows: Vec<Vec<f64>> = (0..=40).map(|k| vec![-2.0 + 0.1 * k as f64]).collect();
     let rows: Vec<&[f64]> = rows.iter().map(|r| r.as_slice()).collect();
     let set = set(&rows);
-    let prior =
-        Prior::new(vec![ComponentPrior::Uniform { min: -2.0, max: 2.0 }], vec![ComponentPrior::Fixed { value: 1.0 }])
-            .unwrap();
+    let prior = interval_prior();
     let seen = [24, 27, 25];
     let obs: Vec<Observation> = seen.iter().map(|&k| Observation::Config(k)).collect();
     let history: Vec<Observed> = obs.iter().map(|o| (&set, o)).collect();
@@ -254,9 +258,7 @@ fn moves_take_any_equally_weighted_cloud_to_the_posterior_by_quadrature() {
 
 #[test]
 fn zero_moves_change_nothing() {
-    let prior =
-        Prior::new(vec![ComponentPrior::Uniform { min: -2.0, max: 2.0 }], vec![ComponentPrior::Fixed { value: 1.0 }])
-            .unwrap();
+    let prior = interval_prior();
     let start = Belief::from_prior(&prior, 100, &mut SeededRng::seed_from_u64(1)).unwrap();
     let mut b = start.clone();
     b.move_particles(&prior, &[], 1.0, 0, &[0.1, 0.0], &mut SeededRng::seed_from_u64(2)).unwrap();
@@ -297,9 +299,7 @@ fn region_likelihoods_four_at_a_time_are_each_particles_own() {
 /// change — an update, a resampling, moves — leaves the other copy as it was.
 #[test]
 fn copies_share_particles_until_one_changes() {
-    let prior =
-        Prior::new(vec![ComponentPrior::Uniform { min: -2.0, max: 2.0 }], vec![ComponentPrior::Fixed { value: 1.0 }])
-            .unwrap();
+    let prior = interval_prior();
     let start = Belief::from_prior(&prior, 64, &mut SeededRng::seed_from_u64(1)).unwrap();
     let kept = Belief {
         particles: Arc::new(start.particles().to_vec()),
