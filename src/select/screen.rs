@@ -326,15 +326,19 @@ pub fn screened_passive_choice(belief: &Belief, menu: &[FeasibleSet], precision:
     // Each chunk's Σ ω m̃ and largest reach terms for every query, added over chunks in order.
     let partials: Vec<Vec<(f64, f64)>> = chunks(belief)
         .map(|chunk| {
-            let chunk: Vec<(&[f64], f64)> = chunk.collect();
+            // Each particle's q*, weight and Σ_d w_d·q*_d², the same for every query.
+            let chunk: Vec<(&[f64], f64, f64)> = chunk
+                .map(|(p, weight)| {
+                    let q = &p[..d];
+                    (q, weight, q.iter().zip(w).map(|(q, w)| w * q * q).sum())
+                })
+                .collect();
             menu.iter()
                 .zip(&norms)
                 .zip(&reaches)
                 .map(|((set, norms), reach)| {
                     let (mut cost, mut widest) = (0.0, 0.0f64);
-                    for &(p, weight) in &chunk {
-                        let q = &p[..d];
-                        let base: f64 = q.iter().zip(w).map(|(q, w)| w * q * q).sum();
+                    for &(q, weight, base) in &chunk {
                         cost += weight * (base + f64::from(cross_min_f32(set.configs(), norms, q, w)));
                         widest = widest.max(reach_terms(reach, q, w));
                     }

@@ -530,7 +530,7 @@ impl App {
     }
 
     fn collect(&mut self) {
-        self.poll_worker(Some(Instant::now()));
+        self.collect_reports();
     }
 
     /// What the screens show of what the session did.
