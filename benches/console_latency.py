@@ -37,10 +37,6 @@ import tempfile
 import threading
 import time
 
-try:
-    import pyte
-except ImportError:
-    sys.exit("console_latency.py needs pyte (a terminal emulator): pip install pyte")
 
 COLS, ROWS = 100, 40
 
@@ -78,6 +74,8 @@ class Pane:
         self.chunks = []  # (arrival time, bytes), appended by the thread that collects them
         self.cond = threading.Condition()
         self.done = 0  # chunks replayed into the emulator
+        import pyte  # checked in main()
+
         self.screen = pyte.Screen(COLS, ROWS)
         self.stream = pyte.ByteStream(self.screen)
         self.collector = threading.Thread(target=self._collect, daemon=True)
@@ -184,6 +182,10 @@ def main():
     ap.add_argument("--work", help="where the logs go (default: a fresh folder in /dev/shm)")
     ap.add_argument("--each", action="store_true", help="print every grasp's time")
     a = ap.parse_args()
+    try:
+        import pyte  # noqa: F401
+    except ImportError:
+        sys.exit("console_latency.py needs pyte (a terminal emulator): pip install pyte")
     a.binary = os.path.abspath(a.binary)
     base = a.work or ("/dev/shm" if os.path.isdir("/dev/shm") else None)
     work = tempfile.mkdtemp(prefix="handover-latency-", dir=base)
