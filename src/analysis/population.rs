@@ -25,9 +25,9 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::SessionEvidence;
-use crate::belief::{BeliefError, Prior};
+use crate::belief::{BeliefError, ComponentPrior, Prior};
 use crate::ergo::{FeasibleSet, Observation};
-use crate::protocol::{PopulationSpec, Spread, truncated_normal};
+use crate::protocol::{PopulationSpec, PriorSpec, Spread, truncated_normal};
 use crate::{SeededRng, derive_seed};
 
 /// SAEM iterations with step size 1 (the chains and θ find the fit's neighbourhood) …
@@ -149,6 +149,36 @@ impl PopulationFit {
             w: spreads[dim..].to_vec(),
             alpha: None,
         }
+    }
+}
+
+impl PopulationFit {
+    /// The next study's prior from this fit, as a protocol's `learning.prior` section (q*
+    /// in degrees): each learned component a normal with the fitted mean and spread,
+    /// truncated to the support `written` (the sessions' prior, as their protocol wrote it)
+    /// gives it — the population as the prior, so that the robot expects people as varied
+    /// as they were. Only where the data determine the component: its mean and spread each
+    /// have an interval and the spread is above the floor. A spread without one may be far
+    /// too narrow (a few people fit near the floor), and a prior that narrow would keep the
+    /// robot from learning that joint; those components, and the ones not learned, keep
+    /// `written`'s prior.
+    pub fn prior_spec(&self, written: &PriorSpec) -> PriorSpec {
+        let mut next = written.clone();
+        let determined = |c: &&ComponentFit| {
+            !c.sd_at_floor && [c.mean_low, c.mean_high, c.sd_low, c.sd_high].iter().all(|v| v.is_finite())
+        };
+        for c in self.components.iter().filter(determined) {
+            let (slot, scale) = if c.part == "q_star" {
+                (next.q_star_deg.get_mut(c.joint), 180.0 / std::f64::consts::PI)
+            } else {
+                (next.w.get_mut(c.joint), 1.0)
+            };
+            if let Some(slot) = slot {
+                let (min, max) = slot.support();
+                *slot = ComponentPrior::Gaussian { mean: c.mean * scale, sd: c.sd * scale, min, max };
+            }
+        }
+        next
     }
 }
 
@@ -788,6 +818,64 @@ mod tests {
             assert!((person.pooled_mean[0] - m).abs() < 0.2 * sd, "pooled: {} vs {m} ± {sd}", person.pooled_mean[0]);
             assert!((person.pooled_sd[0] / sd - 1.0).abs() < 0.2, "pooled sd: {} vs {sd}", person.pooled_sd[0]);
         }
+    }
+
+    #[test]
+    fn the_next_prior_is_the_fitted_population_where_the_data_determine_it() {
+        let study = Study::default_study();
+        let written = study.protocol.learning.prior.clone();
+        let component = |joint: usize, mean_deg: f64, sd_deg: f64, sd_at_floor: bool, interval: bool| {
+            let end = |v: f64| if interval { v.to_radians() } else { f64::NAN };
+            ComponentFit {
+                part: "q_star",
+                joint,
+                mean: mean_deg.to_radians(),
+                sd: sd_deg.to_radians(),
+                mean_low: end(mean_deg - 3.0),
+                mean_high: end(mean_deg + 3.0),
+                sd_low: end(sd_deg / 2.0),
+                sd_high: end(sd_deg * 2.0),
+                min: 0.0,
+                max: 1.0,
+                sd_at_floor,
+            }
+        };
+        let fit = PopulationFit {
+            sessions: 2,
+            handovers: 10,
+            components: vec![
+                component(3, 88.0, 12.0, false, true),
+                component(5, 1.0, 0.2, true, false),
+                // A spread without an interval: a few people fitted near the floor.
+                component(6, -8.0, 0.1, false, false),
+            ],
+            iterations: 1,
+            identified: false,
+            min_acceptance: 0.3,
+            median_acceptance: 0.3,
+            alpha: 5.0,
+            people: Vec::new(),
+        };
+        let next = fit.prior_spec(&written);
+        let (min, max) = written.q_star_deg[3].support();
+        match next.q_star_deg[3] {
+            ComponentPrior::Gaussian { mean, sd, min: lo, max: hi } => {
+                assert!((mean - 88.0).abs() < 1e-9 && (sd - 12.0).abs() < 1e-9, "{mean} {sd}");
+                assert_eq!((lo, hi), (min, max), "the written support");
+            }
+            ref other => panic!("joint 4: {other:?}"),
+        }
+        // At the floor, without an interval, and every component not fitted: as written.
+        for j in (0..7).filter(|&j| j != 3) {
+            assert_eq!(next.q_star_deg[j], written.q_star_deg[j], "joint {}", j + 1);
+        }
+        assert_eq!(next.w, written.w);
+        // A protocol with it is valid, and its prior is the fitted normal.
+        let mut protocol = study.protocol.clone();
+        protocol.learning.prior = next;
+        let text = serde_json::to_string(&protocol).unwrap();
+        let next_study = Study::from_json(&text, "next").unwrap();
+        assert!(matches!(next_study.prior.components()[3], ComponentPrior::Gaussian { .. }));
     }
 
     #[test]

@@ -37,7 +37,7 @@ pub struct AnalyzeArgs {
     /// test_log_likelihood.csv, fig10_tests.csv, beliefs.csv (long),
     /// belief_summary.csv, objects_by_body.csv,
     /// questionnaire.csv, alpha.csv, alpha_curve.csv, fig10.svg, objects.svg, alpha.svg,
-    /// table1.md (and with --fit-population population.json, population.csv and pooled.csv) here
+    /// table1.md (and with --fit-population population.json, prior.json, population.csv and pooled.csv) here
     /// (pilot sessions under DIR/pilot/).
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,

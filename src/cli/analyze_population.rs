@@ -20,7 +20,8 @@ pub struct PopulationArgs {
     /// intervals (docs/engine.md), and each participant's estimate under it (partial
     /// pooling) beside their session's own. With --out, writes population.json (a protocol's
     /// `population` section: give it to `plan --population` or `dry-run --population`),
-    /// population.csv and pooled.csv.
+    /// prior.json (the next study's `learning.prior`: the fitted population as the robot's
+    /// prior; `handover protocol with`), population.csv and pooled.csv.
     #[arg(long)]
     fit_population: bool,
 }
@@ -130,12 +131,38 @@ impl PopulationArgs {
     }
 }
 
-/// population.json (the section) and population.csv of one group, in `dir`.
+/// population.json (the section), prior.json (the next study's `learning.prior`),
+/// population.csv and pooled.csv of one group, in `dir`.
 pub fn write(dir: &Path, report: &PopulationReport, group: &[&Analysed]) -> Result<()> {
     let Some(first) = group.first() else { return Ok(()) };
     let spec = report.fit.spec(&first.analysis.evidence.prior);
     let text = serde_json::to_string_pretty(&spec)? + "\n";
     handover::private_files::write_output(&dir.join("population.json"), text.as_bytes())?;
+    // The sessions' prior as their protocol wrote it (the logged text changes only the arm).
+    let written: handover::protocol::Protocol = serde_json::from_str(&first.log.protocol_text)
+        .with_context(|| format!("{}: its protocol", first.log.path.display()))?;
+    let prior = report.fit.prior_spec(&written.learning.prior);
+    let text = serde_json::to_string_pretty(&prior)? + "\n";
+    handover::private_files::write_output(&dir.join("prior.json"), text.as_bytes())?;
+    let (mut fitted, mut kept) = (Vec::new(), Vec::new());
+    for c in &report.fit.components {
+        let (name, next, old) = if c.part == "q_star" {
+            (format!("q*{}", c.joint + 1), &prior.q_star_deg, &written.learning.prior.q_star_deg)
+        } else {
+            (format!("w{}", c.joint + 1), &prior.w, &written.learning.prior.w)
+        };
+        if next.get(c.joint) == old.get(c.joint) { kept.push(name) } else { fitted.push(name) }
+    }
+    errln!(
+        "{}: the fitted population is the prior of {}{}",
+        dir.join("prior.json").display(),
+        if fitted.is_empty() { "no component".to_string() } else { fitted.join(", ") },
+        if kept.is_empty() {
+            String::new()
+        } else {
+            format!("; {} keep the written prior (the data do not determine their spread)", kept.join(", "))
+        }
+    );
     let rows: Vec<Row> = report
         .fit
         .components

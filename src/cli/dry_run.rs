@@ -468,7 +468,9 @@ fn print_coverage(runs: &[SeedRun]) -> Result<()> {
             outln!("  ({c} at iteration {}, by joint: {})", last.iteration, joints.join(", "));
         }
     }
-    outln!("  (0.90 is calibrated when participants are drawn from the prior: `--population prior`)");
+    outln!(
+        "  (0.90 is calibrated when participants are drawn from the robot's prior: `--population prior`, or a prior that is the population)"
+    );
     Ok(())
 }
 

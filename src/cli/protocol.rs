@@ -1,4 +1,5 @@
-//! `handover protocol check [FILE]`: validate a protocol and summarise it.
+//! `handover protocol check [FILE]`: validate a protocol and summarise it; `handover
+//! protocol with`: a protocol with another prior or population section.
 
 use std::path::PathBuf;
 
@@ -10,9 +11,9 @@ use handover::protocol::Study;
 
 use handover::session::check_runs;
 
-use super::input::{HandArg, bad, body_height as checked_height, load_protocol};
+use super::input::{HandArg, bad, body_height as checked_height, load_protocol, parse_json, read_text};
 use handover::kinematics::Hand;
-use handover::protocol::{Body, for_body};
+use handover::protocol::{Body, PopulationSpec, PriorSpec, for_body};
 
 /// Work with protocol files.
 #[derive(Debug, Args)]
@@ -42,6 +43,26 @@ enum ProtocolCommand {
         #[arg(long)]
         bodies: bool,
     },
+    /// A protocol with another prior or population: the next study's, from the fitted
+    /// population of this one (`analyze --fit-population --out DIR` writes DIR/prior.json
+    /// and DIR/population.json).
+    ///
+    /// Writes: OUT, the protocol with those sections in place of its own, checked as
+    /// `protocol check` checks (refused if OUT exists); its summary on stdout.
+    #[command(group = clap::ArgGroup::new("section").required(true).multiple(true).args(["prior", "population"]))]
+    With {
+        /// The protocol JSON file (default: the embedded protocols/bike-handover.json).
+        file: Option<PathBuf>,
+        /// A `learning.prior` section (q* in degrees): the robot's prior over λ.
+        #[arg(long, value_name = "FILE")]
+        prior: Option<PathBuf>,
+        /// A `population` section (q* in degrees): whom dry runs and plans draw people from.
+        #[arg(long, value_name = "FILE")]
+        population: Option<PathBuf>,
+        /// Where to write the new protocol.
+        #[arg(long, value_name = "FILE")]
+        out: PathBuf,
+    },
 }
 
 /// The heights `--bodies` checks (m): 1.50, 1.55, …, 1.95.
@@ -49,6 +70,34 @@ const BODY_RANGE_CM: (u32, u32, u32) = (150, 195, 5);
 
 pub fn run(args: ProtocolArgs) -> Result<()> {
     match args.command {
+        ProtocolCommand::With { file, prior, population, out } => {
+            let (text, study) = load_protocol(file.as_deref())?;
+            let mut v: serde_json::Value = serde_json::from_str(&text)?;
+            let mut from = Vec::new();
+            if let Some(path) = &prior {
+                let name = path.display().to_string();
+                let spec: PriorSpec = parse_json(&read_text(path)?, &name)?;
+                v["learning"]["prior"] = serde_json::to_value(spec)?;
+                from.push(format!("the prior of {name}"));
+            }
+            if let Some(path) = &population {
+                let name = path.display().to_string();
+                let spec: PopulationSpec = parse_json(&read_text(path)?, &name)?;
+                v["population"] = serde_json::to_value(spec)?;
+                from.push(format!("the population of {name}"));
+            }
+            let text = serde_json::to_string_pretty(&v)? + "\n";
+            let name = format!("{} with {}", study.source_name, from.join(" and "));
+            let study = std::sync::Arc::new(Study::from_json(&text, &name).map_err(|e| bad(e.to_string()))?);
+            check_runs(std::sync::Arc::clone(&study))
+                .map_err(|e| bad(format!("{}: the protocol does not run: {e}", study.source_name)))?;
+            handover::private_files::create_file(&out)
+                .and_then(|mut f| std::io::Write::write_all(&mut f, text.as_bytes()))
+                .map_err(|e| bad(format!("{}: cannot write the protocol: {e}", out.display())))?;
+            out!("{}", summary(&study));
+            outln!("wrote {}", out.display());
+            Ok(())
+        }
         ProtocolCommand::Check { file, bodies: true, .. } => {
             let (text, study) = load_protocol(file.as_deref())?;
             outln!(
@@ -154,6 +203,7 @@ pub fn summary(s: &Study) -> String {
         "  learning: {} particles, α = {}, learns {}, observes {observation}, resamples {resampling}\n",
         l.particles, l.alpha, l.learn
     );
+    out += &prior_summary(l);
     let conds: Vec<_> = p.session.conditions.iter().map(|c| c.name()).collect();
     out += &format!(
         "  session: conditions {} (counterbalanced, shown as {}), {} training trials each, {} test trials{}\n",
@@ -178,5 +228,30 @@ pub fn summary(s: &Study) -> String {
         },
         s.population().alpha
     );
+    out
+}
+
+/// The learned components' priors, one line per part of λ (q* in degrees).
+fn prior_summary(l: &handover::protocol::LearningSpec) -> String {
+    use handover::belief::ComponentPrior;
+    let dim = l.prior.q_star_deg.len();
+    let mut out = String::new();
+    for (part, unit, priors, offset) in [("q*", "°", &l.prior.q_star_deg, 0), ("w", "", &l.prior.w, dim)] {
+        let learned: Vec<String> = priors
+            .iter()
+            .enumerate()
+            .filter(|&(j, _)| l.learn.learns(offset + j, dim))
+            .map(|(j, c)| match *c {
+                ComponentPrior::Fixed { value } => format!("{part}{} {value}{unit}", j + 1),
+                ComponentPrior::Uniform { min, max } => format!("{part}{} uniform [{min}, {max}]{unit}", j + 1),
+                ComponentPrior::Gaussian { mean, sd, min, max } => {
+                    format!("{part}{} normal {mean:.1} ± {sd:.1}{unit} on [{min}, {max}]{unit}", j + 1)
+                }
+            })
+            .collect();
+        if !learned.is_empty() {
+            out += &format!("  prior of {part}: {}\n", learned.join("; "));
+        }
+    }
     out
 }

@@ -483,6 +483,7 @@ fn a_population_fitted_from_pilots_plans_the_next_study() {
     assert!(stdout.contains("POPULATION — fitted from 6 pilot sessions"), "{stdout}");
     // One real session: no population of its own, said so.
     assert!(stderr.contains("one real session; a population is fitted from two or more"), "{stderr}");
+    let analyzed = stderr;
     let file = out.join("pilot/population.json");
     #[cfg(unix)]
     {
@@ -520,6 +521,70 @@ fn a_population_fitted_from_pilots_plans_the_next_study() {
     ]);
     assert_eq!(code, 0, "{stderr}");
     assert!(stdout.contains("population.json's population"), "{stdout}");
+    // The fitted population as the next study's prior: a normal per learned joint whose
+    // mean and spread have intervals (and the spread is above the floor), the written prior
+    // elsewhere.
+    let prior_file = out.join("pilot/prior.json");
+    let prior: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&prior_file).unwrap()).unwrap();
+    let csv_rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    for row in &csv_rows {
+        let joint: usize = row[1].parse().unwrap();
+        let determined = row[11] == "false" && [4, 5, 7, 8].iter().all(|&k| !row[k].is_empty());
+        let c = &prior["q_star_deg"][joint - 1];
+        assert!(analyzed.contains("pilot/prior.json: the fitted population is the prior of"), "{analyzed}");
+        if !determined {
+            assert_eq!(c["kind"], "uniform", "joint {joint}, not determined, keeps its prior: {prior}");
+            assert!(analyzed.contains(&format!("q*{joint}")), "joint {joint} is named: {analyzed}");
+        } else {
+            assert_eq!(c["kind"], "gaussian", "joint {joint}: {prior}");
+            let mean: f64 = row[3].parse().unwrap();
+            assert!((c["mean"].as_f64().unwrap() - mean).abs() < 1e-9, "joint {joint}: {c} vs {mean}");
+        }
+    }
+    let next = dir.join("next.json");
+    let (code, stdout, stderr) = handover(&[
+        "protocol",
+        "with",
+        protocol.to_str().unwrap(),
+        "--prior",
+        prior_file.to_str().unwrap(),
+        "--population",
+        file.to_str().unwrap(),
+        "--out",
+        next.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("with the prior of") && stdout.contains("the protocol's population"), "{stdout}");
+    let written: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&next).unwrap()).unwrap();
+    assert_eq!(written["learning"]["prior"], prior);
+    assert_eq!(written["population"], section);
+    // Never over an existing file, and a section that does not fit is refused by name.
+    let (code, _, stderr) =
+        handover(&["protocol", "with", "--prior", prior_file.to_str().unwrap(), "--out", next.to_str().unwrap()]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("next.json: cannot write the protocol"), "{stderr}");
+    // A normal written by hand is the prior the summary names; a bad one is refused by field.
+    let mut hand: serde_json::Value = prior.clone();
+    hand["q_star_deg"][3] = serde_json::json!({"kind": "gaussian", "mean": 88, "sd": 12, "min": 40, "max": 130});
+    let hand_file = dir.join("hand-prior.json");
+    std::fs::write(&hand_file, hand.to_string()).unwrap();
+    let hand_next = dir.join("hand-next.json");
+    let (code, stdout, stderr) =
+        handover(&["protocol", "with", "--prior", hand_file.to_str().unwrap(), "--out", hand_next.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("q*4 normal 88.0 ± 12.0° on [40, 130]°"), "{stdout}");
+    hand["q_star_deg"][3]["sd"] = (-1).into();
+    std::fs::write(&hand_file, hand.to_string()).unwrap();
+    let refused = dir.join("refused.json");
+    let (code, _, stderr) =
+        handover(&["protocol", "with", "--prior", hand_file.to_str().unwrap(), "--out", refused.to_str().unwrap()]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("learning.prior.q_star_deg[3]: sd is -1, expected a positive number"), "{stderr}");
+    assert!(!refused.exists(), "nothing written for a refused protocol");
+    let runs = dir.join("next-logs");
+    let (code, _, stderr) =
+        handover(&["dry-run", "--protocol", next.to_str().unwrap(), "--logs", runs.to_str().unwrap(), "--pace", "0"]);
+    assert_eq!(code, 0, "the next protocol runs: {stderr}");
     // A population file that does not fit the protocol is refused, naming the field.
     let bad = dir.join("bad-population.json");
     std::fs::write(&bad, r#"{"q_star_deg": [{"mean": 0, "sd": 1}], "w": []}"#).unwrap();
