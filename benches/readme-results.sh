@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Every scientific number in the README, regenerated from seeds of your choosing.
 # Builds the release binary, makes a venv with SciPy and pandas under target/, and runs
-# benches/readme_results.py with any arguments given (see its --help); about an hour on two
+# benches/readme_results.py with any arguments given (see its --help); about two hours on two
 # cores, resumable (finished steps are kept in its --out).
 #
 #   benches/readme-results.sh --seed 12000                 # every step
