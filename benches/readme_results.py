@@ -20,7 +20,7 @@ writes them, in the README's words, to OUT/report.md (and OUT/results.json):
   measured-particles   20 000 against 2000 particles in measured dry-run sessions (the 48
                        people of seed SEED, paired by session): distance to the true q*.
   next-prior           The pilot's fitted population as the next study's prior (`protocol
-                       with --prior`): 240 new people from the default population (seed
+                       with --prior-file`): 240 new people from the default population (seed
                        SEED+300), measured, under the written prior, the pilot's and the
                        people's own population; active − passive, and each condition's
                        change from the written prior.
@@ -282,10 +282,11 @@ def next_prior(args):
     d = os.path.join(args.out, f"next-prior-{args.seed}-{seed}-{n}")
     os.makedirs(d, exist_ok=True)
     written = protocol(os.path.join(d, "written.json"), "measured", args.particles)
-    fitted = os.path.join(d, "pilot-prior.json")
+    fitted = os.path.join(d, "pilot-prior", "protocol.json")
     if not os.path.exists(fitted):
-        run([args.handover, "protocol", "with", written, "--prior", os.path.join(pilot["out"], "pilot", "prior.json"),
-             "--out", fitted], os.path.join(d, "protocol-with.txt"))
+        run([args.handover, "protocol", "with", written, "--prior-file",
+             os.path.join(pilot["out"], "pilot", "prior.json"), "--out", os.path.dirname(fitted)],
+            os.path.join(d, "protocol-with.txt"))
     # The population the people come from, as the prior: the protocol's default population
     # (each joint's mean at the middle of the prior's range, its spread a sixth of it;
     # src/protocol/population.rs), each joint a normal truncated to the prior's range.

@@ -150,9 +150,7 @@ impl PopulationFit {
             alpha: None,
         }
     }
-}
 
-impl PopulationFit {
     /// The next study's prior from this fit, as a protocol's `learning.prior` section (q*
     /// in degrees): each learned component a normal with the fitted mean and spread,
     /// truncated to the support `written` (the sessions' prior, as their protocol wrote it)

@@ -47,20 +47,20 @@ enum ProtocolCommand {
     /// population of this one (`analyze --fit-population --out DIR` writes DIR/prior.json
     /// and DIR/population.json).
     ///
-    /// Writes: OUT, the protocol with those sections in place of its own, checked as
-    /// `protocol check` checks (refused if OUT exists); its summary on stdout.
-    #[command(group = clap::ArgGroup::new("section").required(true).multiple(true).args(["prior", "population"]))]
+    /// Writes: OUT/protocol.json, the protocol with those sections in place of its own,
+    /// checked as `protocol check` checks (refused if it exists); its summary on stdout.
+    #[command(group = clap::ArgGroup::new("section").required(true).multiple(true).args(["prior_file", "population_file"]))]
     With {
         /// The protocol JSON file (default: the embedded protocols/bike-handover.json).
         file: Option<PathBuf>,
         /// A `learning.prior` section (q* in degrees): the robot's prior over λ.
         #[arg(long, value_name = "FILE")]
-        prior: Option<PathBuf>,
+        prior_file: Option<PathBuf>,
         /// A `population` section (q* in degrees): whom dry runs and plans draw people from.
         #[arg(long, value_name = "FILE")]
-        population: Option<PathBuf>,
-        /// Where to write the new protocol.
-        #[arg(long, value_name = "FILE")]
+        population_file: Option<PathBuf>,
+        /// The folder the new protocol.json is written into.
+        #[arg(long, value_name = "DIR")]
         out: PathBuf,
     },
 }
@@ -70,17 +70,17 @@ const BODY_RANGE_CM: (u32, u32, u32) = (150, 195, 5);
 
 pub fn run(args: ProtocolArgs) -> Result<()> {
     match args.command {
-        ProtocolCommand::With { file, prior, population, out } => {
+        ProtocolCommand::With { file, prior_file, population_file, out } => {
             let (text, study) = load_protocol(file.as_deref())?;
             let mut v: serde_json::Value = serde_json::from_str(&text)?;
             let mut from = Vec::new();
-            if let Some(path) = &prior {
+            if let Some(path) = &prior_file {
                 let name = path.display().to_string();
                 let spec: PriorSpec = parse_json(&read_text(path)?, &name)?;
                 v["learning"]["prior"] = serde_json::to_value(spec)?;
                 from.push(format!("the prior of {name}"));
             }
-            if let Some(path) = &population {
+            if let Some(path) = &population_file {
                 let name = path.display().to_string();
                 let spec: PopulationSpec = parse_json(&read_text(path)?, &name)?;
                 v["population"] = serde_json::to_value(spec)?;
@@ -91,11 +91,12 @@ pub fn run(args: ProtocolArgs) -> Result<()> {
             let study = std::sync::Arc::new(Study::from_json(&text, &name).map_err(|e| bad(e.to_string()))?);
             check_runs(std::sync::Arc::clone(&study))
                 .map_err(|e| bad(format!("{}: the protocol does not run: {e}", study.source_name)))?;
-            handover::private_files::create_file(&out)
-                .and_then(|mut f| std::io::Write::write_all(&mut f, text.as_bytes()))
-                .map_err(|e| bad(format!("{}: cannot write the protocol: {e}", out.display())))?;
+            let path = out.join("protocol.json");
+            handover::private_files::create_dir(&out)
+                .and_then(|()| handover::private_files::write_new(&path, text.as_bytes()))
+                .map_err(|e| bad(format!("{}: cannot write the protocol: {e}", path.display())))?;
             out!("{}", summary(&study));
-            outln!("wrote {}", out.display());
+            outln!("wrote {}", path.display());
             Ok(())
         }
         ProtocolCommand::Check { file, bodies: true, .. } => {

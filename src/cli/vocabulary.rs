@@ -58,6 +58,18 @@ pub const CONCEPTS: &[Concept] = &[
     c("left-handed-share", "FRACTION", Some("0.1"), "the share of left-handed participants drawn"),
     c("population", "POPULATION", Some("protocol"), "whom simulated participants' λ are drawn from"),
     c(
+        "population-file",
+        "FILE",
+        None,
+        "a protocol's `population` section (q* in degrees), e.g. the one `analyze --fit-population` writes",
+    ),
+    c(
+        "prior-file",
+        "FILE",
+        None,
+        "a protocol's `learning.prior` section (q* in degrees), e.g. the next study's that `analyze --fit-population` writes",
+    ),
+    c(
         "precision",
         "PRECISION",
         Some("float64"),

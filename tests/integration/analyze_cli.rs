@@ -541,46 +541,46 @@ fn a_population_fitted_from_pilots_plans_the_next_study() {
             assert!((c["mean"].as_f64().unwrap() - mean).abs() < 1e-9, "joint {joint}: {c} vs {mean}");
         }
     }
-    let next = dir.join("next.json");
+    let next_dir = dir.join("next");
     let (code, stdout, stderr) = handover(&[
         "protocol",
         "with",
         protocol.to_str().unwrap(),
-        "--prior",
+        "--prior-file",
         prior_file.to_str().unwrap(),
-        "--population",
+        "--population-file",
         file.to_str().unwrap(),
         "--out",
-        next.to_str().unwrap(),
+        next_dir.to_str().unwrap(),
     ]);
     assert_eq!(code, 0, "{stderr}");
     assert!(stdout.contains("with the prior of") && stdout.contains("the protocol's population"), "{stdout}");
+    let next = next_dir.join("protocol.json");
     let written: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&next).unwrap()).unwrap();
     assert_eq!(written["learning"]["prior"], prior);
     assert_eq!(written["population"], section);
-    // Never over an existing file, and a section that does not fit is refused by name.
-    let (code, _, stderr) =
-        handover(&["protocol", "with", "--prior", prior_file.to_str().unwrap(), "--out", next.to_str().unwrap()]);
+    // Never over an existing protocol.
+    let with_prior = |prior: &Path, out: &Path| {
+        handover(&["protocol", "with", "--prior-file", prior.to_str().unwrap(), "--out", out.to_str().unwrap()])
+    };
+    let (code, _, stderr) = with_prior(&prior_file, &next_dir);
     assert_eq!(code, 2, "{stderr}");
-    assert!(stderr.contains("next.json: cannot write the protocol"), "{stderr}");
+    assert!(stderr.contains("protocol.json: cannot write the protocol"), "{stderr}");
     // A normal written by hand is the prior the summary names; a bad one is refused by field.
     let mut hand: serde_json::Value = prior.clone();
     hand["q_star_deg"][3] = serde_json::json!({"kind": "gaussian", "mean": 88, "sd": 12, "min": 40, "max": 130});
     let hand_file = dir.join("hand-prior.json");
     std::fs::write(&hand_file, hand.to_string()).unwrap();
-    let hand_next = dir.join("hand-next.json");
-    let (code, stdout, stderr) =
-        handover(&["protocol", "with", "--prior", hand_file.to_str().unwrap(), "--out", hand_next.to_str().unwrap()]);
+    let (code, stdout, stderr) = with_prior(&hand_file, &dir.join("hand-next"));
     assert_eq!(code, 0, "{stderr}");
     assert!(stdout.contains("q*4 normal 88.0 ± 12.0° on [40, 130]°"), "{stdout}");
     hand["q_star_deg"][3]["sd"] = (-1).into();
     std::fs::write(&hand_file, hand.to_string()).unwrap();
-    let refused = dir.join("refused.json");
-    let (code, _, stderr) =
-        handover(&["protocol", "with", "--prior", hand_file.to_str().unwrap(), "--out", refused.to_str().unwrap()]);
+    let refused = dir.join("refused");
+    let (code, _, stderr) = with_prior(&hand_file, &refused);
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("learning.prior.q_star_deg[3]: sd is -1, expected a positive number"), "{stderr}");
-    assert!(!refused.exists(), "nothing written for a refused protocol");
+    assert!(!refused.join("protocol.json").exists(), "nothing written for a refused protocol");
     let runs = dir.join("next-logs");
     let (code, _, stderr) =
         handover(&["dry-run", "--protocol", next.to_str().unwrap(), "--logs", runs.to_str().unwrap(), "--pace", "0"]);
