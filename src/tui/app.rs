@@ -448,7 +448,7 @@ impl App {
     /// simulated participant act.
     pub fn tick(&mut self, now_ns: u64) {
         self.now_ns = now_ns;
-        self.collect();
+        self.collect_reports();
         while !self.busy() {
             let Some(k) = self.pending.pop_front() else { break };
             self.key(k);
@@ -527,10 +527,6 @@ impl App {
 
     fn wait_worker(&mut self) {
         self.poll_worker(None);
-    }
-
-    fn collect(&mut self) {
-        self.collect_reports();
     }
 
     /// What the screens show of what the session did.
