@@ -110,16 +110,56 @@ impl PopulationFile {
         study: handover::protocol::Study,
     ) -> anyhow::Result<(String, handover::protocol::Study)> {
         let Some(Self(name, spec)) = file else { return Ok((text, study)) };
-        let mut v: serde_json::Value = serde_json::from_str(&text)?;
-        v["population"] = serde_json::to_value(spec)?;
-        let text = serde_json::to_string_pretty(&v)? + "\n";
-        let study = handover::protocol::Study::from_json(
-            &text,
-            &format!("{} with the population of {name}", study.source_name),
-        )
-        .map_err(|e| bad(e.to_string()))?;
-        Ok((text, study))
+        with_sections(&text, &study, &[Section::population(spec, name)?])
     }
+}
+
+/// A section put into a protocol in place of its own: where, what, and whence (for the
+/// protocol's name in messages, e.g. "the population of FILE").
+pub struct Section {
+    path: &'static [&'static str],
+    value: serde_json::Value,
+    from: String,
+}
+
+impl Section {
+    /// A `population` section read from `name`.
+    pub fn population(spec: &handover::protocol::PopulationSpec, name: &str) -> anyhow::Result<Self> {
+        Ok(Self {
+            path: &["population"],
+            value: serde_json::to_value(spec)?,
+            from: format!("the population of {name}"),
+        })
+    }
+
+    /// A `learning.prior` section read from `name`.
+    pub fn prior(spec: &handover::protocol::PriorSpec, name: &str) -> anyhow::Result<Self> {
+        Ok(Self {
+            path: &["learning", "prior"],
+            value: serde_json::to_value(spec)?,
+            from: format!("the prior of {name}"),
+        })
+    }
+}
+
+/// The protocol `text` with `sections` in place of its own, checked as a protocol file is
+/// (the text changes with them: logs embed what their sessions ran with); an invalid result
+/// is bad input.
+pub fn with_sections(
+    text: &str,
+    study: &handover::protocol::Study,
+    sections: &[Section],
+) -> anyhow::Result<(String, handover::protocol::Study)> {
+    let mut v: serde_json::Value = serde_json::from_str(text)?;
+    for s in sections {
+        let slot = s.path.iter().fold(&mut v, |v, key| &mut v[*key]);
+        *slot = s.value.clone();
+    }
+    let text = serde_json::to_string_pretty(&v)? + "\n";
+    let from: Vec<&str> = sections.iter().map(|s| s.from.as_str()).collect();
+    let name = format!("{} with {}", study.source_name, from.join(" and "));
+    let study = handover::protocol::Study::from_json(&text, &name).map_err(|e| bad(e.to_string()))?;
+    Ok((text, study))
 }
 
 /// A hand on the command line: `left` or `right`.

@@ -11,7 +11,9 @@ use handover::protocol::Study;
 
 use handover::session::check_runs;
 
-use super::input::{HandArg, bad, body_height as checked_height, load_protocol, parse_json, read_text};
+use super::input::{
+    HandArg, Section, bad, body_height as checked_height, load_protocol, parse_json, read_text, with_sections,
+};
 use handover::kinematics::Hand;
 use handover::protocol::{Body, PopulationSpec, PriorSpec, for_body};
 
@@ -72,23 +74,17 @@ pub fn run(args: ProtocolArgs) -> Result<()> {
     match args.command {
         ProtocolCommand::With { file, prior_file, population_file, out } => {
             let (text, study) = load_protocol(file.as_deref())?;
-            let mut v: serde_json::Value = serde_json::from_str(&text)?;
-            let mut from = Vec::new();
+            let mut sections = Vec::new();
             if let Some(path) = &prior_file {
                 let name = path.display().to_string();
-                let spec: PriorSpec = parse_json(&read_text(path)?, &name)?;
-                v["learning"]["prior"] = serde_json::to_value(spec)?;
-                from.push(format!("the prior of {name}"));
+                sections.push(Section::prior(&parse_json::<PriorSpec>(&read_text(path)?, &name)?, &name)?);
             }
             if let Some(path) = &population_file {
                 let name = path.display().to_string();
-                let spec: PopulationSpec = parse_json(&read_text(path)?, &name)?;
-                v["population"] = serde_json::to_value(spec)?;
-                from.push(format!("the population of {name}"));
+                sections.push(Section::population(&parse_json::<PopulationSpec>(&read_text(path)?, &name)?, &name)?);
             }
-            let text = serde_json::to_string_pretty(&v)? + "\n";
-            let name = format!("{} with {}", study.source_name, from.join(" and "));
-            let study = std::sync::Arc::new(Study::from_json(&text, &name).map_err(|e| bad(e.to_string()))?);
+            let (text, study) = with_sections(&text, &study, &sections)?;
+            let study = std::sync::Arc::new(study);
             check_runs(std::sync::Arc::clone(&study))
                 .map_err(|e| bad(format!("{}: the protocol does not run: {e}", study.source_name)))?;
             let path = out.join("protocol.json");
