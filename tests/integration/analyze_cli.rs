@@ -526,18 +526,21 @@ fn a_population_fitted_from_pilots_plans_the_next_study() {
     // elsewhere.
     let prior_file = out.join("pilot/prior.json");
     let prior: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&prior_file).unwrap()).unwrap();
-    let csv_rows: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
-    for row in &csv_rows {
-        let joint: usize = row[1].parse().unwrap();
-        let determined = row[11] == "false" && [4, 5, 7, 8].iter().all(|&k| !row[k].is_empty());
+    assert!(analyzed.contains("pilot/prior.json: the fitted population is the prior of"), "{analyzed}");
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    for line in lines {
+        let row: std::collections::HashMap<&str, &str> = header.iter().copied().zip(line.split(',')).collect();
+        let joint: usize = row["joint"].parse().unwrap();
+        let determined = row["sd_at_floor"] == "false"
+            && ["mean_low", "mean_high", "sd_low", "sd_high"].iter().all(|k| !row[k].is_empty());
         let c = &prior["q_star_deg"][joint - 1];
-        assert!(analyzed.contains("pilot/prior.json: the fitted population is the prior of"), "{analyzed}");
         if !determined {
             assert_eq!(c["kind"], "uniform", "joint {joint}, not determined, keeps its prior: {prior}");
             assert!(analyzed.contains(&format!("q*{joint}")), "joint {joint} is named: {analyzed}");
         } else {
             assert_eq!(c["kind"], "gaussian", "joint {joint}: {prior}");
-            let mean: f64 = row[3].parse().unwrap();
+            let mean: f64 = row["mean"].parse().unwrap();
             assert!((c["mean"].as_f64().unwrap() - mean).abs() < 1e-9, "joint {joint}: {c} vs {mean}");
         }
     }
