@@ -110,6 +110,13 @@ def distances_at_last(out_dir):
     return {(r.seed, r.condition): r.distance_to_truth_deg for r in b.itertuples()}
 
 
+def default_population(low, high):
+    """The protocol's default population of a joint whose prior range is [low, high] (mean,
+    sd): the mean at the middle of the range, the spread a sixth of it
+    (src/protocol/population.rs; no command prints it)."""
+    return (low + high) / 2, (high - low) / 6
+
+
 def pilot_study(args, seed, observation):
     d = os.path.join(args.out, f"pilot-{observation}-{seed}")
     os.makedirs(d, exist_ok=True)
@@ -125,10 +132,8 @@ def pilot_study(args, seed, observation):
              "--out", out], os.path.join(d, "analyze.txt"))
     pop = pd.read_csv(os.path.join(out, "pilot", "population.csv"))
     pop = pop[pop.part == "q_star"]
-    # The people came from the protocol's default population: each joint's mean at the middle
-    # of the prior's range, its spread a sixth of it (src/protocol/population.rs).
-    true_mean = (pop.support_min + pop.support_max) / 2
-    true_sd = (pop.support_max - pop.support_min) / 6
+    # The people came from the protocol's default population.
+    true_mean, true_sd = default_population(pop.support_min, pop.support_max)
     means_with = pop.mean_low.notna()
     sds_with = pop.sd_low.notna()
     means_held = means_with & (pop.mean_low <= true_mean) & (true_mean <= pop.mean_high)
@@ -287,15 +292,14 @@ def next_prior(args):
         run([args.handover, "protocol", "with", written, "--prior-file",
              os.path.join(pilot["out"], "pilot", "prior.json"), "--out", os.path.dirname(fitted)],
             os.path.join(d, "protocol-with.txt"))
-    # The population the people come from, as the prior: the protocol's default population
-    # (each joint's mean at the middle of the prior's range, its spread a sixth of it;
-    # src/protocol/population.rs), each joint a normal truncated to the prior's range.
+    # The population the people come from, as the prior: each joint a normal truncated to
+    # the prior's range.
     true_prior = os.path.join(d, "population-prior.json")
     with open(written) as f:
         p = json.load(f)
-    p["learning"]["prior"]["q_star_deg"] = [
-        {"kind": "gaussian", "mean": (c["min"] + c["max"]) / 2, "sd": (c["max"] - c["min"]) / 6, "min": c["min"],
-         "max": c["max"]} for c in p["learning"]["prior"]["q_star_deg"]]
+    for c in p["learning"]["prior"]["q_star_deg"]:
+        mean, sd = default_population(c["min"], c["max"])
+        c.update(kind="gaussian", mean=mean, sd=sd)
     with open(true_prior, "w") as f:
         json.dump(p, f, indent=1)
     dist = {}
