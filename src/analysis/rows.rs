@@ -4,7 +4,7 @@
 
 use crate::kinematics::{ArmConfig, JOINT_NAMES};
 use crate::protocol::ObservationModel;
-use crate::session::{Applied, Event, RobotState, Session, Stamped, program_letter};
+use crate::session::{Applied, Event, RobotState, Session, Stamped, TrialView, program_letter};
 
 /// What became of one presentation of a query.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -30,9 +30,12 @@ impl TrialStatus {
     }
 }
 
-/// One presentation of a query.
+/// One presentation of a query, or a trial voided before its query was presented (the robot
+/// never reached the pose).
 #[derive(Clone, Debug, PartialEq)]
 pub struct TrialRow {
+    /// The `/trial/query` event's index; for a trial voided before it was presented, the
+    /// `/trial/void` event's.
     pub event_index: usize,
     pub phase: &'static str,
     pub condition: Option<&'static str>,
@@ -47,7 +50,8 @@ pub struct TrialRow {
     pub region: Option<(String, String)>,
     pub config_index: Option<usize>,
     pub configuration: Option<ArmConfig>,
-    pub presented_ns: u64,
+    /// None: voided before its query was presented.
+    pub presented_ns: Option<u64>,
     pub responded_ns: Option<u64>,
     pub void_reason: Option<&'static str>,
     pub void_detail: String,
@@ -120,29 +124,7 @@ impl RowCollector {
     pub fn visit(&mut self, session: &Session, index: usize, stamped: &Stamped, applied: &Applied) {
         match applied {
             Applied::Presented { view, .. } => {
-                let q = session.query(view.query);
-                let object = session.study().object(q);
-                self.trials.push(TrialRow {
-                    event_index: index,
-                    phase: view.phase.name(),
-                    condition: view.condition.map(|c| c.name()),
-                    program: view.program.map(program_letter),
-                    trial: view.trial,
-                    query: q.query.id.clone(),
-                    query_label: q.query.label.clone(),
-                    object: object.id.clone(),
-                    object_label: object.label.clone(),
-                    status: TrialStatus::Unanswered,
-                    region: None,
-                    config_index: None,
-                    configuration: None,
-                    presented_ns: stamped.time_ns,
-                    responded_ns: None,
-                    void_reason: None,
-                    void_detail: String::new(),
-                    learned_from: None,
-                    measured: None,
-                });
+                self.trials.push(TrialRow::opened(session, view, index, Some(stamped.time_ns)));
                 self.open = Some(self.trials.len() - 1);
             }
             Applied::Responded { record, .. } => {
@@ -178,16 +160,24 @@ impl RowCollector {
                     self.open = Some(self.trials.len() - 1);
                 }
             }
-            Applied::Voided { .. } => {
-                if let (Some(i), Event::TrialVoided { reason, detail }) = (self.open.take(), &stamped.event) {
-                    let row = &mut self.trials[i];
-                    row.status = TrialStatus::Voided;
-                    row.void_reason = Some(reason.label());
-                    row.void_detail = detail.clone();
-                }
+            Applied::Voided { view, .. } => {
+                let Event::TrialVoided { reason, detail } = &stamped.event else { return };
+                // The presentation under way (answered or not); with none, the trial the robot
+                // was sent to and never presented gets a row of its own.
+                let i = self.open.take().unwrap_or_else(|| {
+                    self.trials.push(TrialRow::opened(session, view, index, None));
+                    self.trials.len() - 1
+                });
+                let row = &mut self.trials[i];
+                row.status = TrialStatus::Voided;
+                row.void_reason = Some(reason.name());
+                row.void_detail = detail.clone();
             }
             Applied::RobotCommanded { view, attempt } => {
                 let Event::RobotCommanded { query, link, pose } = &stamped.event else { return };
+                // The robot moves on: the last presentation is closed (its grasp can no longer
+                // be undone or voided).
+                self.open = None;
                 self.robot.push(RobotRow {
                     event_index: index,
                     phase: view.phase.name(),
@@ -227,6 +217,36 @@ impl RowCollector {
                     self.notes.push(NoteRow { event_index: index, time_ns: stamped.time_ns, text: text.clone() });
                 }
             }
+        }
+    }
+}
+
+impl TrialRow {
+    /// A row for the trial `view` shows, opened by event `index` (presented at `presented_ns`,
+    /// or never presented), and not yet answered.
+    fn opened(session: &Session, view: &TrialView, index: usize, presented_ns: Option<u64>) -> Self {
+        let q = session.query(view.query);
+        let object = session.study().object(q);
+        TrialRow {
+            event_index: index,
+            phase: view.phase.name(),
+            condition: view.condition.map(|c| c.name()),
+            program: view.program.map(program_letter),
+            trial: view.trial,
+            query: q.query.id.clone(),
+            query_label: q.query.label.clone(),
+            object: object.id.clone(),
+            object_label: object.label.clone(),
+            status: TrialStatus::Unanswered,
+            region: None,
+            config_index: None,
+            configuration: None,
+            presented_ns,
+            responded_ns: None,
+            void_reason: None,
+            void_detail: String::new(),
+            learned_from: None,
+            measured: None,
         }
     }
 }
@@ -287,7 +307,7 @@ impl TrialRow {
         ];
         v.extend((0..JOINT_NAMES.len()).map(|j| opt(self.configuration.map(|q| q[j].to_string()))));
         v.extend([
-            rfc3339_ms(self.presented_ns),
+            opt(self.presented_ns.map(rfc3339_ms)),
             opt(self.responded_ns.map(rfc3339_ms)),
             opt(self.void_reason.map(String::from)),
             self.void_detail.clone(),

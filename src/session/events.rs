@@ -69,6 +69,17 @@ impl VoidReason {
     pub const ALL: [VoidReason; 4] =
         [VoidReason::Dropped, VoidReason::RobotFault, VoidReason::ParticipantNotReady, VoidReason::Other];
 
+    /// The name the log and the tables use (`robot-fault`), as serde writes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            VoidReason::Dropped => "dropped",
+            VoidReason::RobotFault => "robot-fault",
+            VoidReason::ParticipantNotReady => "participant-not-ready",
+            VoidReason::Other => "other",
+        }
+    }
+
+    /// The name the console shows.
     pub fn label(self) -> &'static str {
         match self {
             VoidReason::Dropped => "object dropped",

@@ -376,3 +376,10 @@ fn a_second_condition_shares_the_first_ones_scores_and_chooses_as_if_it_had_its_
         assert_eq!(shared.belief, own.belief, "{kind:?}");
     }
 }
+
+#[test]
+fn a_void_reason_s_name_is_the_one_the_log_writes() {
+    for r in VoidReason::ALL {
+        assert_eq!(serde_json::to_value(r).unwrap(), serde_json::Value::from(r.name()), "{r:?}");
+    }
+}

@@ -249,3 +249,55 @@ fn a_robot_in_the_loop_keeps_the_dry_runs_pace() {
     assert!(answers >= 26 + 8, "{answers}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A robot fault before a trial is presented voids that trial, not the one taken before it:
+/// trials.csv gives the taken trial `taken` and the trial the robot never reached a row of
+/// its own, `voided` for `robot-fault` with no presentation time (issue 58's reproduction).
+#[test]
+fn a_fault_before_presenting_voids_the_trial_the_robot_was_sent_to() {
+    let dir = tmpdir("fail-once");
+    let count = dir.join("calls");
+    let fail_once = script(
+        &dir,
+        "fail-once.sh",
+        &format!(
+            "cat > /dev/null\nn=$(( $(cat '{c}' 2>/dev/null || echo 0) + 1 ))\necho $n > '{c}'\n\
+             [ $n -eq 5 ] && {{ echo 'lost the object' >&2; exit 3; }}\nexit 0",
+            c = count.display()
+        ),
+    );
+    let (code, err) = dry_run(&dir, "logs", &["--robot-command", fail_once.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let out = dir.join("out");
+    let (code, stdout, err) = crate::support::handover(&[
+        "analyze",
+        dir.join("logs").to_str().unwrap(),
+        "--verify",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{stdout}{err}");
+    let mut r = csv::Reader::from_path(out.join("pilot/trials.csv")).unwrap();
+    let head = r.headers().unwrap().clone();
+    let col = |name: &str| head.iter().position(|h| h == name).unwrap();
+    let rows: Vec<csv::StringRecord> = r.records().map(|x| x.unwrap()).collect();
+    let first_run: Vec<&csv::StringRecord> = rows.iter().filter(|x| &x[col("program")] == "A").collect();
+    let status: Vec<(&str, &str)> = first_run.iter().take(6).map(|x| (&x[col("trial")], &x[col("status")])).collect();
+    assert_eq!(
+        status,
+        [("1", "taken"), ("2", "taken"), ("3", "taken"), ("4", "taken"), ("5", "voided"), ("5", "taken")],
+        "{rows:?}"
+    );
+    let void = first_run[4];
+    assert_eq!(&void[col("void_reason")], "robot-fault");
+    assert_eq!(&void[col("void_detail")], "robot failed: exit status 3: lost the object");
+    assert_eq!(&void[col("presented_at")], "", "never presented");
+    assert_eq!(&void[col("region")], "");
+    assert_eq!(&first_run[3][col("region")].is_empty(), &false, "trial 4 keeps its grasp");
+    assert_eq!(rows.iter().filter(|x| &x[col("status")] == "taken").count(), 26);
+    assert_eq!(rows.iter().filter(|x| &x[col("status")] == "voided").count(), 1);
+    // The void row's event index is the /trial/void event's.
+    let log = the_log(&dir.join("logs"));
+    let index: usize = void[col("event_index")].parse().unwrap();
+    assert!(matches!(log.events[index - 1].event, Event::TrialVoided { reason: VoidReason::RobotFault, .. }));
+}
