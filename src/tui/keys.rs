@@ -465,6 +465,40 @@ pub fn why_not(mode: Mode, key: KeyEvent) -> Option<String> {
     })
 }
 
+/// Every key press that acts in `mode` now, from the binding table: each digit up to its
+/// count, one typed letter for a line editor, Ctrl and a letter, the robot's letters with a
+/// robot. What a seeded random operator presses (`tests/integration/log_reader.rs`).
+pub fn keys_that_act(mode: Mode, counts: Counts) -> Vec<KeyEvent> {
+    let plain = |code| KeyEvent::new(code, KeyModifiers::NONE);
+    let mut out: Vec<KeyEvent> = Vec::new();
+    for b in BINDINGS.iter().filter(|b| b.modes.contains(&mode) && acts(b, counts)) {
+        let presses: Vec<KeyEvent> = match b.keys {
+            Keys::Char(c) | Keys::RobotChar(c) => vec![plain(KeyCode::Char(c))],
+            Keys::Ctrl(c) => vec![KeyEvent::new(KeyCode::Char(c), KeyModifiers::CONTROL)],
+            Keys::Enter => vec![plain(KeyCode::Enter)],
+            Keys::Esc => vec![plain(KeyCode::Esc)],
+            Keys::Tab => vec![plain(KeyCode::Tab)],
+            Keys::Left => vec![plain(KeyCode::Left)],
+            Keys::Right => vec![plain(KeyCode::Right)],
+            Keys::Up => vec![plain(KeyCode::Up)],
+            Keys::Down => vec![plain(KeyCode::Down)],
+            Keys::Backspace => vec![plain(KeyCode::Backspace)],
+            Keys::Typed => vec![plain(KeyCode::Char('x'))],
+            Keys::Digits(p) => (1..=counts.of(p).min(9))
+                .filter_map(|d| char::from_digit(d as u32, 10))
+                .map(|c| plain(KeyCode::Char(c)))
+                .collect(),
+        };
+        for k in presses {
+            // A key bound twice in a mode acts by its first binding.
+            if action_for(mode, k, counts).is_some() && !out.contains(&k) {
+                out.push(k);
+            }
+        }
+    }
+    out
+}
+
 /// The footer's hints for a mode: (keys, what), in table order; bindings of one action
 /// with the same hint are merged ("←/→").
 pub fn hints(mode: Mode, counts: Counts) -> Vec<(String, &'static str)> {

@@ -17,6 +17,7 @@ mod hostile_inputs;
 mod indexed_readers;
 mod learning_ahead;
 mod live_view;
+mod log_reader;
 mod measured_session;
 mod outputs;
 mod plan_cli;
