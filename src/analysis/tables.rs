@@ -219,7 +219,7 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
         }),
     )?;
     // trials.csv: its rows carry their own columns (the joints' names among them).
-    let mut w = csv::Writer::from_writer(crate::private_files::create_output(&dir.join("trials.csv"))?);
+    let mut w = csv::Writer::from_writer(Vec::new());
     let mut head = vec!["session_id".to_string(), "participant".to_string()];
     head.extend(trial_columns());
     w.write_record(&head)?;
@@ -231,7 +231,8 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
             w.write_record(&row)?;
         }
     }
-    w.flush()?;
+    let text = w.into_inner().map_err(|e| e.into_error())?;
+    crate::private_files::write_output(&dir.join("trials.csv"), &text)?;
     write_csv(
         &dir.join("notes.csv"),
         group.iter().flat_map(|a| {

@@ -285,3 +285,96 @@ fn resume_by_participant_finds_the_unfinished_session() {
     assert!(err.contains("--participant"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Runs `args` in `dir` and sends it SIGTERM after `after`; whether it had finished first.
+fn terminated_after(dir: &Path, args: &[&str], after: std::time::Duration) -> bool {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_handover"))
+        .args(args)
+        .current_dir(dir)
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(after);
+    let done = child.try_wait().unwrap().is_some();
+    // SAFETY: kill(2) on our own child's id, which it keeps until we wait for it.
+    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+    child.wait().unwrap();
+    done
+}
+
+/// The files under `dir` whose names do not start with a dot, by path relative to it.
+fn visible_files(dir: &Path) -> std::collections::BTreeMap<PathBuf, Vec<u8>> {
+    let mut out = std::collections::BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        let Ok(entries) = std::fs::read_dir(&d) else { continue };
+        for e in entries.flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if !e.file_name().to_string_lossy().starts_with('.') {
+                out.insert(p.strip_prefix(dir).unwrap().to_path_buf(), std::fs::read(&p).unwrap());
+            }
+        }
+    }
+    out
+}
+
+/// SIGTERM at any moment of `protocol with` or `analyze --out` leaves each file it writes
+/// whole or absent, and a rerun completes: 24 terminations of each, spread over the
+/// command's own run time.
+#[test]
+fn a_command_terminated_while_writing_leaves_only_whole_files() {
+    let dir = tmpdir("sigterm");
+    small_protocol(&dir);
+    let prior: serde_json::Value = serde_json::from_str::<serde_json::Value>(handover::protocol::DEFAULT_PROTOCOL)
+        .unwrap()["learning"]["prior"]
+        .clone();
+    std::fs::write(dir.join("prior.json"), prior.to_string()).unwrap();
+    assert_eq!(
+        handover_in(&dir, &["dry-run", "--protocol", "small.json", "--participants", "2", "--logs", "logs"]).0,
+        0
+    );
+    let cases: [(&str, Vec<&str>); 2] = [
+        ("next", vec!["protocol", "with", "small.json", "--prior-file", "prior.json", "--out"]),
+        ("out", vec!["analyze", "logs", "--alpha-particles", "100", "--out"]),
+    ];
+    for (name, args) in cases {
+        let reference = dir.join(format!("{name}-reference"));
+        let mut whole = args.clone();
+        whole.push(reference.to_str().unwrap());
+        let t = std::time::Instant::now();
+        let (code, out, err) = handover_in(&dir, &whole);
+        assert_eq!(code, 0, "{out}{err}");
+        let took = t.elapsed();
+        let expected = visible_files(&reference);
+        let mut finished = 0;
+        for k in 0..24u32 {
+            let at = dir.join(format!("{name}-{k}"));
+            let mut run = args.clone();
+            run.push(at.to_str().unwrap());
+            finished += usize::from(terminated_after(&dir, &run, took.mul_f64(f64::from(k) / 20.0)));
+            for (file, bytes) in visible_files(&at) {
+                assert_eq!(
+                    Some(&bytes),
+                    expected.get(&file),
+                    "{name} terminated at {k}/20 of its time: {} is cut",
+                    file.display()
+                );
+            }
+            // The rerun completes (a protocol written whole is never overwritten: refused).
+            let existed = at.join("protocol.json").exists();
+            let (code, out, err) = handover_in(&dir, &run);
+            if name == "next" && existed {
+                assert_eq!(code, 2, "{out}{err}");
+                assert!(err.contains("exists"), "{err}");
+            } else {
+                assert_eq!(code, 0, "{name} after a termination: {out}{err}");
+                assert_eq!(visible_files(&at), expected);
+            }
+        }
+        assert!(finished < 24, "{name}: every run finished before its SIGTERM");
+    }
+}
