@@ -227,6 +227,12 @@ fn pixel_rect<DB: DrawingBackend, CT: CoordTranslate>(area: &DrawingArea<DB, CT>
     (x, y, x + w as i32, y + h as i32)
 }
 
+/// Whether PDF and PNG figures can be drawn here (a sans-serif font is found): asked before a
+/// command's work, so that it never fails after writing its tables.
+pub fn check_fonts() -> Result<(), PlotError> {
+    fonts().map(|_| ())
+}
+
 /// Fonts for PDF and PNG: the system's, with a common sans-serif face for "sans-serif".
 fn fonts() -> Result<Arc<resvg::usvg::fontdb::Database>, PlotError> {
     static FONTS: OnceLock<Result<Arc<resvg::usvg::fontdb::Database>, String>> = OnceLock::new();

@@ -133,6 +133,7 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
         )));
     }
     args.measured.check()?;
+    args.figures.check()?;
     let mut files = Vec::new();
     let paths = if args.paths.is_empty() {
         vec![StudyDirs::resolve(args.study_dir.as_deref(), args.participants.as_deref(), args.logs.as_deref()).logs]

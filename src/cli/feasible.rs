@@ -89,6 +89,7 @@ fn region_ids<'a>(study: &'a Study, q: &ResolvedQuery) -> Vec<&'a str> {
 }
 
 pub fn run(args: FeasibleArgs) -> Result<()> {
+    args.figures.check()?;
     let study = load_study(args.protocol.as_deref())?;
     let queries: Vec<&ResolvedQuery> = match &args.query {
         Some(id) => vec![study.query(id).ok_or_else(|| {

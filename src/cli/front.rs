@@ -47,6 +47,7 @@ pub struct FrontArgs {
 pub const TARGET: (f64, f64) = (1.25, 0.8);
 
 pub fn run(a: FrontArgs) -> Result<()> {
+    a.figures.check()?;
     for (name, values) in [("--betas", &a.betas), ("--epsilons", &a.epsilons)] {
         if let Some(v) = values.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
             return Err(bad(format!("{name} has {v}, expected non-negative numbers")));

@@ -47,6 +47,7 @@ pub struct ObservationsArgs {
 }
 
 pub fn run(a: ObservationsArgs) -> Result<()> {
+    a.figures.check()?;
     let (min, max) = handover::ergo::SIGMA_DEG;
     if let Some(s) = a.sigma_deg.iter().find(|s| !(s.is_finite() && (min..=max).contains(*s))) {
         return Err(bad(format!("--sigma-deg has {s}, expected {min} to {max:.1} degrees")));

@@ -116,6 +116,7 @@ fn check(a: &PlanArgs) -> Result<usize> {
 }
 
 pub fn run(args: PlanArgs) -> Result<()> {
+    args.figures.check()?;
     let largest = check(&args)?;
     let (text, study) = load_protocol(args.protocol.as_deref())?;
     let (text, study) = args.population.apply(text, study)?;

@@ -193,6 +193,7 @@ fn check(a: &SimulateArgs) -> Result<Checked> {
 }
 
 pub fn run(args: SimulateArgs) -> Result<()> {
+    args.figures.check()?;
     if args.scenario == ScenarioName::TwoSets
         && (args.observation != ObservationArg::Configuration || args.sigma_deg.is_some())
     {

@@ -358,3 +358,46 @@ fn every_format_is_written_png_at_300_dpi_and_pdf_with_its_fonts() {
     assert!(text.contains("/FontFile"), "the PDF embeds its fonts");
     assert!(text.contains("/MediaBox [0 0 252 "), "one column is 252 pt wide");
 }
+
+/// Without a sans-serif font, a command asked for PDF or PNG figures says so before it does
+/// any work (exit 2, the package named) and writes nothing; SVG needs none. The fonts are
+/// hidden by an empty file system over every folder the font loader searches, in a mount
+/// namespace of the command's own (`unshare --mount`, root).
+#[test]
+fn a_missing_font_is_found_before_any_work() {
+    use std::process::Command;
+    let hide = "for d in /usr/share/fonts /usr/local/share/fonts \"$HOME/.fonts\" \"$HOME/.local/share/fonts\"; do \
+                [ -d \"$d\" ] && mount -t tmpfs none \"$d\"; done; exec \"$@\"";
+    let can = Command::new("unshare")
+        .args(["--mount", "--propagation", "private", "sh", "-c", "mount -t tmpfs none /mnt"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !can {
+        return crate::support::missing("a mount namespace (unshare --mount needs root and util-linux)");
+    }
+    let dir = crate::support::tmpdir("no-font");
+    let logs = dir.join("logs");
+    let (code, out, err) = crate::support::handover(&["dry-run", "--logs", logs.to_str().unwrap()]);
+    assert_eq!(code, 0, "{out}{err}");
+    let run = |formats: &str, out: &Path| {
+        Command::new("unshare")
+            .args(["--mount", "--propagation", "private", "sh", "-c", hide, "sh"])
+            .arg(env!("CARGO_BIN_EXE_handover"))
+            .args(["analyze", logs.to_str().unwrap(), "--fit-population", "--alpha-particles", "50"])
+            .args(["--figure-formats", formats, "--out", out.to_str().unwrap()])
+            .output()
+            .unwrap()
+    };
+    for formats in ["pdf", "svg,png"] {
+        let out = dir.join(format!("out-{formats}"));
+        let o = run(formats, &out);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains("no sans-serif font") && err.contains("fonts-dejavu-core"), "{err}");
+        assert!(!out.exists(), "nothing is written: {err}");
+    }
+    let out = dir.join("out-svg");
+    let o = run("svg", &out);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.join("pilot/fig10.svg").exists());
+}
