@@ -13,6 +13,7 @@ pub mod experiment;
 pub mod input_file;
 pub mod kinematics;
 pub mod live;
+pub mod output_dir;
 pub mod participant;
 pub mod plan;
 pub mod plot;

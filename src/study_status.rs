@@ -80,6 +80,19 @@ pub struct Unreadable {
     pub error: String,
 }
 
+/// An output folder in the study (one with a `manifest.json`) and the withdrawn
+/// participants whose data it still holds.
+#[derive(Clone, Debug, Serialize)]
+pub struct OutputStatus {
+    pub dir: PathBuf,
+    pub command: String,
+    pub written_at: String,
+    /// False: the command that wrote it was cut short.
+    pub complete: bool,
+    pub sessions: usize,
+    pub holds_withdrawn: Vec<String>,
+}
+
 /// The study at a glance.
 #[derive(Clone, Debug, Serialize)]
 pub struct StudyStatus {
@@ -95,6 +108,10 @@ pub struct StudyStatus {
     pub next_slot: usize,
     pub open_sessions: Vec<OpenSession>,
     pub unreadable: Vec<Unreadable>,
+    /// The output folders under the study folder, by their manifests.
+    pub outputs: Vec<OutputStatus>,
+    /// Manifests that cannot be read.
+    pub unreadable_outputs: Vec<String>,
     /// The slot counts `slots` is made of (for the one-line balance).
     #[serde(skip)]
     pub counts: SlotCounts,
@@ -127,7 +144,7 @@ pub fn study_status(dirs: &StudyDirs, study: &Study) -> StudyStatus {
             (false, false) => pilot_sessions.not_over += 1,
         }
     }
-    let participants = registered(&dirs.participants)
+    let participants: Vec<ParticipantStatus> = registered(&dirs.participants)
         .into_iter()
         .map(|r| {
             let theirs: Vec<&&LogContents> =
@@ -146,6 +163,12 @@ pub fn study_status(dirs: &StudyDirs, study: &Study) -> StudyStatus {
             ParticipantStatus { id: r.id, slot: r.slot, state }
         })
         .collect();
+    let withdrawn: Vec<String> = participants
+        .iter()
+        .filter(|p| p.state == ParticipantState::Withdrawn)
+        .map(|p| p.id.clone())
+        .chain(deleted(&dirs.participants))
+        .collect();
     let open_sessions = heads
         .iter()
         .filter(|h| !is_over(h))
@@ -155,10 +178,15 @@ pub fn study_status(dirs: &StudyDirs, study: &Study) -> StudyStatus {
                 Event::GraspUndone => n.saturating_sub(1),
                 _ => n,
             });
-            let last_ns = h.events.last().map_or(0, |e| e.time_ns);
-            let last_event = chrono::DateTime::from_timestamp_nanos(last_ns as i64)
-                .to_rfc3339_opts(chrono::SecondsFormat::Secs, true);
-            let resume = if h.start.pilot {
+            // With no event after its start, the start is the last thing that happened.
+            let last_event = match h.events.last() {
+                Some(e) => chrono::DateTime::from_timestamp_nanos(e.time_ns as i64)
+                    .to_rfc3339_opts(chrono::SecondsFormat::Secs, true),
+                None => h.start.started_at.clone(),
+            };
+            let resume = if withdrawn.contains(&h.start.participant) {
+                String::new()
+            } else if h.start.pilot {
                 format!("handover resume {}", shell_word(&h.path.display().to_string()))
             } else {
                 dirs.resume_command(&h.start.participant)
@@ -187,7 +215,25 @@ pub fn study_status(dirs: &StudyDirs, study: &Study) -> StudyStatus {
             waiting: counts.waiting[slot],
         })
         .collect();
+    let mut errors = Vec::new();
+    let outputs = crate::output_dir::manifests(&dirs.root, &mut errors)
+        .into_iter()
+        .map(|(dir, m)| {
+            let mut holds: Vec<String> = withdrawn.iter().filter(|w| m.holds(w)).cloned().collect();
+            holds.sort();
+            OutputStatus {
+                dir,
+                command: m.command,
+                written_at: m.written_at,
+                complete: m.complete,
+                sessions: m.sessions.len(),
+                holds_withdrawn: holds,
+            }
+        })
+        .collect();
     StudyStatus {
+        outputs,
+        unreadable_outputs: errors.iter().map(ToString::to_string).collect(),
         participants_dir: dirs.participants.clone(),
         logs_dir: dirs.logs.clone(),
         participants,

@@ -8,6 +8,7 @@ use handover::analysis::{
     AlphaFit, AlphaSummary, Analysed, Collected, EVIDENCE_PARTICLES, MAX_EVIDENCE_PARTICLES, SUPPORT_DROP,
     SessionAnalysis, StudySummary, WithdrawnLeftOut, alpha_summary, collect, write_tables,
 };
+use handover::output_dir::{self, HeldSession};
 use handover::plot::{FigureStyle, LinePlot, PooledEvidence, Series, alpha_plot, bar_chart, mean_se_plot};
 use handover::record::{LogContents, mcap_files};
 use handover::session::program_letter;
@@ -169,7 +170,18 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
     let (real_alpha, pilot_alpha) = (alpha_of(false)?, alpha_of(true)?);
     bar.finish_and_clear();
     let refits = args.measured.run(&collected.analysed)?;
+    // The folder says which sessions made it; an earlier analysis's files there are removed.
+    let held: Vec<HeldSession> = collected
+        .analysed
+        .iter()
+        .map(|a| HeldSession {
+            session_id: a.log.start.session_id.clone(),
+            participant: a.log.start.participant.clone(),
+            pilot: a.log.start.pilot,
+        })
+        .collect();
     if let Some(dir) = &args.out {
+        output_dir::prepare(dir, "analyze", None, &held).map_err(super::input::output_dir_error)?;
         super::analyze_measured::write_csv(dir, &refits)?;
     }
     let populations = args.population.run(&collected.group(false), &collected.group(true))?;
@@ -185,6 +197,7 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
             }
             errln!("wrote {}", d.display());
         }
+        output_dir::finish(dir, "analyze", None, &held)?;
     }
     match args.format {
         Format::Json => {

@@ -8,6 +8,16 @@ use std::path::Path;
 #[error("{0}")]
 pub struct BadInput(pub String);
 
+/// An output folder that cannot be written into: bad input (exit 2) when it holds other
+/// files or a manifest that breaks the rules, else the I/O error.
+pub fn output_dir_error(e: handover::output_dir::OutputDirError) -> anyhow::Error {
+    use handover::output_dir::OutputDirError;
+    match e {
+        OutputDirError::Foreign { .. } | OutputDirError::BadManifest { .. } => bad(e.to_string()),
+        OutputDirError::Io { .. } => anyhow::Error::new(e),
+    }
+}
+
 /// Shorthand for a bad-input error.
 pub fn bad(msg: impl Into<String>) -> anyhow::Error {
     BadInput(msg.into()).into()

@@ -168,6 +168,7 @@ fn withdraw(id: &str, delete_data: bool, yes: bool, f: &StudyFolders) -> Result<
     let rec = ParticipantRecord::withdraw(&dirs.participants, id, &now).map_err(|e| bad(e.to_string()))?;
     let withdrawn_at = rec.withdrawn_at.clone().unwrap_or_default();
     errln!("{id} withdrew ({withdrawn_at}): no new sessions; analyze leaves their sessions out");
+    name_outputs_holding(&dirs.root, id);
     if !delete_data {
         return Ok(());
     }
@@ -211,6 +212,28 @@ fn withdraw(id: &str, delete_data: bool, yes: bool, f: &StudyFolders) -> Result<
     handover::private_files::sync_parent(&log_dir);
     errln!("deleted {} file(s) of {id}; kept {} (the id and dates, no data)", files.len(), tomb_path.display());
     Ok(())
+}
+
+/// Names every output folder under the study folder whose manifest says it holds `id`'s
+/// data (tables, fits, priors and protocols made from them): each must be made again
+/// without them, or deleted. Folders outside the study folder cannot be seen from here.
+fn name_outputs_holding(root: &std::path::Path, id: &str) {
+    let (found, errors) = handover::output_dir::holding(root, id);
+    for e in errors {
+        errln!("warning: {e}");
+    }
+    if found.is_empty() {
+        errln!("no output folder under {} holds {id}'s data (folders elsewhere are not searched)", root.display());
+        return;
+    }
+    errln!(
+        "warning: {} output folder(s) under {} still hold {id}'s data: make each again (its manifest.json names the command) or delete it:",
+        found.len(),
+        root.display()
+    );
+    for (dir, m) in found {
+        errln!("  {} (handover {}, {})", dir.display(), handover::text::printable(&m.command), m.written_at);
+    }
 }
 
 /// The files in a participant's log folder that `--delete-data` deletes: the regular files

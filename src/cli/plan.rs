@@ -6,10 +6,11 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Args;
 use handover::analysis::SEED_MEASURES;
 use handover::experiment::ShardManifest;
+use handover::output_dir;
 use handover::plan::{
     ObjectShareRow, PowerRow, SIGNIFICANCE, StudyObjectRow, StudyRow, object_share_rows, participant, power,
     session_in_memory, session_seconds, simulate_study, study_rows, study_seed,
@@ -115,6 +116,9 @@ fn check(a: &PlanArgs) -> Result<usize> {
     Ok(largest)
 }
 
+/// What a shard of a plan writes, and its merge reads.
+const SHARD_FILES: [&str; 2] = ["studies.csv", "study_objects.csv"];
+
 pub fn run(args: PlanArgs) -> Result<()> {
     args.figures.check()?;
     let largest = check(&args)?;
@@ -130,11 +134,17 @@ pub fn run(args: PlanArgs) -> Result<()> {
         args.seed,
         if from_prior { " people from the prior" } else { "" }
     );
+    let shard = args.shard.as_deref().map(super::shards::parse_shard).transpose()?;
+    // The folder is this run's (its options, and the shard): another run's is refused, a
+    // rerun of this one replaces its files.
+    let run_id = match shard {
+        Some((k, n)) => format!("{fingerprint}; shard {k}/{n}"),
+        None => fingerprint.clone(),
+    };
     for dir in args.out.iter() {
-        handover::private_files::create_dir(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        output_dir::prepare(dir, "plan", Some(&run_id), &[]).map_err(super::input::output_dir_error)?;
     }
     let started = Instant::now();
-    let shard = args.shard.as_deref().map(super::shards::parse_shard).transpose()?;
     if shard.is_some() && args.out.is_none() {
         return Err(bad("--shard needs --out DIR for the shard's files"));
     }
@@ -153,9 +163,9 @@ pub fn run(args: PlanArgs) -> Result<()> {
         write_csv(&dir.join("studies.csv"), &rows)?;
         write_csv(&dir.join("study_objects.csv"), &objects)?;
         let seconds = started.elapsed().as_secs_f64();
-        let files = ["studies.csv", "study_objects.csv"];
-        let manifest = super::shards::manifest(dir, fingerprint, (k, n), rows.len(), &files, seconds, threads)?;
+        let manifest = super::shards::manifest(dir, fingerprint, (k, n), rows.len(), &SHARD_FILES, seconds, threads)?;
         super::shards::write_manifest(dir, &manifest)?;
+        output_dir::finish(dir, "plan", Some(&run_id), &[])?;
         errln!(
             "shard {k}/{n}: {} rows in {:.1} s; wrote {}/studies.csv, study_objects.csv and shard.json",
             rows.len(),
@@ -185,6 +195,7 @@ pub fn run(args: PlanArgs) -> Result<()> {
         write_csv(&dir.join("power.csv"), &powers)?;
         write_csv(&dir.join("objects.csv"), &shares)?;
         plot(&dir.join("power.svg"), &study, &args, &powers)?;
+        output_dir::finish(dir, "plan", Some(&run_id), &[])?;
         errln!(
             "wrote {}/{{studies,study_objects,power,objects}}.csv and {}",
             dir.display(),
@@ -245,7 +256,7 @@ fn merge_shards(
     let mut rows: Vec<StudyRow> = Vec::new();
     let mut objects: Vec<StudyObjectRow> = Vec::new();
     let mut manifests = Vec::new();
-    for (dir, m) in super::shards::checked_shards(&args.merge, fingerprint)? {
+    for (dir, m) in super::shards::checked_shards(&args.merge, fingerprint, &SHARD_FILES)? {
         let shard_rows: Vec<StudyRow> = read_rows(&dir.join("studies.csv"), max_rows)?;
         super::shards::check_rows(dir, "studies.csv", shard_rows.len(), &m)?;
         rows.extend(shard_rows);

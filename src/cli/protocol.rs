@@ -1,18 +1,20 @@
 //! `handover protocol check [FILE]`: validate a protocol and summarise it; `handover
 //! protocol with`: a protocol with another prior or population section.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 use clap::{Args, Subcommand};
 use handover::belief::ResamplePolicy;
+use handover::output_dir::{self, Manifest};
 use handover::protocol::ObservationModel;
 use handover::protocol::Study;
 
 use handover::session::check_runs;
 
 use super::input::{
-    HandArg, Section, bad, body_height as checked_height, load_protocol, parse_json, read_text, with_sections,
+    HandArg, Section, bad, body_height as checked_height, load_protocol, output_dir_error, parse_json, read_text,
+    with_sections,
 };
 use handover::kinematics::Hand;
 use handover::protocol::{Body, PopulationSpec, PriorSpec, for_body};
@@ -88,9 +90,36 @@ pub fn run(args: ProtocolArgs) -> Result<()> {
             check_runs(std::sync::Arc::clone(&study))
                 .map_err(|e| bad(format!("{}: the protocol does not run: {e}", study.source_name)))?;
             let path = out.join("protocol.json");
-            handover::private_files::create_dir(&out)
-                .and_then(|()| handover::private_files::write_new(&path, text.as_bytes()))
+            if std::fs::symlink_metadata(&path).is_ok() {
+                return Err(bad(format!(
+                    "{}: exists; a protocol is never overwritten: give another --out",
+                    path.display()
+                )));
+            }
+            // The sessions a prior or population was fitted from are held by what is made of it.
+            let mut held = Vec::new();
+            for input in prior_file.iter().chain(&population_file) {
+                let folder = input.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+                // analyze writes a pilot's fit into DIR/pilot/, its manifest into DIR.
+                let manifest = match Manifest::read(folder).map_err(output_dir_error)? {
+                    Some(m) => Some(m),
+                    None => match folder.parent().filter(|p| !p.as_os_str().is_empty()) {
+                        Some(up) => Manifest::read(up).map_err(output_dir_error)?.filter(|m| m.command == "analyze"),
+                        None => None,
+                    },
+                };
+                if let Some(m) = manifest {
+                    for s in m.sessions {
+                        if !held.contains(&s) {
+                            held.push(s);
+                        }
+                    }
+                }
+            }
+            output_dir::prepare(&out, "protocol with", None, &held).map_err(output_dir_error)?;
+            handover::private_files::write_new(&path, text.as_bytes())
                 .map_err(|e| bad(format!("{}: cannot write the protocol: {e}", path.display())))?;
+            output_dir::finish(&out, "protocol with", None, &held)?;
             out!("{}", summary(&study));
             outln!("wrote {}", path.display());
             Ok(())

@@ -85,8 +85,13 @@ pub fn check_rows(dir: &Path, file: &str, rows: usize, manifest: &ShardManifest)
 
 /// The shard directories of a merge with their manifests, checked: every one of the run
 /// `fingerprint` and of this version, each shard once, none missing (the number of shards is
-/// the manifests'), each of its files as it wrote them. In the order given.
-pub fn checked_shards<'a>(dirs: &'a [PathBuf], fingerprint: &str) -> Result<Vec<(&'a Path, ShardManifest)>> {
+/// the manifests'), its manifest hashing exactly `files` (what the merge reads), each as the
+/// shard wrote it. In the order given.
+pub fn checked_shards<'a>(
+    dirs: &'a [PathBuf],
+    fingerprint: &str,
+    files: &[&str],
+) -> Result<Vec<(&'a Path, ShardManifest)>> {
     let mut seen: Vec<Option<&Path>> = Vec::new();
     let mut out = Vec::with_capacity(dirs.len());
     for dir in dirs {
@@ -108,6 +113,17 @@ pub fn checked_shards<'a>(dirs: &'a [PathBuf], fingerprint: &str) -> Result<Vec<
                 dir.display(),
                 crate_text(&m.version),
                 env!("CARGO_PKG_VERSION")
+            )));
+        }
+        let named: Vec<&str> = m.files.keys().map(String::as_str).collect();
+        let mut wanted = files.to_vec();
+        wanted.sort_unstable();
+        if named != wanted {
+            return Err(bad(format!(
+                "{}: \"files\" names {}, expected {}: every file the merge reads is checked by its hash",
+                path.display(),
+                crate_text(&named.join(", ")),
+                wanted.join(", ")
             )));
         }
         for (name, hash) in &m.files {

@@ -11,6 +11,7 @@ use handover::ergo::LearnMask;
 use handover::experiment::{
     self, Arm7, Planar2, Scenario, Settings, SimObservation, SummaryRow, paired_tests, summarise,
 };
+use handover::output_dir;
 use handover::plot::{LinePlot, Series, line_grid, mean_se_plot};
 use handover::select::{DEFAULT_BUDGET_EPSILON, DEFAULT_HYBRID_BETA, Precision, SelectorKind, Tradeoff};
 
@@ -204,8 +205,16 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         return pool.install(|| run_two_sets(&args));
     }
     let Checked { scenario, settings } = check(&args)?;
+    let fingerprint = format!("{} {settings:?} seeds {}", scenario.name(), args.seeds);
+    let shard = args.shard.as_deref().map(super::shards::parse_shard).transpose()?;
+    // The folder is this run's (its options, and the shard): another run's is refused, a
+    // rerun of this one replaces its files.
+    let run_id = match shard {
+        Some((k, n)) => format!("{fingerprint}; shard {k}/{n}"),
+        None => fingerprint.clone(),
+    };
     if let Some(dir) = &args.out {
-        handover::private_files::create_dir(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        output_dir::prepare(dir, "simulate", Some(&run_id), &[]).map_err(super::input::output_dir_error)?;
     }
     let bar = super::progress::bar(
         &format!("simulate {} {}", scenario.name(), settings.learn),
@@ -213,9 +222,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         "trials × seeds",
     );
     let started = Instant::now();
-    let fingerprint = format!("{} {settings:?} seeds {}", scenario.name(), args.seeds);
-    if let Some(text) = &args.shard {
-        let (k, n) = super::shards::parse_shard(text)?;
+    if let Some((k, n)) = shard {
         let dir = args.out.as_ref().ok_or_else(|| bad("--shard needs --out DIR for the shard's files"))?;
         let units = experiment::shard_units(args.seeds, settings.trials, k, n);
         bar.set_length(units.len() as u64);
@@ -231,6 +238,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         let manifest =
             super::shards::manifest(dir, fingerprint, (k, n), rows.len(), &["metrics.csv"], seconds, threads)?;
         super::shards::write_manifest(dir, &manifest)?;
+        output_dir::finish(dir, "simulate", Some(&run_id), &[])?;
         errln!(
             "shard {k}/{n}: {} of {} trials × seeds, {} rows in {:.1} s; wrote {}/metrics.csv and {}",
             units.len(),
@@ -328,6 +336,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
                 .collect();
             line_grid(&path, &args.figures.style(), &title, &plots, 2, Some(&vec![0; plots.len()]))?;
         }
+        output_dir::finish(dir, "simulate", Some(&run_id), &[])?;
         errln!(
             "wrote {}/{{metrics,summary,tests}}.csv and {} per measure",
             dir.display(),
@@ -349,7 +358,7 @@ fn merge_shards(
     let expected = seeds as usize * s.trials * per_unit;
     let mut rows = Vec::with_capacity(expected);
     let mut manifests = Vec::new();
-    for (dir, m) in super::shards::checked_shards(dirs, fingerprint)? {
+    for (dir, m) in super::shards::checked_shards(dirs, fingerprint, &["metrics.csv"])? {
         let shard_rows = experiment::read_metrics(&dir.join("metrics.csv"), expected).map_err(bad)?;
         super::shards::check_rows(dir, "metrics.csv", shard_rows.len(), &m)?;
         rows.extend(shard_rows);

@@ -41,6 +41,13 @@ pub fn run(args: StatusArgs) -> Result<()> {
     if !status.unreadable.is_empty() {
         anyhow::bail!("{} log(s) cannot be read", status.unreadable.len());
     }
+    let stale = status.outputs.iter().filter(|o| !o.holds_withdrawn.is_empty()).count();
+    if stale > 0 {
+        anyhow::bail!("{stale} output folder(s) hold the data of participants who withdrew: make them again");
+    }
+    if !status.unreadable_outputs.is_empty() {
+        anyhow::bail!("{} output manifest(s) cannot be read", status.unreadable_outputs.len());
+    }
     Ok(())
 }
 
@@ -92,10 +99,34 @@ fn print_table(s: &StudyStatus, labels: &[String]) -> Result<()> {
                 o.last_event,
                 o.log.display()
             );
-            if !o.live {
+            if !o.live && o.resume.is_empty() {
+                outln!("    the participant withdrew: not to be continued");
+            } else if !o.live {
                 outln!("    continue: {}", o.resume);
             }
         }
+    }
+    if !s.outputs.is_empty() {
+        outln!("Output folders (by their manifest.json):");
+        for o in &s.outputs {
+            let cut = if o.complete { "" } else { ", cut short" };
+            outln!(
+                "  {} (handover {}, {}{cut}): {} session(s)",
+                o.dir.display(),
+                handover::text::printable(&o.command),
+                o.written_at,
+                o.sessions
+            );
+            if !o.holds_withdrawn.is_empty() {
+                outln!(
+                    "    holds the data of {} who withdrew: make it again (or delete it)",
+                    o.holds_withdrawn.join(", ")
+                );
+            }
+        }
+    }
+    for e in &s.unreadable_outputs {
+        outln!("Output manifest that cannot be read: {e}");
     }
     if !s.unreadable.is_empty() {
         outln!("Logs that cannot be read (not counted):");

@@ -568,7 +568,7 @@ fn a_population_fitted_from_pilots_plans_the_next_study() {
     };
     let (code, _, stderr) = with_prior(&prior_file, &next_dir);
     assert_eq!(code, 2, "{stderr}");
-    assert!(stderr.contains("protocol.json: cannot write the protocol"), "{stderr}");
+    assert!(stderr.contains("protocol.json: exists; a protocol is never overwritten"), "{stderr}");
     // A normal written by hand is the prior the summary names; a bad one is refused by field.
     let mut hand: serde_json::Value = prior.clone();
     hand["q_star_deg"][3] = serde_json::json!({"kind": "gaussian", "mean": 88, "sd": 12, "min": 40, "max": 130});

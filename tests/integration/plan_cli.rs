@@ -215,6 +215,19 @@ fn shards_merged_are_byte_for_byte_the_whole_plan() {
     let (code, _, err) = run(&["--merge", &s("shard0"), "--out", &s("x")]);
     assert_eq!(code, 2);
     assert!(err.contains("shards 1 of 2 are missing"), "{err}");
+    // A second run into the same folder: another seed is refused and leaves it whole; the
+    // same run again (a requeued job) replaces its own files.
+    let before = std::fs::read(dir.join("whole/studies.csv")).unwrap();
+    let (code, _, err) =
+        handover(&["plan", "--protocol", &p, "--sizes", "2,3", "--studies", "3", "--seed", "3", "--out", &s("whole")]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("a run of other options, seeds or shard wrote them"), "{err}");
+    assert_eq!(std::fs::read(dir.join("whole/studies.csv")).unwrap(), before);
+    let (code, _, err) = run(&["--shard", "1/2", "--out", &s("shard0")]);
+    assert_eq!(code, 2, "another shard into a shard's folder: {err}");
+    let (code, _, err) = run(&["--out", &s("whole")]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(std::fs::read(dir.join("whole/studies.csv")).unwrap(), before);
     // A shard whose numbers are not finite, or whose manifest would size a huge table.
     for (name, file, from, to, says) in [
         ("nan", "studies.csv", None, "NaN", "is NaN, expected a finite number"),
@@ -244,6 +257,21 @@ fn shards_merged_are_byte_for_byte_the_whole_plan() {
         assert_eq!(code, 2, "{name}: {err}");
         assert!(err.contains(says) && err.contains(file), "{name}: {err}");
     }
+    // A manifest that leaves out a file the merge reads: that file is never trusted unhashed.
+    let copy = dir.join("hostile-unlisted");
+    std::fs::create_dir_all(&copy).unwrap();
+    for f in ["studies.csv", "study_objects.csv", "shard.json"] {
+        std::fs::copy(dir.join("shard0").join(f), copy.join(f)).unwrap();
+    }
+    let mut m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(copy.join("shard.json")).unwrap()).unwrap();
+    m["files"].as_object_mut().unwrap().remove("studies.csv");
+    std::fs::write(copy.join("shard.json"), m.to_string()).unwrap();
+    let edited = std::fs::read_to_string(copy.join("studies.csv")).unwrap().replacen(",0.", ",9.", 1);
+    std::fs::write(copy.join("studies.csv"), edited).unwrap();
+    let (code, _, err) = run(&["--merge", copy.to_str().unwrap(), &s("shard1"), "--out", &s("hostile-out")]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("\"files\" names study_objects.csv, expected studies.csv, study_objects.csv"), "{err}");
     let (code, _, err) = handover(&[
         "plan",
         "--protocol",

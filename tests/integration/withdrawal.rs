@@ -276,3 +276,76 @@ fn walk(dir: &Path) -> Vec<PathBuf> {
     }
     out
 }
+
+/// Every output folder says which sessions made it: after a withdrawal, `participant
+/// withdraw` and `status` name each folder in the study that still holds the person (the
+/// analysis, a fitted prior, a protocol made from it); analysing again into the same folder
+/// leaves nothing of the earlier run beside the new files, and the person nowhere.
+#[test]
+fn every_output_that_still_holds_a_withdrawn_participant_is_named() {
+    let dir = study_dir("outputs");
+    let (gone, _) = participant_with_a_session(&dir);
+    let (stays, _) = participant_with_a_session(&dir);
+    let d = dir.to_str().unwrap();
+    let results = dir.join("results");
+    let r = results.to_str().unwrap();
+    let (code, out, err) =
+        handover(&["analyze", "--study-dir", d, "--fit-population", "--alpha-particles", "50", "--out", r]);
+    assert_eq!(code, 0, "{out}{err}");
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(results.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["command"], "analyze");
+    assert_eq!(manifest["complete"], true);
+    let files: Vec<&str> = manifest["files"].as_array().unwrap().iter().map(|f| f.as_str().unwrap()).collect();
+    for f in ["sessions.csv", "trials.csv", "pooled.csv", "population.json", "prior.json"] {
+        assert!(files.contains(&f), "{f} in {files:?}");
+    }
+    let held: Vec<&str> =
+        manifest["sessions"].as_array().unwrap().iter().map(|s| s["participant"].as_str().unwrap()).collect();
+    assert!(held.contains(&gone.as_str()) && held.contains(&stays.as_str()), "{held:?}");
+    let next = results.join("next");
+    let (code, out, err) = handover(&[
+        "protocol",
+        "with",
+        "--prior-file",
+        results.join("prior.json").to_str().unwrap(),
+        "--out",
+        next.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{out}{err}");
+    // A stale file of an earlier run (a figure format no longer asked for, say).
+    std::fs::write(results.join("fig10.pdf"), "old").unwrap();
+    let mut m = manifest.clone();
+    m["files"].as_array_mut().unwrap().push("fig10.pdf".into());
+    std::fs::write(results.join("manifest.json"), m.to_string()).unwrap();
+
+    let (code, _, err) = handover(&["participant", "withdraw", &gone, "--study-dir", d]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("2 output folder(s)"), "{err}");
+    assert!(err.contains(&format!("{} (handover analyze", results.display())), "{err}");
+    assert!(err.contains(&format!("{} (handover protocol with", next.display())), "{err}");
+    let (code, out, err) = handover(&["status", "--study-dir", d]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(out.contains(&format!("holds the data of {gone} who withdrew")), "{out}");
+
+    // Analysed again: the earlier run's files are gone, the person is in none of the new ones.
+    let (code, out, err) = handover(&["analyze", "--study-dir", d, "--alpha-particles", "50", "--out", r]);
+    assert_eq!(code, 0, "{out}{err}");
+    assert!(!results.join("fig10.pdf").exists(), "a stale file left beside the new ones");
+    assert!(!results.join("prior.json").exists() && !results.join("pooled.csv").exists());
+    for f in walk(&results).into_iter().filter(|f| !f.starts_with(&next)) {
+        let text = String::from_utf8_lossy(&std::fs::read(&f).unwrap()).into_owned();
+        assert!(!text.contains(&gone), "{} still holds {gone}", f.display());
+    }
+    // The protocol made from the old prior still holds them, and says so.
+    let (code, out, _) = handover(&["status", "--study-dir", d]);
+    assert_eq!(code, 1);
+    assert!(out.contains(&format!("{} (handover protocol with", next.display())), "{out}");
+    // A folder of someone's own is never written into.
+    std::fs::write(results.join("notes.txt"), "mine").unwrap();
+    let (code, _, err) = handover(&["analyze", "--study-dir", d, "--alpha-particles", "50", "--out", r]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("notes.txt") && !err.contains("next/"), "{err}");
+    assert_eq!(std::fs::read_to_string(results.join("notes.txt")).unwrap(), "mine");
+    let _ = std::fs::remove_dir_all(&dir);
+}
