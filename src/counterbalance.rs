@@ -4,7 +4,7 @@
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
-use crate::record::{LogContents, mcap_files, read_log};
+use crate::record::{LogContents, mcap_files_reporting, read_log};
 use crate::session::Event;
 
 /// The completed real sessions per slot, the participants registered who wait for theirs,
@@ -52,8 +52,8 @@ impl SlotCounts {
 /// record says they withdrew do not count.
 pub fn completed_per_slot(root: &Path, participants: &Path, slots: usize) -> SlotCounts {
     let mut logs = Vec::new();
-    let mut skipped = Vec::new();
-    for path in mcap_files(root) {
+    let (files, mut skipped) = mcap_files_reporting(root);
+    for path in files {
         match read_log(&path) {
             Ok(log) => logs.push(log),
             Err(e) => skipped.push((path, e.to_string())),
@@ -67,7 +67,7 @@ pub fn slot_counts(
     logs: &[LogContents],
     participants: &Path,
     slots: usize,
-    skipped: Vec<(PathBuf, String)>,
+    mut skipped: Vec<(PathBuf, String)>,
 ) -> SlotCounts {
     let mut completed = vec![0; slots];
     let mut seen = HashSet::new();
@@ -89,7 +89,9 @@ pub fn slot_counts(
         }
     }
     let mut waiting = vec![0; slots];
-    for record in crate::participant::registered(participants) {
+    let (records, unreadable) = crate::participant::registered(participants);
+    skipped.extend(unreadable);
+    for record in records {
         if !record.is_withdrawn() && record.slot < slots && !settled.contains(&record.id) {
             waiting[record.slot] += 1;
         }

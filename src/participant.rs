@@ -250,24 +250,41 @@ impl Tombstone {
 
 /// The ids of the regular files `<id><suffix>` in a folder, in id order.
 fn ids_with_suffix(dir: &std::path::Path, suffix: &str) -> Vec<String> {
-    let Ok(entries) = std::fs::read_dir(dir) else { return Vec::new() };
+    ids_with_suffix_reporting(dir, suffix).0
+}
+
+/// [`ids_with_suffix`], and why the folder could not be listed (a missing folder is no
+/// problem: nobody is registered yet).
+fn ids_with_suffix_reporting(dir: &std::path::Path, suffix: &str) -> (Vec<String>, Option<String>) {
+    let entries = match std::fs::read_dir(dir) {
+        Ok(entries) => entries,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return (Vec::new(), None),
+        Err(e) => return (Vec::new(), Some(format!("the folder cannot be listed ({e})"))),
+    };
     let mut ids: Vec<String> = entries
         .flatten()
         .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
         .filter_map(|e| e.file_name().to_str()?.strip_suffix(suffix).map(str::to_string))
-        .filter(|id| validate_id(id).is_ok())
+        .filter(|id| !id.ends_with(".deleted") && validate_id(id).is_ok())
         .collect();
     ids.sort();
-    ids
+    (ids, None)
 }
 
-/// The participant records in a folder (`<id>.json`, in id order; unreadable ones are
-/// passed over).
-pub fn registered(participants: &std::path::Path) -> Vec<ParticipantRecord> {
-    ids_with_suffix(participants, ".json")
-        .iter()
-        .filter_map(|id| ParticipantRecord::load(participants, id).ok())
-        .collect()
+/// The participant records in a folder (`<id>.json`, in id order), and the files (or the
+/// folder) that could not be read, with why: never passed over in silence.
+pub fn registered(participants: &std::path::Path) -> (Vec<ParticipantRecord>, Vec<(std::path::PathBuf, String)>) {
+    let (ids, unlistable) = ids_with_suffix_reporting(participants, ".json");
+    let mut problems: Vec<(std::path::PathBuf, String)> =
+        unlistable.into_iter().map(|why| (participants.to_path_buf(), why)).collect();
+    let mut records = Vec::new();
+    for id in ids {
+        match ParticipantRecord::load(participants, &id) {
+            Ok(r) => records.push(r),
+            Err(e) => problems.push((participants.join(format!("{id}.json")), e.to_string())),
+        }
+    }
+    (records, problems)
 }
 
 /// The ids whose data was deleted on withdrawal (`<id>.deleted.json`), in id order.

@@ -9,7 +9,7 @@ use serde::Serialize;
 use crate::counterbalance::{SlotCounts, slot_counts};
 use crate::participant::{deleted, registered};
 use crate::protocol::Study;
-use crate::record::{LogContents, is_over, mcap_files, read_log, session_heads};
+use crate::record::{LogContents, is_over, mcap_files_reporting, read_log, session_heads};
 use crate::session::{Event, condition_order};
 use crate::study_dir::{StudyDirs, holder_running, shell_word};
 
@@ -108,6 +108,8 @@ pub struct StudyStatus {
     pub next_slot: usize,
     pub open_sessions: Vec<OpenSession>,
     pub unreadable: Vec<Unreadable>,
+    /// Participant records (or their folder) that cannot be read: not counted anywhere.
+    pub unreadable_records: Vec<Unreadable>,
     /// The output folders under the study folder, by their manifests.
     pub outputs: Vec<OutputStatus>,
     /// Manifests that cannot be read.
@@ -127,8 +129,12 @@ pub struct PilotCounts {
 /// Reads the study's records and logs (every log once).
 pub fn study_status(dirs: &StudyDirs, study: &Study) -> StudyStatus {
     let mut logs: Vec<LogContents> = Vec::new();
-    let mut unreadable = Vec::new();
-    for path in mcap_files(&dirs.logs) {
+    let (files, unlistable) = mcap_files_reporting(&dirs.logs);
+    let mut unreadable: Vec<Unreadable> = unlistable
+        .into_iter()
+        .map(|(log, why)| Unreadable { error: format!("{}: {why}", log.display()), log })
+        .collect();
+    for path in files {
         match read_log(&path) {
             Ok(log) => logs.push(log),
             Err(e) => unreadable.push(Unreadable { log: path, error: e.to_string() }),
@@ -144,7 +150,8 @@ pub fn study_status(dirs: &StudyDirs, study: &Study) -> StudyStatus {
             (false, false) => pilot_sessions.not_over += 1,
         }
     }
-    let participants: Vec<ParticipantStatus> = registered(&dirs.participants)
+    let (records, unreadable_records) = registered(&dirs.participants);
+    let participants: Vec<ParticipantStatus> = records
         .into_iter()
         .map(|r| {
             let theirs: Vec<&&LogContents> =
@@ -204,8 +211,13 @@ pub fn study_status(dirs: &StudyDirs, study: &Study) -> StudyStatus {
             }
         })
         .collect();
-    // The logs read above, counted once more for the slots (not read again).
+    // The logs read above, counted once more for the slots (not read again); the records
+    // that could not be read are named by the slot counts.
     let skipped = unreadable.iter().map(|u| (u.log.clone(), u.error.clone())).collect();
+    let unreadable_records: Vec<Unreadable> = unreadable_records
+        .into_iter()
+        .map(|(log, why)| Unreadable { error: format!("{}: {why}", log.display()), log })
+        .collect();
     let counts = slot_counts(&logs, &dirs.participants, 2, skipped);
     let slots = (0..counts.completed.len())
         .map(|slot| SlotStatus {
@@ -243,6 +255,7 @@ pub fn study_status(dirs: &StudyDirs, study: &Study) -> StudyStatus {
         next_slot: counts.least_filled(),
         open_sessions,
         unreadable,
+        unreadable_records,
         counts,
     }
 }

@@ -10,7 +10,7 @@ use handover::analysis::{
 };
 use handover::output_dir::{self, HeldSession};
 use handover::plot::{FigureStyle, LinePlot, PooledEvidence, Series, alpha_plot, bar_chart, mean_se_plot};
-use handover::record::{LogContents, mcap_files};
+use handover::record::{LogContents, mcap_files_reporting};
 use handover::session::program_letter;
 use handover::study_dir::StudyDirs;
 use serde::Serialize;
@@ -141,20 +141,25 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
     } else {
         args.paths.clone()
     };
+    let mut unlistable = Vec::new();
     for p in &paths {
         if !p.exists() {
             return Err(bad(format!("{}: no such file or directory", p.display())));
         }
-        files.extend(mcap_files(p));
+        let (found, cannot) = mcap_files_reporting(p);
+        files.extend(found);
+        unlistable.extend(cannot);
     }
     if files.is_empty() {
         return Err(bad("no .mcap files found in the given paths"));
     }
     // Each log's study is the one given, else the log's own (`<study>/logs/<id>/`), else the
     // current folder's: the same participants are left out from any folder.
-    let collected = collect(&files, args.verify, |l: &LogContents| {
+    let mut collected = collect(&files, args.verify, |l: &LogContents| {
         StudyDirs::for_log(args.study_dir.as_deref(), args.participants.as_deref(), &l.path, &l.start.participant)
     });
+    // A folder that cannot be listed is a skip like an unreadable log: named, and exit 1.
+    collected.skipped.extend(unlistable.iter().map(|(dir, why)| format!("skipped {}: {why}", dir.display())));
     for note in &collected.notes {
         errln!("{note}");
     }

@@ -39,7 +39,10 @@ pub fn run(args: StatusArgs) -> Result<()> {
         Format::Table => print_table(&status, &study.protocol.session.program_labels)?,
     }
     if !status.unreadable.is_empty() {
-        anyhow::bail!("{} log(s) cannot be read", status.unreadable.len());
+        anyhow::bail!("{} log(s) or log folder(s) cannot be read", status.unreadable.len());
+    }
+    if !status.unreadable_records.is_empty() {
+        anyhow::bail!("{} participant record(s) cannot be read", status.unreadable_records.len());
     }
     let stale = status.outputs.iter().filter(|o| !o.holds_withdrawn.is_empty()).count();
     if stale > 0 {
@@ -127,6 +130,12 @@ fn print_table(s: &StudyStatus, labels: &[String]) -> Result<()> {
     }
     for e in &s.unreadable_outputs {
         outln!("Output manifest that cannot be read: {e}");
+    }
+    if !s.unreadable_records.is_empty() {
+        outln!("Participant records that cannot be read (not counted):");
+        for u in &s.unreadable_records {
+            outln!("  {}", u.error);
+        }
     }
     if !s.unreadable.is_empty() {
         outln!("Logs that cannot be read (not counted):");

@@ -29,7 +29,9 @@ use crate::session::SessionError;
 
 pub use follow::Follower;
 pub use lineage::{Lineage, is_over, lineage, open_sessions, session_heads};
-pub use paths::{continuation_path, is_log_file_name, log_folder, log_path_in, mcap_files, new_log_path};
+pub use paths::{
+    continuation_path, is_log_file_name, log_folder, log_path_in, mcap_files, mcap_files_reporting, new_log_path,
+};
 pub use reader::{
     LogContents, LoggedMessage, MAX_LOG_BYTES, MAX_TEXT_BYTES, read_log, read_log_bytes, study_of, validate_start,
 };

@@ -74,19 +74,39 @@ pub fn is_log_file_name(name: &str) -> bool {
 /// `root` nothing is followed or opened on the way: a link (to a folder or a file), a FIFO or
 /// a device is skipped, so a link loop or a named pipe cannot hang or multiply the walk.
 pub fn mcap_files(root: &Path) -> Vec<PathBuf> {
+    mcap_files_reporting(root).0
+}
+
+/// [`mcap_files`], and the folders under `root` that could not be listed, with why: their
+/// logs are not counted, and a command that counts says so.
+pub fn mcap_files_reporting(root: &Path) -> (Vec<PathBuf>, Vec<(PathBuf, String)>) {
     let mut out = Vec::new();
+    let mut unlistable = Vec::new();
     match std::fs::metadata(root) {
-        Err(_) => return out,
+        Err(_) => return (out, unlistable),
         Ok(m) if !m.is_dir() => {
             out.push(root.to_path_buf());
-            return out;
+            return (out, unlistable);
         }
         Ok(_) => {}
     }
     let mut stack = vec![root.to_path_buf()];
     while let Some(dir) = stack.pop() {
-        let Ok(entries) = std::fs::read_dir(&dir) else { continue };
-        for e in entries.flatten() {
+        let entries = match std::fs::read_dir(&dir) {
+            Ok(entries) => entries,
+            Err(e) => {
+                unlistable.push((dir, format!("the folder cannot be listed ({e}): its logs are not counted")));
+                continue;
+            }
+        };
+        for e in entries {
+            let e = match e {
+                Ok(e) => e,
+                Err(err) => {
+                    unlistable.push((dir.clone(), format!("the folder cannot be listed whole ({err})")));
+                    continue;
+                }
+            };
             let Ok(kind) = e.file_type() else { continue };
             let p = e.path();
             if kind.is_dir() {
@@ -97,5 +117,6 @@ pub fn mcap_files(root: &Path) -> Vec<PathBuf> {
         }
     }
     out.sort();
-    out
+    unlistable.sort();
+    (out, unlistable)
 }

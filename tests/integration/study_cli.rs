@@ -676,3 +676,70 @@ fn the_study_folder_can_come_from_the_environment() {
     let (_, status) = run(&dir, &["status", "--study-dir", other.to_str().unwrap()]);
     assert!(status.contains("0 registered"), "the flag wins: {status}");
 }
+
+/// What cannot be read is named and never dropped from a count in silence: a log folder that
+/// cannot be listed (`status` and `analyze` exit 1 naming it), and a participant record with
+/// another id inside or a second JSON document (`status` exits 1 naming it, `participant
+/// new` names it as not counted toward counterbalancing).
+#[test]
+fn unreadable_folders_and_records_are_named_not_dropped() {
+    let dir = tmpdir("unreadable");
+    let d = dir.to_str().unwrap();
+    let p = small_protocol(&dir);
+    let (code, _, err) =
+        handover(&["dry-run", "--protocol", p.to_str().unwrap(), "--participants", "2", "--study-dir", d]);
+    assert_eq!(code, 0, "{err}");
+    let folders: Vec<PathBuf> = std::fs::read_dir(dir.join("logs")).unwrap().map(|e| e.unwrap().path()).collect();
+    assert_eq!(folders.len(), 2);
+    let hidden = &folders[0];
+    // Unlistable: mode 0 for an unprivileged user; as root (who lists any folder), the
+    // commands run as `nobody` on a study owned by nobody.
+    use std::os::unix::fs::PermissionsExt;
+    let root = unsafe { libc::geteuid() } == 0;
+    let run = |args: &[&str]| -> (i32, String, String) {
+        if !root {
+            return handover(args);
+        }
+        let o = Command::new("setpriv")
+            .args(["--reuid", "65534", "--regid", "65534", "--clear-groups", env!("CARGO_BIN_EXE_handover")])
+            .args(args)
+            .stdin(Stdio::null())
+            .output()
+            .unwrap();
+        (
+            o.status.code().unwrap_or(-1),
+            String::from_utf8_lossy(&o.stdout).into(),
+            String::from_utf8_lossy(&o.stderr).into(),
+        )
+    };
+    if root {
+        let chown = Command::new("chown").args(["-R", "65534:65534", d]).status().unwrap();
+        assert!(chown.success());
+        std::fs::set_permissions(&*dir, std::fs::Permissions::from_mode(0o755)).unwrap();
+        std::fs::set_permissions(dir.parent().unwrap(), std::fs::Permissions::from_mode(0o1777)).ok();
+    }
+    std::fs::set_permissions(hidden, std::fs::Permissions::from_mode(0o000)).unwrap();
+    let (code, out, err) = run(&["status", "--study-dir", d, "--protocol", p.to_str().unwrap()]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(out.contains(&format!("{}: the folder cannot be listed", hidden.display())), "{out}");
+    let (code, out, err) = run(&["analyze", "--study-dir", d, "--alpha-particles", "20"]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(err.contains(&format!("skipped {}: the folder cannot be listed", hidden.display())), "{err}");
+    std::fs::set_permissions(hidden, std::fs::Permissions::from_mode(0o700)).unwrap();
+
+    // A record whose id is not its file's, and one with trailing JSON.
+    let (code, out, err) = handover(&["participant", "new", "--study-dir", d]);
+    assert_eq!(code, 0, "{err}");
+    let id = out.trim();
+    let record = dir.join(format!("participants/{id}.json"));
+    let text = std::fs::read_to_string(&record).unwrap();
+    std::fs::write(dir.join("participants/p-zzzzzzzz.json"), &text).unwrap();
+    std::fs::write(&record, format!("{text}{{}}")).unwrap();
+    let (code, out, err) = handover(&["status", "--study-dir", d, "--protocol", p.to_str().unwrap()]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(out.contains("Participant records that cannot be read"), "{out}");
+    assert!(out.contains("p-zzzzzzzz.json") && out.contains(&format!("{id}.json")), "{out}");
+    let (code, _, err) = handover(&["participant", "new", "--study-dir", d]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("p-zzzzzzzz.json is not counted toward counterbalancing"), "{err}");
+}
