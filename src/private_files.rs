@@ -44,6 +44,25 @@ pub fn csv_text<T: serde::Serialize + Default>(rows: impl IntoIterator<Item = T>
     w.into_inner().map_err(|e| csv::Error::from(e.into_error()))
 }
 
+/// A table's boolean as `TRUE` / `FALSE`: the spelling R's `read.csv`, readr and pandas all
+/// read as a logical without being told (`#[serde(serialize_with = "csv_bool")]`).
+pub fn csv_bool<S: serde::Serializer>(b: &bool, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(bool_text(*b))
+}
+
+/// [`csv_bool`] for an optional boolean (empty when absent).
+pub fn csv_bool_opt<S: serde::Serializer>(b: &Option<bool>, s: S) -> Result<S::Ok, S::Error> {
+    match b {
+        Some(b) => s.serialize_str(bool_text(*b)),
+        None => s.serialize_none(),
+    }
+}
+
+/// `TRUE` or `FALSE`.
+pub fn bool_text(b: bool) -> &'static str {
+    if b { "TRUE" } else { "FALSE" }
+}
+
 /// Writes a tidy table ([`csv_text`]) with [`write_output`]. Every table a command writes
 /// goes through here, or through [`write_output`] with its own CSV text.
 pub fn write_csv<T: serde::Serialize + Default>(path: &Path, rows: impl IntoIterator<Item = T>) -> std::io::Result<()> {

@@ -318,7 +318,7 @@ impl TrialRow {
         v.extend([
             opt(m.map(|m| m.offset_s.to_string())),
             opt(m.map(|m| m.implied_region.clone())),
-            opt(m.map(|m| m.agrees.to_string())),
+            opt(m.map(|m| crate::private_files::bool_text(m.agrees).to_string())),
         ]);
         v
     }

@@ -8,7 +8,7 @@ use serde::Serialize;
 use super::seeds::distance_to_truth_deg;
 use super::{AlphaFit, AlphaSummary, Analysed, StudySummary, objects_by_body, rfc3339_ms, trial_columns};
 use crate::kinematics::JOINT_NAMES;
-use crate::private_files::write_csv;
+use crate::private_files::{csv_bool, csv_bool_opt, write_csv};
 use crate::session::program_letter;
 
 /// A number that is written only when it is one (an empty field otherwise).
@@ -21,12 +21,15 @@ fn finite(x: f64) -> Option<f64> {
 struct SessionRow<'a> {
     session_id: &'a str,
     participant: &'a str,
+    #[serde(serialize_with = "csv_bool")]
     pilot: bool,
     slot: usize,
     condition_order: String,
     program_a: Option<&'a str>,
     program_b: Option<&'a str>,
+    #[serde(serialize_with = "csv_bool")]
     completed: bool,
+    #[serde(serialize_with = "csv_bool")]
     truncated: bool,
     events: usize,
     forced_choice_program: Option<String>,
@@ -165,11 +168,15 @@ struct AlphaRow<'a> {
     alpha: Option<f64>,
     ci_low: Option<f64>,
     ci_high: Option<f64>,
+    #[serde(serialize_with = "csv_bool_opt")]
     ci_low_open: Option<bool>,
+    #[serde(serialize_with = "csv_bool_opt")]
     ci_high_open: Option<bool>,
+    #[serde(serialize_with = "csv_bool_opt")]
     at_range_end: Option<bool>,
     /// The pooled row's when its sessions share one α (empty when their protocols differ).
     protocol_alpha: Option<f64>,
+    #[serde(serialize_with = "csv_bool_opt")]
     protocol_alpha_supported: Option<bool>,
 }
 

@@ -101,6 +101,7 @@ struct Row<'a> {
     sd_high: Option<f64>,
     support_min: f64,
     support_max: f64,
+    #[serde(serialize_with = "handover::private_files::csv_bool")]
     sd_at_floor: bool,
     sessions: usize,
 }

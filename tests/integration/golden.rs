@@ -102,11 +102,17 @@ fn csv_files(dir: &Path) -> Vec<PathBuf> {
     out
 }
 
-/// Two cells agree: the same text, or numbers within 1e-9 relative (a float summed in another
+/// Two cells agree: the same text, the same boolean, or numbers within 1e-9 relative (a float summed in another
 /// order on another CPU may differ in its last bits; the events themselves are compared
 /// exactly by `--verify`).
 fn cells_agree(a: &str, b: &str) -> bool {
     if a == b {
+        return true;
+    }
+    // A boolean means the same however it is spelt (`true` when the golden tables were
+    // written, `TRUE` since).
+    let boolean = |x: &str| ["true", "false"].contains(&x.to_ascii_lowercase().as_str());
+    if boolean(a) && boolean(b) && a.eq_ignore_ascii_case(b) {
         return true;
     }
     match (a.parse::<f64>(), b.parse::<f64>()) {
