@@ -161,6 +161,20 @@ fn r_classes(kind: &str) -> (&'static [&'static str], &'static [&'static str]) {
     }
 }
 
+/// A reader's KEPT line (every value kept: counted) or ROWS line (a table without rows, whose
+/// columns have no values to type: noted).
+fn tally(line: &str, kept: &mut usize, no_rows: &mut Vec<String>) {
+    match line.split('\t').collect::<Vec<_>>().as_slice() {
+        ["KEPT", file, reader, cells, lost] => {
+            assert_eq!(*lost, "0", "{file}: {reader} lost {lost} of {cells} values (or made a value missing)");
+            *kept += cells.parse::<usize>().unwrap();
+        }
+        ["ROWS", file, "0"] => no_rows.push(file.to_string()),
+        ["ROWS", _, _] => {}
+        _ => panic!("unexpected line from a reader: {line}"),
+    }
+}
+
 /// A seed column as a reader read it (`;`-joined decimal text) is the file's text exactly.
 fn assert_seeds_exact(file: &str, column: &str, values: &str, by: &str) {
     let mut reader = csv::Reader::from_path(file).unwrap();
@@ -207,15 +221,7 @@ pub(crate) fn read_with_r(paths: &[PathBuf], dict: &BTreeMap<String, Vec<(String
         let cells: Vec<&str> = line.split('\t').collect();
         match cells.as_slice() {
             ["PROBLEM", file, what @ ..] => panic!("readr could not parse {file}: {what:?}"),
-            ["KEPT", file, reader, cells, lost] => {
-                assert_eq!(*lost, "0", "{file}: {reader} lost {lost} of {cells} values (or made a value missing)");
-                kept += cells.parse::<usize>().unwrap();
-            }
-            ["ROWS", file, rows] => {
-                if *rows == "0" {
-                    no_rows.push(file.to_string());
-                }
-            }
+            ["KEPT" | "ROWS", ..] => tally(line, &mut kept, &mut no_rows),
             ["SEED", file, column, values] => {
                 assert_seeds_exact(file, column, values, "R");
                 seeds += 1;
@@ -291,15 +297,7 @@ pub(crate) fn read_with_pandas(paths: &[PathBuf], dict: &BTreeMap<String, Vec<(S
     let mut no_rows: Vec<String> = Vec::new();
     for line in text.lines() {
         match line.split('\t').collect::<Vec<_>>().as_slice() {
-            ["KEPT", file, reader, cells, lost] => {
-                assert_eq!(*lost, "0", "{file}: {reader} lost {lost} of {cells} values (or made a value missing)");
-                kept += cells.parse::<usize>().unwrap();
-            }
-            ["ROWS", file, rows] => {
-                if *rows == "0" {
-                    no_rows.push(file.to_string());
-                }
-            }
+            ["KEPT" | "ROWS", ..] => tally(line, &mut kept, &mut no_rows),
             ["SEED", file, column, values] => {
                 assert_seeds_exact(file, column, values, "pandas");
                 seeds += 1;
