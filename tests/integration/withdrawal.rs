@@ -23,11 +23,12 @@ fn study_dir(name: &str) -> PathBuf {
 
 /// A new participant (by the CLI) with one completed real session in their slot.
 fn participant_with_a_session(dir: &Path) -> (String, usize) {
-    participant_with(dir, true)
+    participant_with(dir, None)
 }
 
-/// A new participant with one real session, completed or cut off after a few events (a crash).
-fn participant_with(dir: &Path, complete: bool) -> (String, usize) {
+/// A new participant with one real session, completed (`cut_after` None) or cut off after
+/// that many events (a crash).
+fn participant_with(dir: &Path, cut_after: Option<usize>) -> (String, usize) {
     let (code, out, err) = handover(&["participant", "new", "--study-dir", dir.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     let id = out.trim().to_string();
@@ -47,14 +48,14 @@ fn participant_with(dir: &Path, complete: bool) -> (String, usize) {
     let session = Session::new(Arc::clone(&study), p.start.clone()).unwrap();
     let path = new_log_path(&dir.join("logs"), &id, chrono::Utc::now());
     let mut rec_s = RecordedSession::create(&path, &text, session, now_ns()).unwrap();
-    if complete {
-        drive(&mut rec_s, &p.participant, Duration::ZERO).unwrap();
-        rec_s.finish().unwrap();
-    } else {
-        for _ in 0..3 {
+    if let Some(events) = cut_after {
+        for _ in 0..events {
             let event = p.participant.respond(rec_s.session()).unwrap();
             rec_s.submit(handover::session::Stamped { time_ns: now_ns(), event }).unwrap();
         }
+    } else {
+        drive(&mut rec_s, &p.participant, Duration::ZERO).unwrap();
+        rec_s.finish().unwrap();
     }
     (id, rec.slot)
 }
@@ -116,7 +117,7 @@ fn a_withdrawn_participant_is_left_out_and_frees_their_slot() {
 #[test]
 fn an_interrupted_session_of_a_withdrawn_participant_is_not_continued() {
     let dir = study_dir("resume");
-    let (id, _) = participant_with(&dir, false);
+    let (id, _) = participant_with(&dir, Some(3));
     let log = mcap_files(&dir.join("logs")).pop().unwrap();
     let (code, _, err) = handover(&["participant", "withdraw", &id, "--study-dir", dir.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
@@ -129,6 +130,15 @@ fn an_interrupted_session_of_a_withdrawn_participant_is_not_continued() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("withdrew from the study; their session is not continued"), "{err}");
     assert_eq!(mcap_files(&dir.join("logs")).len(), 1, "no continuation written");
+    // status offers no resume for them; a session that logged only its start is dated by it.
+    let (started_only, _) = participant_with(&dir, Some(0));
+    let (code, out, err) = handover(&["status", "--study-dir", dir.to_str().unwrap()]);
+    assert_eq!(code, 0, "{out}{err}");
+    let theirs: Vec<&str> = out.lines().skip_while(|l| !l.trim_start().starts_with(&id)).take(2).collect();
+    assert!(theirs[1].contains("the participant withdrew: not to be continued"), "{out}");
+    assert!(!out.contains(&format!("participant {id}")), "no command continues them: {out}");
+    let line = out.lines().find(|l| l.trim_start().starts_with(&started_only)).unwrap();
+    assert!(line.contains("0 trials, last event 2026-11-22T00:00:00Z"), "{line}");
 }
 
 #[test]
@@ -228,7 +238,7 @@ fn delete_data_never_follows_a_link_and_deletes_nothing_it_did_not_write() {
 #[test]
 fn a_copy_of_a_deleted_participants_log_is_still_left_out_and_not_continued() {
     let dir = study_dir("tombstone");
-    let (id, _) = participant_with(&dir, false);
+    let (id, _) = participant_with(&dir, Some(3));
     let (done, _) = participant_with_a_session(&dir);
     let logs = dir.join("logs");
     let backup = study_dir("tombstone-backup");
