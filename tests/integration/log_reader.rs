@@ -38,7 +38,7 @@ const T0: u64 = 1_800_000_000_000_000_000;
 /// Console sessions generated (each of them may be quit or killed and resumed: more logs), in
 /// study folders of [`PER_STUDY`] (a new participant's counterbalancing reads every log of
 /// their study).
-const CONSOLE_SESSIONS: u64 = 420;
+const CONSOLE_SESSIONS: u64 = 440;
 const PER_STUDY: u64 = 30;
 
 /// What the robot does with one command.
