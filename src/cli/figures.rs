@@ -35,24 +35,13 @@ impl FigureArgs {
     /// What drawing the asked formats needs, checked before a command's work: PDF and PNG
     /// need a sans-serif font (bad input, exit 2, naming the package that brings one).
     pub fn check(&self) -> anyhow::Result<()> {
-        if self.figure_formats.iter().any(|f| *f != Format::Svg) {
+        let formats = self.style().formats;
+        if formats.iter().any(|f| *f != FigureFormat::Svg) {
+            let named: Vec<&str> = formats.iter().map(|f| f.extension()).collect();
             handover::plot::check_fonts()
-                .map_err(|e| super::input::bad(format!("--figure-formats {}: {e}", self.formats_named())))?;
+                .map_err(|e| super::input::bad(format!("--figure-formats {}: {e}", named.join(","))))?;
         }
         Ok(())
-    }
-
-    fn formats_named(&self) -> String {
-        let names: Vec<&str> = self
-            .figure_formats
-            .iter()
-            .map(|f| match f {
-                Format::Svg => "svg",
-                Format::Pdf => "pdf",
-                Format::Png => "png",
-            })
-            .collect();
-        names.join(",")
     }
 
     pub fn style(&self) -> FigureStyle {
