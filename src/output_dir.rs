@@ -66,6 +66,9 @@ pub enum OutputDirError {
     Foreign { dir: PathBuf, command: String, listed: String },
     #[error("{path}: {why}")]
     BadManifest { path: PathBuf, why: String },
+    /// A search for output folders that stopped before it had looked everywhere.
+    #[error("{root}: {why}")]
+    SearchCut { root: PathBuf, why: String },
     #[error("{path}: {source}")]
     Io { path: PathBuf, source: std::io::Error },
 }
@@ -141,7 +144,8 @@ fn is_leftover(relative: &str) -> bool {
 
 /// Whether a file is of a kind commands write (a table, a figure, a report, JSON).
 fn of_a_written_kind(relative: &str) -> bool {
-    ["csv", "svg", "pdf", "png", "md", "json"].iter().any(|ext| relative.ends_with(&format!(".{ext}")))
+    let ext = Path::new(relative).extension().and_then(|e| e.to_str());
+    ext.is_some_and(|e| ["csv", "svg", "pdf", "png", "md", "json"].contains(&e))
 }
 
 /// Makes `dir` ready for `command` to write into: the files an earlier run of the same
@@ -223,32 +227,39 @@ fn write(
     let path = dir.join(MANIFEST);
     let mut text = serde_json::to_string_pretty(&m).map_err(|e| OutputDirError::io(&path)(std::io::Error::other(e)))?;
     text.push('\n');
-    crate::private_files::write_output(&path, text.as_bytes()).map_err(OutputDirError::io(&path))
+    crate::private_files::replace(&path, text.as_bytes()).map_err(OutputDirError::io(&path))
 }
 
-/// The output folders under `root` (at most [`SEARCH_DEPTH`] levels down, links not followed)
-/// whose manifest says they hold `participant`'s data; manifests that cannot be read are
-/// returned as errors beside them.
-pub fn holding(root: &Path, participant: &str) -> (Vec<(PathBuf, Manifest)>, Vec<OutputDirError>) {
-    let (mut found, mut errors) = (Vec::new(), Vec::new());
-    for (dir, m) in manifests(root, &mut errors) {
-        if m.holds(participant) {
-            found.push((dir, m));
-        }
-    }
-    (found, errors)
-}
-
-/// Every output folder with a manifest under `root`.
+/// Every output folder with a manifest under `root` (at most [`SEARCH_DEPTH`] levels down,
+/// links not followed); what could not be looked at — a folder that cannot be listed, a
+/// manifest that cannot be read, a search cut at [`SEARCH_ENTRIES`] — goes into `errors`,
+/// never passed over in silence.
 pub fn manifests(root: &Path, errors: &mut Vec<OutputDirError>) -> Vec<(PathBuf, Manifest)> {
     let mut out = Vec::new();
     let mut stack = vec![(root.to_path_buf(), 0)];
     let mut seen = 0;
     while let Some((d, depth)) = stack.pop() {
-        let Ok(entries) = std::fs::read_dir(&d) else { continue };
-        for e in entries.flatten() {
+        let entries = match std::fs::read_dir(&d) {
+            Ok(entries) => entries,
+            Err(e) => {
+                errors.push(OutputDirError::Io { path: d, source: e });
+                continue;
+            }
+        };
+        for e in entries {
+            let e = match e {
+                Ok(e) => e,
+                Err(err) => {
+                    errors.push(OutputDirError::Io { path: d.clone(), source: err });
+                    continue;
+                }
+            };
             seen += 1;
             if seen > SEARCH_ENTRIES {
+                errors.push(OutputDirError::SearchCut {
+                    root: root.to_path_buf(),
+                    why: format!("more than {SEARCH_ENTRIES} entries: the search for output folders stopped there"),
+                });
                 return out;
             }
             let Ok(kind) = e.file_type() else { continue };
@@ -265,6 +276,21 @@ pub fn manifests(root: &Path, errors: &mut Vec<OutputDirError>) -> Vec<(PathBuf,
     }
     out.sort_by(|a, b| a.0.cmp(&b.0));
     out
+}
+
+/// The manifest of the output folder that wrote `file`: its own folder's or the one above
+/// (`analyze` writes a pilot's fit into `DIR/pilot/`, its manifest into `DIR`), whichever
+/// lists it. None when neither does (a file made by hand, or by an earlier version).
+pub fn manifest_of(file: &Path) -> Result<Option<Manifest>, OutputDirError> {
+    let Some(name) = file.file_name().and_then(|n| n.to_str()) else { return Ok(None) };
+    let folder = file.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    if let Some(m) = Manifest::read(folder)?.filter(|m| m.files.iter().any(|f| f == name)) {
+        return Ok(Some(m));
+    }
+    let (Some(up), Some(sub)) = (folder.parent(), folder.file_name().and_then(|n| n.to_str())) else { return Ok(None) };
+    let up = if up.as_os_str().is_empty() { Path::new(".") } else { up };
+    let relative = format!("{sub}/{name}");
+    Ok(Manifest::read(up)?.filter(|m| m.files.contains(&relative)))
 }
 
 #[cfg(all(test, unix))]
@@ -286,6 +312,10 @@ mod tests {
         finish(&dir, "analyze", None, &[session("p-1")]).unwrap();
         let m = Manifest::read(&dir).unwrap().unwrap();
         assert_eq!(m.files, ["pilot/old.csv", "prior.json"]);
+        // The manifest that wrote a file, from its folder or the one above; none for another.
+        assert_eq!(manifest_of(&dir.join("pilot/old.csv")).unwrap().as_ref(), Some(&m));
+        assert_eq!(manifest_of(&dir.join("prior.json")).unwrap().as_ref(), Some(&m));
+        assert_eq!(manifest_of(&dir.join("pilot/other.csv")).unwrap(), None);
         assert!(m.complete && m.holds("p-1") && !m.holds("p-2"));
         // The same command again: the earlier files go.
         prepare(&dir, "analyze", None, &[session("p-2")]).unwrap();

@@ -112,7 +112,7 @@ pub struct StudyStatus {
     pub unreadable_records: Vec<Unreadable>,
     /// The output folders under the study folder, by their manifests.
     pub outputs: Vec<OutputStatus>,
-    /// Manifests that cannot be read.
+    /// Output folders and manifests that could not be looked at.
     pub unreadable_outputs: Vec<String>,
     /// The slot counts `slots` is made of (for the one-line balance).
     #[serde(skip)]

@@ -14,7 +14,7 @@ pub fn output_dir_error(e: handover::output_dir::OutputDirError) -> anyhow::Erro
     use handover::output_dir::OutputDirError;
     match e {
         OutputDirError::Foreign { .. } | OutputDirError::BadManifest { .. } => bad(e.to_string()),
-        OutputDirError::Io { .. } => anyhow::Error::new(e),
+        OutputDirError::Io { .. } | OutputDirError::SearchCut { .. } => anyhow::Error::new(e),
     }
 }
 

@@ -218,7 +218,9 @@ fn withdraw(id: &str, delete_data: bool, yes: bool, f: &StudyFolders) -> Result<
 /// data (tables, fits, priors and protocols made from them): each must be made again
 /// without them, or deleted. Folders outside the study folder cannot be seen from here.
 fn name_outputs_holding(root: &std::path::Path, id: &str) {
-    let (found, errors) = handover::output_dir::holding(root, id);
+    let mut errors = Vec::new();
+    let found: Vec<_> =
+        handover::output_dir::manifests(root, &mut errors).into_iter().filter(|(_, m)| m.holds(id)).collect();
     for e in errors {
         errln!("warning: {e}");
     }

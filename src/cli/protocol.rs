@@ -1,12 +1,12 @@
 //! `handover protocol check [FILE]`: validate a protocol and summarise it; `handover
 //! protocol with`: a protocol with another prior or population section.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::{Args, Subcommand};
 use handover::belief::ResamplePolicy;
-use handover::output_dir::{self, Manifest};
+use handover::output_dir;
 use handover::protocol::ObservationModel;
 use handover::protocol::Study;
 
@@ -99,16 +99,7 @@ pub fn run(args: ProtocolArgs) -> Result<()> {
             // The sessions a prior or population was fitted from are held by what is made of it.
             let mut held = Vec::new();
             for input in prior_file.iter().chain(&population_file) {
-                let folder = input.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-                // analyze writes a pilot's fit into DIR/pilot/, its manifest into DIR.
-                let manifest = match Manifest::read(folder).map_err(output_dir_error)? {
-                    Some(m) => Some(m),
-                    None => match folder.parent().filter(|p| !p.as_os_str().is_empty()) {
-                        Some(up) => Manifest::read(up).map_err(output_dir_error)?.filter(|m| m.command == "analyze"),
-                        None => None,
-                    },
-                };
-                if let Some(m) = manifest {
+                if let Some(m) = output_dir::manifest_of(input).map_err(output_dir_error)? {
                     for s in m.sessions {
                         if !held.contains(&s) {
                             held.push(s);

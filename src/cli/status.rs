@@ -49,7 +49,7 @@ pub fn run(args: StatusArgs) -> Result<()> {
         anyhow::bail!("{stale} output folder(s) hold the data of participants who withdrew: make them again");
     }
     if !status.unreadable_outputs.is_empty() {
-        anyhow::bail!("{} output manifest(s) cannot be read", status.unreadable_outputs.len());
+        anyhow::bail!("{} output folder(s) or manifest(s) could not be looked at", status.unreadable_outputs.len());
     }
     Ok(())
 }
@@ -129,7 +129,7 @@ fn print_table(s: &StudyStatus, labels: &[String]) -> Result<()> {
         }
     }
     for e in &s.unreadable_outputs {
-        outln!("Output manifest that cannot be read: {e}");
+        outln!("Output folders not looked at: {e}");
     }
     if !s.unreadable_records.is_empty() {
         outln!("Participant records that cannot be read (not counted):");
