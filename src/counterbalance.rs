@@ -4,6 +4,7 @@
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
+use crate::participant::ParticipantRecord;
 use crate::record::{LogContents, mcap_files_reporting, read_log};
 use crate::session::Event;
 
@@ -59,15 +60,19 @@ pub fn completed_per_slot(root: &Path, participants: &Path, slots: usize) -> Slo
             Err(e) => skipped.push((path, e.to_string())),
         }
     }
-    slot_counts(&logs, participants, slots, skipped)
+    let (records, unreadable) = crate::participant::registered(participants);
+    skipped.extend(unreadable);
+    slot_counts(&logs, &records, participants, slots, skipped)
 }
 
-/// [`completed_per_slot`] over logs already read (`skipped`: the files that could not be).
+/// [`completed_per_slot`] over logs and participant records already read (`skipped`: the
+/// files that could not be).
 pub fn slot_counts(
     logs: &[LogContents],
+    records: &[ParticipantRecord],
     participants: &Path,
     slots: usize,
-    mut skipped: Vec<(PathBuf, String)>,
+    skipped: Vec<(PathBuf, String)>,
 ) -> SlotCounts {
     let mut completed = vec![0; slots];
     let mut seen = HashSet::new();
@@ -89,8 +94,6 @@ pub fn slot_counts(
         }
     }
     let mut waiting = vec![0; slots];
-    let (records, unreadable) = crate::participant::registered(participants);
-    skipped.extend(unreadable);
     for record in records {
         if !record.is_withdrawn() && record.slot < slots && !settled.contains(&record.id) {
             waiting[record.slot] += 1;

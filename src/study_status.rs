@@ -80,6 +80,13 @@ pub struct Unreadable {
     pub error: String,
 }
 
+impl Unreadable {
+    /// A file or folder, and why it could not be read (the message names it).
+    fn new((log, why): (PathBuf, String)) -> Self {
+        Unreadable { error: format!("{}: {why}", log.display()), log }
+    }
+}
+
 /// An output folder in the study (one with a `manifest.json`) and the withdrawn
 /// participants whose data it still holds.
 #[derive(Clone, Debug, Serialize)]
@@ -152,7 +159,7 @@ pub fn study_status(dirs: &StudyDirs, study: &Study) -> StudyStatus {
     }
     let (records, unreadable_records) = registered(&dirs.participants);
     let participants: Vec<ParticipantStatus> = records
-        .into_iter()
+        .iter()
         .map(|r| {
             let theirs: Vec<&&LogContents> =
                 heads.iter().filter(|h| !h.start.pilot && h.start.participant == r.id).collect();
@@ -167,7 +174,7 @@ pub fn study_status(dirs: &StudyDirs, study: &Study) -> StudyStatus {
             } else {
                 ParticipantState::Waiting
             };
-            ParticipantStatus { id: r.id, slot: r.slot, state }
+            ParticipantStatus { id: r.id.clone(), slot: r.slot, state }
         })
         .collect();
     let withdrawn: Vec<String> = participants
@@ -211,14 +218,11 @@ pub fn study_status(dirs: &StudyDirs, study: &Study) -> StudyStatus {
             }
         })
         .collect();
-    // The logs read above, counted once more for the slots (not read again); the records
-    // that could not be read are named by the slot counts.
-    let skipped = unreadable.iter().map(|u| (u.log.clone(), u.error.clone())).collect();
-    let unreadable_records: Vec<Unreadable> = unreadable_records
-        .into_iter()
-        .map(|(log, why)| Unreadable { error: format!("{}: {why}", log.display()), log })
-        .collect();
-    let counts = slot_counts(&logs, &dirs.participants, 2, skipped);
+    // The logs and records read above, counted once more for the slots (not read again).
+    let skipped =
+        unreadable.iter().map(|u| (u.log.clone(), u.error.clone())).chain(unreadable_records.iter().cloned()).collect();
+    let counts = slot_counts(&logs, &records, &dirs.participants, 2, skipped);
+    let unreadable_records: Vec<Unreadable> = unreadable_records.into_iter().map(Unreadable::new).collect();
     let slots = (0..counts.completed.len())
         .map(|slot| SlotStatus {
             slot,
