@@ -262,10 +262,6 @@ fn run(args: &[&str]) {
     assert_eq!(code, 0, "handover {args:?}:\n{out}{err}");
 }
 
-fn script(dir: &Path, name: &str, body: &str) -> PathBuf {
-    crate::robot_hook::script(dir, name, body)
-}
-
 #[test]
 fn every_table_agrees_with_an_independent_reader_of_the_logs() {
     let Ok(python) = std::env::var("HANDOVER_PYTHON") else {
@@ -326,7 +322,7 @@ fn every_table_agrees_with_an_independent_reader_of_the_logs() {
     // A robot program that fails or hangs past the timeout now and then, by a fixed pattern
     // over its calls (never three failures in a row, which would end the session).
     let calls = d.join("calls");
-    let flaky = script(
+    let flaky = crate::robot_hook::script(
         &d,
         "flaky.sh",
         &format!(

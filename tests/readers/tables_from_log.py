@@ -126,7 +126,7 @@ def rows_of(log):
     by_event = {}
     for topic, seq, t, data in log.messages:
         by_event.setdefault(seq, []).append((topic, t, data))
-    events = [seq for seq in log.events]
+    events = log.events
     trials, notes, robot, likert, choice, ended = [], [], [], {}, None, None
     beliefs = {c: [] for c in order}
     test_ll = {}
