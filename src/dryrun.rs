@@ -10,7 +10,7 @@ use crate::participant::{ScriptedParticipant, SimulatedPerson};
 use crate::protocol::{Body, Population, Study};
 use crate::record::{RecordedSession, SubmitError};
 use crate::robot::joint_states::JointStateSource;
-use crate::robot::{Report, Robot, command_for};
+use crate::robot::{Robot, command_for};
 use crate::session::{Event, RobotState, Session, SessionStart, Stamped, VoidReason, condition_order};
 use crate::{SeededRng, derive_seed};
 
@@ -186,12 +186,12 @@ pub(crate) fn drive_with_robot(
             Ok(()) => loop {
                 let Some(report) = robot.next_report(Duration::from_millis(100)) else { continue };
                 rec.submit(stamp(rec, report.event()))?;
-                if report.query == command.query && report.state.is_final() {
+                if report.ends(&command) {
                     break report;
                 }
             },
             Err(why) => {
-                let report = Report { query: command.query.clone(), state: RobotState::Failed, detail: why };
+                let report = command.report(RobotState::Failed, why);
                 rec.submit(stamp(rec, report.event()))?;
                 report
             }

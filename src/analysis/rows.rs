@@ -89,6 +89,8 @@ pub struct RobotRow {
     pub trial: usize,
     pub query: String,
     pub attempt: u32,
+    /// Its id (none in logs before format 4).
+    pub command: Option<String>,
     pub link: &'static str,
     pub frame: String,
     pub commanded_ns: u64,
@@ -100,6 +102,9 @@ pub struct RobotRow {
     pub detail: String,
     /// Every report logged for it.
     pub reports: usize,
+    /// Stale reports logged while it was the last command (answers to other commands, or
+    /// that could not be told to answer it); never counted in `reports`.
+    pub stale_reports: usize,
 }
 
 impl RobotRow {
@@ -174,7 +179,7 @@ impl RowCollector {
                 row.void_detail = detail.clone();
             }
             Applied::RobotCommanded { view, attempt } => {
-                let Event::RobotCommanded { query, link, pose } = &stamped.event else { return };
+                let Event::RobotCommanded { query, link, pose, command } = &stamped.event else { return };
                 // The robot moves on: the last presentation is closed (its grasp can no longer
                 // be undone or voided).
                 self.open = None;
@@ -186,6 +191,7 @@ impl RowCollector {
                     trial: view.trial,
                     query: query.clone(),
                     attempt: *attempt,
+                    command: command.clone(),
                     link: link.name(),
                     frame: pose.frame.clone(),
                     commanded_ns: stamped.time_ns,
@@ -193,11 +199,12 @@ impl RowCollector {
                     outcome: None,
                     detail: String::new(),
                     reports: 0,
+                    stale_reports: 0,
                 });
                 self.open_robot = Some(self.robot.len() - 1);
             }
             Applied::RobotReported { attempt: Some(attempt) } => {
-                let Event::RobotReported { query, state, detail } = &stamped.event else { return };
+                let Event::RobotReported { query, state, detail, .. } = &stamped.event else { return };
                 let Some(row) = self.open_robot.map(|i| &mut self.robot[i]) else { return };
                 if row.query != *query || row.attempt != *attempt || row.outcome.is_some() {
                     return;
@@ -211,7 +218,13 @@ impl RowCollector {
                     row.detail = detail.clone();
                 }
             }
-            Applied::RobotReported { attempt: None } => {}
+            Applied::RobotReported { attempt: None } => {
+                if let Event::RobotReported { stale: true, .. } = &stamped.event
+                    && let Some(i) = self.open_robot
+                {
+                    self.robot[i].stale_reports += 1;
+                }
+            }
             Applied::Ended { .. } | Applied::Other => {
                 if let Event::Note { text } = &stamped.event {
                     self.notes.push(NoteRow { event_index: index, time_ns: stamped.time_ns, text: text.clone() });
@@ -334,6 +347,8 @@ pub struct RobotTimings {
     pub timeout: usize,
     /// Commands with no final report in the log (superseded, or the log ends).
     pub unanswered: usize,
+    /// Stale reports (answers to another command than the one under way), over all commands.
+    pub stale: usize,
     /// Seconds from command to `at_pose`: median, minimum, maximum (none without an `at_pose`).
     pub to_at_pose_s: Option<[f64; 3]>,
 }
@@ -361,6 +376,7 @@ pub fn robot_timings<'a>(rows: impl IntoIterator<Item = &'a RobotRow>) -> Option
         failed: ended(RobotState::Failed),
         timeout: ended(RobotState::Timeout),
         unanswered: rows.iter().filter(|r| r.outcome.is_none()).count(),
+        stale: rows.iter().map(|r| r.stale_reports).sum(),
         to_at_pose_s: range,
     })
 }

@@ -64,6 +64,7 @@ struct RobotCsvRow<'a> {
     trial: usize,
     query: &'a str,
     attempt: u32,
+    command: Option<&'a str>,
     link: &'a str,
     frame: &'a str,
     commanded_at: String,
@@ -73,6 +74,7 @@ struct RobotCsvRow<'a> {
     seconds_to_outcome: Option<f64>,
     detail: &'a str,
     reports: usize,
+    stale_reports: usize,
 }
 
 /// `test_log_likelihood.csv`.
@@ -269,6 +271,7 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
                     trial: r.trial,
                     query: &r.query,
                     attempt: r.attempt,
+                    command: r.command.as_deref(),
                     link: r.link,
                     frame: &r.frame,
                     commanded_at: rfc3339_ms(r.commanded_ns),
@@ -278,6 +281,7 @@ pub fn write_tables(dir: &Path, group: &[&Analysed], s: &StudySummary, alpha: &A
                     seconds_to_outcome: r.seconds(),
                     detail: &r.detail,
                     reports: r.reports,
+                    stale_reports: r.stale_reports,
                 })
             }),
         )?;

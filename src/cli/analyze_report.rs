@@ -165,8 +165,9 @@ pub(super) fn table(label: &str, group: &[&Analysed], s: &StudySummary, alpha: &
     if let Some(t) = handover::analysis::robot_timings(sessions.iter().flat_map(|s| &s.robot)) {
         let with_robot = sessions.iter().filter(|s| !s.robot.is_empty()).count();
         o += &format!(
-            "\nRobot ({with_robot} session(s)): {} commands: {} at pose, {} failed, {} timed out, {} unanswered",
-            t.commands, t.at_pose, t.failed, t.timeout, t.unanswered
+            "\nRobot ({with_robot} session(s)): {} commands: {} at pose, {} failed, {} timed out, {} unanswered; {} stale \
+             answer(s) logged and ignored",
+            t.commands, t.at_pose, t.failed, t.timeout, t.unanswered, t.stale
         );
         if let Some([median, min, max]) = t.to_at_pose_s {
             o += &format!("; command → at_pose {median:.2} s median [{min:.2}–{max:.2}]");

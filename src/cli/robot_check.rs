@@ -6,13 +6,18 @@ use std::time::Duration;
 use anyhow::Result;
 use clap::Args;
 use handover::robot::discovery::Side;
-use handover::robot::setup_check::check_setup;
+use handover::robot::setup_check::{Checked, check_setup};
 
 use super::input::bad;
 use super::robot::{MeasureKind, RobotArgs, RobotKind};
 
+/// Checks the robot's topics (`--robot ros2`, the default), the measuring system's
+/// (`--measure ros2`), or both.
 #[derive(Debug, Args)]
 pub struct RobotCheckArgs {
+    /// Check the robot's topics (the default unless only --measure is given).
+    #[arg(long, value_enum)]
+    robot: Option<RobotKind>,
     /// The lab's robot settings, as `run --robot-config` takes them (domain, topics, networks).
     #[arg(long, value_name = "FILE")]
     robot_config: Option<PathBuf>,
@@ -35,8 +40,11 @@ pub fn run(args: RobotCheckArgs) -> Result<()> {
         ..RobotArgs::default()
     };
     let settings = robot.settings()?;
-    let (domain, checks) = check_setup(&settings, args.measure.is_some(), Duration::from_secs_f64(args.wait_s))
+    // A lab that measures the arm and moves the robot by hand has no robot topics.
+    let checked = Checked { robot: args.robot.is_some() || args.measure.is_none(), measure: args.measure.is_some() };
+    let report = check_setup(&settings, checked, Duration::from_secs_f64(args.wait_s))
         .map_err(|e| anyhow::anyhow!("cannot join ROS 2: {e}"))?;
+    let (domain, checks) = (report.domain, &report.checks);
     let networks = if settings.ros2.networks.is_empty() {
         "all".to_string()
     } else {
@@ -44,13 +52,16 @@ pub fn run(args: RobotCheckArgs) -> Result<()> {
     };
     outln!("ROS 2 {domain}, networks: {networks}; after {} s of discovery:", args.wait_s);
     let mut failing = 0;
-    for c in &checks {
+    for c in checks {
         let (direction, others) = match c.side {
             Side::Publishes => ("console →", "subscriber"),
             Side::Subscribes => ("console ←", "publisher"),
         };
         let verdict = match (&c.problem, c.required) {
-            (None, _) => format!("ok: {} matching {others}{}", c.matching, if c.matching == 1 { "" } else { "s" }),
+            (None, _) => {
+                let on = if c.found_on.is_empty() { String::new() } else { format!(", on {}", c.found_on.join(", ")) };
+                format!("ok: {} matching {others}{}{on}", c.matching, if c.matching == 1 { "" } else { "s" })
+            }
             (Some(why), true) => {
                 failing += 1;
                 format!("NOT READY: {why}")
@@ -58,6 +69,15 @@ pub fn run(args: RobotCheckArgs) -> Result<()> {
             (Some(why), false) => format!("optional: {why}"),
         };
         outln!("  {direction} {} ({})  {verdict}", c.topic, c.ros_type);
+    }
+    let heard = if report.heard_on.is_empty() { "none".to_string() } else { report.heard_on.join(", ") };
+    outln!("  other ROS 2 participants heard on: {heard}");
+    if !report.excluded.is_empty() {
+        let add: Vec<String> = report.excluded.iter().map(ToString::to_string).collect();
+        outln!(
+            "  ros2.networks leaves out the interface(s) they were heard on: add {} to ros2.networks",
+            add.join(", ")
+        );
     }
     if failing > 0 {
         anyhow::bail!("{failing} topic(s) not ready: a session would not hear the robot or be heard by it");

@@ -275,7 +275,7 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                 out.push(on(Topic::TestLogLikelihood(condition), &m));
             }
         }
-        (Event::RobotCommanded { link, pose, .. }, Applied::RobotCommanded { view, attempt }) => {
+        (Event::RobotCommanded { link, pose, command, .. }, Applied::RobotCommanded { view, attempt }) => {
             let q = session.query(view.query);
             let (regions, region_labels): (Vec<_>, Vec<_>) = region_labels(session, view).into_iter().unzip();
             let [x, y, z, w] = pose.orientation;
@@ -286,6 +286,7 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                 label: q.query.label.clone(),
                 attempt: *attempt,
                 link: *link,
+                command: command.clone(),
                 pose: pose.clone(),
                 rpy_deg: [r, p, yaw].map(f64::to_degrees),
                 shoulder_pose: shoulder_pose(q),
@@ -294,11 +295,13 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
             };
             out.push(on(Topic::RobotCommand, &m));
         }
-        (Event::RobotReported { query, state, detail }, Applied::RobotReported { attempt }) => {
+        (Event::RobotReported { query, state, detail, command, stale }, Applied::RobotReported { attempt }) => {
             let m = RobotStatus {
                 event_index: index as u32,
                 query: query.clone(),
                 attempt: *attempt,
+                command: command.clone(),
+                stale: *stale,
                 state: *state,
                 detail: detail.clone(),
             };
@@ -373,11 +376,17 @@ pub fn event_from_message(topic: Topic, v: &Value) -> Option<Event> {
         }
         Topic::RobotCommand => {
             let m = typed::<RobotCommand>(topic, v)?;
-            Event::RobotCommanded { query: m.trial.query, link: m.link, pose: m.pose }
+            Event::RobotCommanded { query: m.trial.query, link: m.link, pose: m.pose, command: m.command }
         }
         Topic::RobotStatus => {
             let m = typed::<RobotStatus>(topic, v)?;
-            Event::RobotReported { query: m.query, state: m.state, detail: m.detail }
+            Event::RobotReported {
+                query: m.query,
+                state: m.state,
+                detail: m.detail,
+                command: m.command,
+                stale: m.stale,
+            }
         }
         _ => return None,
     })

@@ -53,10 +53,12 @@ pub use writer::{McapWriter, Sink};
 ///    `/human/arm`, seeds below 2^53.
 /// 3: `/session/start`'s `selection`: a session that learns from the measured arm scores
 ///    its queries' measured outcomes (format 2 scored regions).
-pub const LOG_FORMAT: u32 = 3;
+/// 4: robot commands have ids (`/robot/command`'s `command`), and each `/robot/status` says
+///    which command it answers and whether it is stale.
+pub const LOG_FORMAT: u32 = 4;
 
 /// What `handover --version` says: the software's version and the log format it writes.
-pub const VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), " (writes log format 3, reads 1 to 3)");
+pub const VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), " (writes log format 4, reads 1 to 4)");
 
 /// Name of the attachment that holds the protocol text.
 pub const PROTOCOL_ATTACHMENT: &str = "protocol.json";

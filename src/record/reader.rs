@@ -110,8 +110,14 @@ fn validate_event(event: &Event) -> Result<(), String> {
         Event::Note { text } => long("text", text),
         Event::TrialVoided { detail, .. } => long("detail", detail),
         Event::Aborted { reason } => long("reason", reason),
-        Event::RobotReported { detail, .. } => long("detail", detail),
-        Event::RobotCommanded { pose, .. } => crate::session::validate_sent_pose(pose).map_err(|e| e.to_string()),
+        Event::RobotReported { detail, command, .. } => {
+            long("detail", detail)?;
+            command.as_deref().map_or(Ok(()), |c| crate::session::validate_command_id(c).map_err(|e| e.to_string()))
+        }
+        Event::RobotCommanded { pose, command, .. } => {
+            crate::session::validate_sent_pose(pose).map_err(|e| e.to_string())?;
+            command.as_deref().map_or(Ok(()), |c| crate::session::validate_command_id(c).map_err(|e| e.to_string()))
+        }
         Event::GraspRecorded { measured: Some(m), .. } if m.source == crate::session::MeasurementSource::File => {
             Err("measured.source is 'file', expected 'simulated' or 'ros2' (a file is aligned after a session, never logged)"
                 .into())

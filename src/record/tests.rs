@@ -142,11 +142,7 @@ fn a_robot_channel_whose_first_write_fails_is_registered_once_on_the_retry() {
     assert_eq!(disk.bytes(), good);
     disk.set_room(usize::MAX);
     rec.submit(Stamped { time_ns: 11, event: event.clone() }).unwrap();
-    let report = Event::RobotReported {
-        query: command.query.clone(),
-        state: crate::session::RobotState::AtPose,
-        detail: String::new(),
-    };
+    let report = command.report(crate::session::RobotState::AtPose, "").event();
     rec.submit(Stamped { time_ns: 12, event: report.clone() }).unwrap();
     drop(rec.recorder.finish().unwrap());
     let (dir, path) = as_file(&disk, "robot-retry");
@@ -216,7 +212,7 @@ fn every_logged_message_validates_against_its_schema_and_reads_back() {
             let c = crate::robot::command_for(rec.session(), &settings).unwrap();
             submit(&mut rec, c.event(crate::session::RobotLinkKind::Ros2));
             for state in [crate::session::RobotState::Moving, crate::session::RobotState::AtPose] {
-                submit(&mut rec, Event::RobotReported { query: c.query.clone(), state, detail: String::new() });
+                submit(&mut rec, c.report(state, "").event());
             }
         }
         submit(&mut rec, e);

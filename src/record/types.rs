@@ -344,6 +344,11 @@ pub struct RobotCommand {
     pub attempt: u32,
     /// How it was sent: `ros2` or `command`.
     pub link: RobotLinkKind,
+    /// The command's id, `SEC.NANOSEC` (when it was issued; the pose's `header.stamp`), which
+    /// the robot's statuses name (format 4 on).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(regex(pattern = r"^[0-9]{1,12}\.[0-9]{9}$"))]
+    pub command: Option<String>,
     /// The pose as sent: the frame, position (m) and orientation (quaternion x, y, z, w).
     pub pose: SentPose,
     /// The same orientation as roll, pitch, yaw (degrees).
@@ -362,9 +367,19 @@ pub struct RobotStatus {
     pub event_index: u32,
     /// The query whose command it answers.
     pub query: String,
-    /// The command of the trial under way it answers (absent when the trial has moved on).
+    /// The command of the trial under way it answers (absent when the trial has moved on, and
+    /// for a stale status).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub attempt: Option<u32>,
+    /// The id of the command it answers or, stale, names (format 4 on; absent for a stale
+    /// status that names none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(regex(pattern = r"^[0-9]{1,12}\.[0-9]{9}$"))]
+    pub command: Option<String>,
+    /// It answers another command than the one under way, or cannot be told to answer it:
+    /// nothing moved on it (format 4 on; written only when true).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub stale: bool,
     pub state: RobotState,
     /// The robot's words (an unknown status text, a program's exit status and error output).
     pub detail: String,

@@ -4,9 +4,10 @@
 //! never exchanges data), so a robot that never answers, or a measuring system that is never
 //! heard, is explained from the discovery database.
 
-use ros2_client::dds::rustdds::DomainParticipant;
+use std::net::IpAddr;
+
 use ros2_client::dds::rustdds::qos::QosPolicyId;
-use ros2_client::dds::rustdds::{QosPolicies, policy};
+use ros2_client::dds::rustdds::{DomainParticipant, QosPolicies, RTPSEntity, policy};
 
 use super::Domain;
 
@@ -38,6 +39,81 @@ pub struct Peer {
     /// The DDS type name (`geometry_msgs::msg::dds_::PoseStamped_`).
     pub dds_type: String,
     pub qos: QosPolicies,
+    /// Its participant's GUID prefix.
+    pub participant: [u8; 12],
+}
+
+/// A GUID prefix's bytes.
+fn prefix_bytes(prefix: &impl AsRef<[u8]>) -> [u8; 12] {
+    let mut out = [0; 12];
+    let b = prefix.as_ref();
+    out[..b.len().min(12)].copy_from_slice(&b[..b.len().min(12)]);
+    out
+}
+
+/// The UDP port of a domain's discovery multicast (SPDP: RTPS 2.x's PB + DG × domain).
+pub fn discovery_port(domain: u16) -> u16 {
+    7400 + 250 * domain
+}
+
+/// The group discovery announcements are multicast to.
+const DISCOVERY_GROUP: std::net::Ipv4Addr = std::net::Ipv4Addr::new(239, 255, 0, 1);
+
+/// Listens for `wait` to the participants' discovery announcements multicast in `domain`
+/// (on every IPv4 interface, beside the DDS participant's own socket) and says where each
+/// participant's came from: GUID prefix → source addresses. Empty if the port cannot be
+/// shared.
+#[cfg(unix)]
+pub fn announcements(domain: u16, wait: std::time::Duration) -> std::collections::HashMap<[u8; 12], Vec<IpAddr>> {
+    use std::os::fd::FromRawFd;
+    let mut heard: std::collections::HashMap<[u8; 12], Vec<IpAddr>> = Default::default();
+    // SAFETY: a socket made here and handed to UdpSocket, which owns and closes it; the
+    // options are plain ints.
+    let socket = unsafe {
+        let fd = libc::socket(libc::AF_INET, libc::SOCK_DGRAM | libc::SOCK_CLOEXEC, 0);
+        if fd < 0 {
+            return heard;
+        }
+        let socket = std::net::UdpSocket::from_raw_fd(fd);
+        let one: libc::c_int = 1;
+        for option in [libc::SO_REUSEADDR, libc::SO_REUSEPORT] {
+            let p = (&raw const one).cast::<libc::c_void>();
+            libc::setsockopt(fd, libc::SOL_SOCKET, option, p, size_of::<libc::c_int>() as libc::socklen_t);
+        }
+        let addr = libc::sockaddr_in {
+            sin_family: libc::AF_INET as libc::sa_family_t,
+            sin_port: discovery_port(domain).to_be(),
+            sin_addr: libc::in_addr { s_addr: 0 },
+            sin_zero: [0; 8],
+        };
+        let p = (&raw const addr).cast::<libc::sockaddr>();
+        if libc::bind(fd, p, size_of::<libc::sockaddr_in>() as libc::socklen_t) != 0 {
+            return heard;
+        }
+        socket
+    };
+    for i in interfaces() {
+        if let IpAddr::V4(v4) = i.address {
+            let _ = socket.join_multicast_v4(&DISCOVERY_GROUP, &v4);
+        }
+    }
+    let deadline = std::time::Instant::now() + wait;
+    let mut buf = [0u8; 2048];
+    while let Some(left) = deadline.checked_duration_since(std::time::Instant::now()).filter(|d| !d.is_zero()) {
+        let _ = socket.set_read_timeout(Some(left.min(std::time::Duration::from_millis(100))));
+        // An RTPS message: "RTPS", version, vendor, then the sender's GUID prefix.
+        if let Ok((n, from)) = socket.recv_from(&mut buf)
+            && n >= 20
+            && &buf[..4] == b"RTPS"
+        {
+            let prefix = prefix_bytes(&&buf[8..20]);
+            let sources = heard.entry(prefix).or_default();
+            if !sources.contains(&from.ip()) {
+                sources.push(from.ip());
+            }
+        }
+    }
+    heard
 }
 
 /// The DDS name of a ROS 2 topic (`/a/b` → `rt/a/b`).
@@ -62,25 +138,31 @@ fn ros_topic(dds_topic: &str) -> String {
 }
 
 /// The endpoints on the other side of a topic of the console's, on any topic, as
-/// `participant` has discovered them (its own are not among them).
+/// `participant` has discovered them; its own (discovery lists them too) are left out.
 pub fn peers(participant: &DomainParticipant, side: Side) -> Vec<Peer> {
+    let own = participant.guid().prefix;
+    let of = |g: &ros2_client::dds::rustdds::GUID| prefix_bytes(&g.prefix);
     match side {
         Side::Publishes => participant
             .discovered_readers()
             .into_iter()
+            .filter(|r| r.reader_proxy.remote_reader_guid.prefix != own)
             .map(|r| Peer {
                 dds_topic: r.subscription_topic_data.topic_name().clone(),
                 dds_type: r.subscription_topic_data.type_name().clone(),
                 qos: r.subscription_topic_data.qos(),
+                participant: of(&r.reader_proxy.remote_reader_guid),
             })
             .collect(),
         Side::Subscribes => participant
             .discovered_writers()
             .into_iter()
+            .filter(|w| w.writer_proxy.remote_writer_guid.prefix != own)
             .map(|w| Peer {
                 dds_topic: w.publication_topic_data.topic_name.clone(),
                 dds_type: w.publication_topic_data.type_name.clone(),
                 qos: w.publication_topic_data.qos(),
+                participant: of(&w.writer_proxy.remote_writer_guid),
             })
             .collect(),
     }
@@ -105,7 +187,7 @@ fn policy_value(qos: &QosPolicies, id: QosPolicyId) -> String {
 }
 
 /// Why `peer` (on `ours`' topic) cannot exchange messages with `ours`, or `None` when it can.
-fn problem(ours: &Endpoint, peer: &Peer) -> Option<String> {
+pub fn problem(ours: &Endpoint, peer: &Peer) -> Option<String> {
     let they = match ours.side {
         Side::Publishes => "subscriber",
         Side::Subscribes => "publisher",
@@ -167,6 +249,93 @@ pub fn diagnose(ours: &Endpoint, peers: &[Peer], domain: Domain) -> Option<Strin
     Some(problems.join("; "))
 }
 
+/// One of this machine's network interfaces: its name, an address and the prefix length.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Interface {
+    pub name: String,
+    pub address: IpAddr,
+    pub prefix: u8,
+}
+
+impl Interface {
+    /// Whether `ip` is on this interface's network (or is its own address).
+    pub fn reaches(&self, ip: IpAddr) -> bool {
+        let bits = |a: IpAddr| match a {
+            IpAddr::V4(v) => (u128::from(u32::from(v)), 32),
+            IpAddr::V6(v) => (u128::from(v), 128),
+        };
+        let ((ours, len), (theirs, len2)) = (bits(self.address), bits(ip));
+        if len != len2 || self.prefix > len {
+            return false;
+        }
+        let shift = u32::from(len - self.prefix);
+        shift >= 128 || (ours >> shift) == (theirs >> shift)
+    }
+}
+
+/// This machine's interfaces with an IP address (getifaddrs).
+#[cfg(unix)]
+pub fn interfaces() -> Vec<Interface> {
+    let mut out = Vec::new();
+    let mut list: *mut libc::ifaddrs = std::ptr::null_mut();
+    // SAFETY: getifaddrs fills `list` with a linked list that is freed below; every pointer
+    // read is checked for null and read only while the list lives.
+    unsafe {
+        if libc::getifaddrs(&mut list) != 0 {
+            return out;
+        }
+        let mut at = list;
+        while !at.is_null() {
+            let a = &*at;
+            at = a.ifa_next;
+            if a.ifa_addr.is_null() || a.ifa_name.is_null() {
+                continue;
+            }
+            let ip = |sa: *const libc::sockaddr| -> Option<IpAddr> {
+                if sa.is_null() {
+                    return None;
+                }
+                match i32::from((*sa).sa_family) {
+                    libc::AF_INET => {
+                        let v = &*(sa.cast::<libc::sockaddr_in>());
+                        Some(IpAddr::from(u32::from_be(v.sin_addr.s_addr).to_be_bytes()))
+                    }
+                    libc::AF_INET6 => Some(IpAddr::from((*(sa.cast::<libc::sockaddr_in6>())).sin6_addr.s6_addr)),
+                    _ => None,
+                }
+            };
+            let Some(address) = ip(a.ifa_addr) else { continue };
+            let prefix = ip(a.ifa_netmask).map_or(0, |m| match m {
+                IpAddr::V4(v) => u32::from(v).count_ones() as u8,
+                IpAddr::V6(v) => u128::from(v).count_ones() as u8,
+            });
+            let name = std::ffi::CStr::from_ptr(a.ifa_name).to_string_lossy().into_owned();
+            out.push(Interface { name, address, prefix });
+        }
+        libc::freeifaddrs(list);
+    }
+    out
+}
+
+/// Where an endpoint at `addresses` is reached from this machine: `ADDRESS via INTERFACE`
+/// for each address on one of `interfaces`' networks (the endpoint's own machine: `on this
+/// machine`), each once.
+pub fn reached_via(addresses: &[IpAddr], interfaces: &[Interface]) -> Vec<String> {
+    let mut out: Vec<String> = addresses
+        .iter()
+        .filter_map(|&ip| {
+            if interfaces.iter().any(|i| i.address == ip) || ip.is_loopback() {
+                return Some("this machine".to_string());
+            }
+            let via = interfaces.iter().find(|i| !i.address.is_loopback() && i.reaches(ip))?;
+            Some(format!("{ip} via {} ({}/{})", via.name, via.address, via.prefix))
+        })
+        .collect();
+    out.sort();
+    out.dedup();
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use ros2_client::dds::rustdds::QosPolicyBuilder;
@@ -185,11 +354,29 @@ mod tests {
     }
 
     fn peer(topic: &str, ty: &str, q: QosPolicies) -> Peer {
-        Peer { dds_topic: topic.into(), dds_type: ty.into(), qos: q }
+        Peer { dds_topic: topic.into(), dds_type: ty.into(), qos: q, participant: [0; 12] }
     }
 
     const POSE: &str = "geometry_msgs::msg::dds_::PoseStamped_";
     const DOMAIN: Domain = Domain { id: 7, from: "ROS_DOMAIN_ID" };
+
+    #[test]
+    fn a_peer_is_placed_on_the_interface_whose_network_holds_it() {
+        let iface = |name: &str, a: &str, prefix| Interface { name: name.into(), address: a.parse().unwrap(), prefix };
+        let ifaces = [iface("lo", "127.0.0.1", 8), iface("wlan0", "192.168.1.20", 24), iface("eth1", "10.20.0.1", 16)];
+        let ip = |a: &str| a.parse::<IpAddr>().unwrap();
+        assert_eq!(reached_via(&[ip("10.20.3.4")], &ifaces), ["10.20.3.4 via eth1 (10.20.0.1/16)"]);
+        assert_eq!(
+            reached_via(&[ip("192.168.1.7"), ip("10.21.0.1")], &ifaces),
+            ["192.168.1.7 via wlan0 (192.168.1.20/24)"]
+        );
+        assert_eq!(reached_via(&[ip("192.168.1.20"), ip("127.0.0.1")], &ifaces), ["this machine"]);
+        assert!(reached_via(&[ip("172.16.0.1"), ip("fe80::1")], &ifaces).is_empty());
+        assert!(iface("any", "0.0.0.0", 0).reaches(ip("8.8.8.8")));
+        assert!(!iface("v4", "10.0.0.1", 8).reaches(ip("::1")));
+        // This machine has a loopback at least.
+        assert!(interfaces().iter().any(|i| i.address.is_loopback()), "{:?}", interfaces());
+    }
 
     #[test]
     fn names_are_mapped_between_ros2_and_dds() {

@@ -73,7 +73,7 @@ impl Link for CommandHook {
         let running: Running = Arc::new(Mutex::new(i32::try_from(child.id()).ok()));
         self.abandon = Some((Arc::clone(&abandon), Arc::clone(&running)));
         let reports = self.reports.clone();
-        let query = command.query.clone();
+        let command = command.clone();
         std::thread::spawn(move || {
             if let Some(mut stdin) = stdin {
                 std::thread::spawn(move || {
@@ -95,7 +95,7 @@ impl Link for CommandHook {
                 Some(code) => (RobotState::Failed, with_stderr(format!("exit status {code}"), &err)),
                 None => (RobotState::Failed, with_stderr("killed by a signal".into(), &err)),
             };
-            let _ = reports.send(Report { query, state, detail });
+            let _ = reports.send(command.report(state, detail));
         });
         Ok(())
     }

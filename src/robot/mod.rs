@@ -43,6 +43,13 @@ pub struct Xyzw {
 /// trial message carry it (JSON).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct RobotCommand {
+    /// Its id: when it was issued, `SEC.NANOSEC` since the Unix epoch, which is also the
+    /// pose message's `header.stamp` ([`CommandId`]). Every publication of the command carries
+    /// the same id; each status names the id it answers.
+    pub command: String,
+    /// The same instant (ns since the Unix epoch).
+    #[serde(skip)]
+    pub issued_ns: u64,
     pub phase: Phase,
     /// 1-based within the run (training) or the test phase.
     pub trial: usize,
@@ -70,7 +77,47 @@ impl RobotCommand {
 
     /// The event that logs it.
     pub fn event(&self, link: RobotLinkKind) -> Event {
-        Event::RobotCommanded { query: self.query.clone(), link, pose: self.sent_pose() }
+        Event::RobotCommanded {
+            query: self.query.clone(),
+            link,
+            pose: self.sent_pose(),
+            command: Some(self.command.clone()),
+        }
+    }
+
+    /// A report on this command.
+    pub fn report(&self, state: RobotState, detail: impl Into<String>) -> Report {
+        Report {
+            query: self.query.clone(),
+            command: Some(self.command.clone()),
+            state,
+            detail: detail.into(),
+            stale: false,
+        }
+    }
+}
+
+/// Command ids: the instant a command is issued, `SEC.NANOSEC` since the Unix epoch. An
+/// action's goal id in ROS 2 is a UUID; this id is the command's `header.stamp`, so that a
+/// robot node can name the command from the pose message alone with standard types. Ids
+/// increase within a process (two commands in one nanosecond get consecutive ones).
+pub struct CommandId;
+
+impl CommandId {
+    /// A new id, and its instant in ns.
+    pub fn issue() -> (String, u64) {
+        use std::sync::atomic::{AtomicU64, Ordering};
+        static LAST: AtomicU64 = AtomicU64::new(0);
+        let now = crate::now_ns();
+        let ns = match LAST.fetch_update(Ordering::SeqCst, Ordering::SeqCst, |last| Some(now.max(last + 1))) {
+            Ok(last) | Err(last) => now.max(last + 1),
+        };
+        (Self::text(ns), ns)
+    }
+
+    /// The id of the instant `ns`.
+    pub fn text(ns: u64) -> String {
+        format!("{}.{:09}", ns / 1_000_000_000, ns % 1_000_000_000)
     }
 }
 
@@ -87,7 +134,10 @@ pub fn command_for(session: &Session, settings: &RobotSettings) -> Option<RobotC
     let rotation: UnitQuaternion<f64> = pose.rotation;
     let (r, p, y) = rotation.euler_angles();
     let attempt = session.robot().filter(|t| t.query == q.query.id).map_or(0, |t| t.attempts) + 1;
+    let (command, issued_ns) = CommandId::issue();
     Some(RobotCommand {
+        command,
+        issued_ns,
         phase: view.phase,
         trial: view.trial,
         attempt,
@@ -109,16 +159,32 @@ pub fn command_for(session: &Session, settings: &RobotSettings) -> Option<RobotC
 /// What a link heard about a command.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Report {
-    /// The query of the command it answers.
+    /// The query of the command it answers (stale: of the command it names, else of the last
+    /// command sent).
     pub query: String,
+    /// The id of the command it answers, or (stale) names.
+    pub command: Option<String>,
     pub state: RobotState,
     pub detail: String,
+    /// It answers another command than the one under way, or cannot be told to answer it.
+    pub stale: bool,
 }
 
 impl Report {
     /// The event that logs it.
     pub fn event(&self) -> Event {
-        Event::RobotReported { query: self.query.clone(), state: self.state, detail: self.detail.clone() }
+        Event::RobotReported {
+            query: self.query.clone(),
+            state: self.state,
+            detail: self.detail.clone(),
+            command: self.command.clone(),
+            stale: self.stale,
+        }
+    }
+
+    /// Whether it is the final answer to `command`.
+    pub fn ends(&self, command: &RobotCommand) -> bool {
+        !self.stale && self.state.is_final() && self.command.as_deref() == Some(command.command.as_str())
     }
 }
 
@@ -142,6 +208,7 @@ pub trait Link: Send {
 #[derive(Clone, Debug)]
 struct Pending {
     query: String,
+    command: String,
     sent: Instant,
 }
 
@@ -176,7 +243,8 @@ impl Robot {
 
     /// Sends a command (logged before: see [`RobotCommand::event`]).
     pub fn send(&mut self, command: &RobotCommand) -> Result<(), String> {
-        self.pending = Some(Pending { query: command.query.clone(), sent: Instant::now() });
+        self.pending =
+            Some(Pending { query: command.query.clone(), command: command.command.clone(), sent: Instant::now() });
         self.last_took = None;
         self.link.send(command)
     }
@@ -192,14 +260,20 @@ impl Robot {
     }
 
     /// The next report, waiting at most `wait`; a command past its time is reported as a
-    /// timeout (and the link told to give it up).
+    /// timeout (and the link told to give it up). A report on any command but the one under
+    /// way is stale, whatever the link made of it.
     pub fn next_report(&mut self, wait: Duration) -> Option<Report> {
         let deadline = self.pending.as_ref().map(|p| p.sent + self.settings.timeout());
         let wait = deadline.map_or(wait, |d| wait.min(d.saturating_duration_since(Instant::now())));
         let got = if wait.is_zero() { self.reports.try_recv().ok() } else { self.reports.recv_timeout(wait).ok() };
-        if let Some(report) = got {
-            if report.state.is_final()
-                && let Some(p) = self.pending.take_if(|p| p.query == report.query)
+        if let Some(mut report) = got {
+            let under_way = self.pending.as_ref().map(|p| p.command.as_str());
+            if report.command.as_deref() != under_way || under_way.is_none() {
+                report.stale = true;
+            }
+            if !report.stale
+                && report.state.is_final()
+                && let Some(p) = self.pending.take()
             {
                 self.last_took = Some(p.sent.elapsed());
             }
@@ -211,7 +285,13 @@ impl Robot {
                 if let Some(why) = self.link.diagnose() {
                     detail = format!("{why} (no answer within {} s)", self.settings.timeout_s);
                 }
-                let report = Report { query: p.query.clone(), state: RobotState::Timeout, detail };
+                let report = Report {
+                    query: p.query.clone(),
+                    command: Some(p.command.clone()),
+                    state: RobotState::Timeout,
+                    detail,
+                    stale: false,
+                };
                 self.last_took = Some(p.sent.elapsed());
                 self.pending = None;
                 self.link.cancel();
@@ -222,20 +302,58 @@ impl Robot {
     }
 }
 
-/// The text a robot's status message carries, as a state (anything else is `other`, with
-/// the text as the detail).
-pub fn parse_status(text: &str) -> (RobotState, String) {
-    match text.trim() {
-        "moving" => (RobotState::Moving, String::new()),
-        "at_pose" => (RobotState::AtPose, String::new()),
-        "failed" => (RobotState::Failed, String::new()),
-        other => {
-            let mut detail: String = other.chars().filter(|c| !c.is_control()).take(500).collect();
-            if detail.is_empty() {
-                detail = "(empty status)".into();
-            }
-            (if other.starts_with("failed") { RobotState::Failed } else { RobotState::Other }, detail)
+/// A robot's status message, read.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Status {
+    pub state: RobotState,
+    /// The command it names (none: a bare status).
+    pub command: Option<String>,
+    /// The robot's words beyond the state and the id (a failure's reason; the whole text of
+    /// a status that is none of the states).
+    pub detail: String,
+}
+
+/// The text a robot's status message carries: `STATE [ID][: WHY]`, STATE one of `moving`,
+/// `at_pose`, `failed`, ID the command's id ([`CommandId`]), WHY a failure's reason (`failed
+/// 1765130000.123456789: no IK solution`). Anything else is `other`, with the text as the
+/// detail; a text beginning `failed` is a failure whatever follows.
+pub fn parse_status(text: &str) -> Status {
+    let text = text.trim();
+    let clean = |t: &str| t.chars().filter(|c| !c.is_control()).take(500).collect::<String>();
+    let other = || {
+        let mut detail = clean(text);
+        if detail.is_empty() {
+            detail = "(empty status)".into();
         }
+        let state = if text.starts_with("failed") { RobotState::Failed } else { RobotState::Other };
+        Status { state, command: None, detail }
+    };
+    let (word, rest) = text.split_once([' ', ':']).map_or((text, ""), |(w, _)| (w, &text[w.len()..]));
+    let state = match word {
+        "moving" => RobotState::Moving,
+        "at_pose" => RobotState::AtPose,
+        "failed" => RobotState::Failed,
+        _ => return other(),
+    };
+    // The id, if the next word is one.
+    let (command, rest) = match rest.strip_prefix(' ').map(|r| r.trim_start()) {
+        Some(r) => {
+            let id = r.split([' ', ':']).next().unwrap_or("");
+            if crate::session::validate_command_id(id).is_ok() {
+                (Some(id.to_string()), &r[id.len()..])
+            } else {
+                (None, rest)
+            }
+        }
+        None => (None, rest),
+    };
+    match (state, rest.trim()) {
+        (_, "") => Status { state, command, detail: String::new() },
+        (RobotState::Failed, why) => {
+            let why = why.strip_prefix(':').unwrap_or(why).trim();
+            Status { state, command, detail: clean(&format!("failed: {why}")) }
+        }
+        _ => other(),
     }
 }
 

@@ -13,9 +13,10 @@
 //! the robot answers. A volatile subscription gets nothing published before it matched, and
 //! discovery is not symmetric: this side can see a subscriber matched before the subscriber
 //! has matched this publisher, and what is published in between is lost to it. The
-//! publications after a match cover that window. Statuses carry no command id: one is taken
-//! to answer the command under way. When nothing answers, discovery says why
-//! ([`super::discovery`]).
+//! publications after a match cover that window. Every publication of a command carries its
+//! id (the trial message's `command`, the pose's `header.stamp`), and a status names the id
+//! it answers (`at_pose 1765130000.123456789`): a status for any other command is stale
+//! ([`Attribution`]). When nothing answers, discovery says why ([`super::discovery`]).
 
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, channel};
 use std::time::{Duration, Instant};
@@ -27,7 +28,7 @@ use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions, QosProfile};
 use serde::{Deserialize, Serialize};
 
 use super::discovery::{Endpoint, Side, diagnose, peers};
-use super::{Domain, Link, Report, RobotCommand, RobotSettings, Ros2Settings, parse_status};
+use super::{Domain, Link, Report, RobotCommand, RobotSettings, Ros2Settings, Status, parse_status};
 use crate::session::RobotLinkKind;
 
 /// `builtin_interfaces/msg/Time`.
@@ -76,14 +77,15 @@ pub struct PoseStamped {
 }
 
 impl PoseStamped {
-    /// The command's pose, stamped now.
+    /// The command's pose, stamped with the command's id (when it was issued): every
+    /// publication of one command carries the same stamp.
     pub fn of(command: &RobotCommand) -> Self {
-        let now = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
         let [x, y, z] = command.position;
         let o = command.orientation;
+        let (sec, nanosec) = (command.issued_ns / 1_000_000_000, (command.issued_ns % 1_000_000_000) as u32);
         Self {
             header: Header {
-                stamp: Time { sec: i32::try_from(now.as_secs()).unwrap_or(i32::MAX), nanosec: now.subsec_nanos() },
+                stamp: Time { sec: i32::try_from(sec).unwrap_or(i32::MAX), nanosec },
                 frame_id: command.frame.clone(),
             },
             pose: Pose { position: Point { x, y, z }, orientation: Quaternion { x: o.x, y: o.y, z: o.z, w: o.w } },
@@ -245,20 +247,115 @@ impl Ros2Link {
     }
 }
 
-/// When a command still unanswered is published again after a subscriber of the pose topic
-/// matched, counted from the match, until a status comes back: the subscriber may match this
-/// publisher only after this side matched it (under load, a second or more), and misses what
-/// came before. A status proves the robot has matched; a robot slower than the first of these
-/// to say `moving` gets the command twice, as it would at a resend.
-const AFTER_MATCH: [Duration; 3] = [Duration::from_millis(500), Duration::from_secs(1), Duration::from_secs(3)];
-
 /// A command being delivered.
 struct Delivery {
     command: RobotCommand,
     since: Instant,
     last_sent: Option<Instant>,
+    /// How often its pose was published.
+    publications: u32,
     answered: bool,
 }
+
+impl Delivery {
+    fn of(command: RobotCommand) -> Self {
+        Self { command, since: Instant::now(), last_sent: None, publications: 0, answered: false }
+    }
+}
+
+/// How many earlier commands a status may name and still be told apart from an unknown one.
+const REMEMBERED: usize = 64;
+
+/// What the link makes of the robot's statuses: which command each answers. A status that
+/// names the command under way answers it; one that names another is stale. A bare status
+/// (a robot node written before statuses named commands) is taken for the command under way
+/// only while that cannot be wrong: no earlier command's pose was published more than once,
+/// every earlier command was answered, and no status came while none was under way. Once
+/// any of that happens, the robot may still be answering an earlier command, and every bare
+/// status after it is stale, with the reason.
+#[derive(Default)]
+struct Attribution {
+    /// Earlier commands (id, query), newest last.
+    earlier: std::collections::VecDeque<(String, String)>,
+    /// Why a bare status can no longer be told to answer the command under way.
+    bare_refused: Option<String>,
+}
+
+impl Attribution {
+    /// The command `d` is over: answered, timed out or replaced.
+    fn end(&mut self, d: &Delivery, answered: bool) {
+        if self.bare_refused.is_none() {
+            if !answered {
+                self.bare_refused = Some(format!("command {} got no final answer", d.command.command));
+            } else if d.publications > 1 {
+                self.bare_refused = Some(format!(
+                    "the pose of command {} was published {} times and the robot may still answer the repeats",
+                    d.command.command, d.publications
+                ));
+            }
+        }
+        self.earlier.push_back((d.command.command.clone(), d.command.query.clone()));
+        if self.earlier.len() > REMEMBERED {
+            self.earlier.pop_front();
+        }
+    }
+
+    /// `next` replaces the command under way (none: it is given up).
+    fn replace(&mut self, current: &mut Option<Delivery>, next: Option<Delivery>) {
+        if let Some(d) = current.take() {
+            self.end(&d, false);
+        }
+        *current = next;
+    }
+
+    /// The report a status makes; the command under way is answered by it, and over if it
+    /// is final.
+    fn heard(&mut self, status: Status, current: &mut Option<Delivery>) -> Report {
+        let report = self.report(status, current.as_ref());
+        if !report.stale
+            && let Some(d) = current.as_mut()
+        {
+            d.answered = true;
+            if report.state.is_final() {
+                self.end(d, true);
+                *current = None;
+            }
+        }
+        report
+    }
+
+    /// The report a status makes, with `current` under way.
+    fn report(&mut self, status: Status, current: Option<&Delivery>) -> Report {
+        let Status { state, command, detail } = status;
+        let last_query =
+            || current.map(|d| d.command.query.clone()).or_else(|| self.earlier.back().map(|e| e.1.clone()));
+        match (command, current) {
+            (Some(id), Some(d)) if id == d.command.command => d.command.report(state, detail),
+            (Some(id), _) => {
+                let query = self.earlier.iter().find(|e| e.0 == id).map(|e| e.1.clone()).or_else(last_query);
+                Report { query: query.unwrap_or_default(), command: Some(id), state, detail, stale: true }
+            }
+            (None, Some(d)) if self.bare_refused.is_none() => d.command.report(state, detail),
+            (None, current) => {
+                if current.is_none() && self.bare_refused.is_none() {
+                    self.bare_refused = Some("a status came while no command was under way".into());
+                }
+                let why = self.bare_refused.clone().unwrap_or_default();
+                let said = if detail.is_empty() { state.name().to_string() } else { detail };
+                let detail =
+                    format!("{said} (names no command, and {why}: the robot must name the command it answers)");
+                Report { query: last_query().unwrap_or_default(), command: None, state, detail, stale: true }
+            }
+        }
+    }
+}
+
+/// When a command still unanswered is published again after a subscriber of the pose topic
+/// matched, counted from the match, until a status comes back: the subscriber may match this
+/// publisher only after this side matched it (under load, a second or more), and misses what
+/// came before. A status proves the robot has matched; a robot slower than the first of these
+/// to say `moving` gets the command twice, as it would at a resend, with the same id.
+const AFTER_MATCH: [Duration; 3] = [Duration::from_millis(500), Duration::from_secs(1), Duration::from_secs(3)];
 
 /// Whether a command sent at `since` and last published at `sent` is published now, with
 /// `subscribers` matched, the last of them at `matched`: first when anyone subscribes, again
@@ -281,21 +378,19 @@ fn publish_due(
     checkpoint.is_some_and(|t| sent < t) || now.duration_since(sent) >= resend
 }
 
-/// The ROS 2 thread: publishes commands, re-sends until answered, forwards statuses.
+/// The ROS 2 thread: publishes commands, re-sends until answered, forwards statuses with the
+/// command each answers.
 fn serve(e: Endpoints, settings: &RobotSettings, jobs: &Receiver<Job>, reports: &Sender<Report>) {
     let resend = Duration::from_secs_f64(settings.ros2.resend_s);
     let mut current: Option<Delivery> = None;
-    let mut last_query: Option<String> = None;
+    let mut attribution = Attribution::default();
     // Subscribers of the pose topic matched at the last look, and when one last matched.
     let mut seen = 0;
     let mut matched: Option<Instant> = None;
     loop {
         match jobs.recv_timeout(Duration::from_millis(10)) {
-            Ok(Job::Send(command)) => {
-                last_query = Some(command.query.clone());
-                current = Some(Delivery { command: *command, since: Instant::now(), last_sent: None, answered: false });
-            }
-            Ok(Job::Cancel) => current = None,
+            Ok(Job::Send(command)) => attribution.replace(&mut current, Some(Delivery::of(*command))),
+            Ok(Job::Cancel) => attribution.replace(&mut current, None),
             Err(RecvTimeoutError::Timeout) => {}
             Err(RecvTimeoutError::Disconnected) => return,
         }
@@ -312,20 +407,17 @@ fn serve(e: Endpoints, settings: &RobotSettings, jobs: &Receiver<Job>, reports: 
             let _ = e.trial.publish(json);
             let _ = e.pose.publish(PoseStamped::of(&d.command));
             d.last_sent = Some(now);
+            d.publications += 1;
         }
         while let Ok(Some((text, _))) = e.status.take() {
             // The robot answered, so it has matched this publisher: no window left to cover.
             matched = None;
+            let report = attribution.heard(parse_status(&text), &mut current);
             // A status before any command is about nothing the session knows.
-            let Some(query) = last_query.clone() else { continue };
-            let (state, detail) = parse_status(&text);
-            if let Some(d) = current.as_mut() {
-                d.answered = true;
-                if state.is_final() {
-                    current = None;
-                }
+            if report.query.is_empty() {
+                continue;
             }
-            if reports.send(Report { query, state, detail }).is_err() {
+            if reports.send(report).is_err() {
                 return;
             }
         }
@@ -362,6 +454,176 @@ impl Link for Ros2Link {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::robot::{CommandId, Xyzw};
+    use crate::session::{Phase, RobotState};
+    use rand::{RngExt, SeedableRng};
+
+    fn command(k: u64) -> RobotCommand {
+        let issued_ns = 1_765_130_000_000_000_000 + k;
+        RobotCommand {
+            command: CommandId::text(issued_ns),
+            issued_ns,
+            phase: Phase::Training,
+            trial: k as usize,
+            attempt: 1,
+            query: format!("q{}", k % 3),
+            label: String::new(),
+            object: String::new(),
+            grips: Vec::new(),
+            frame: "shoulder".into(),
+            position: [0.3, 0.0, 0.0],
+            orientation: Xyzw { x: 0.0, y: 0.0, z: 0.0, w: 1.0 },
+            rpy_deg: [0.0; 3],
+        }
+    }
+
+    /// A robot node as the simulation runs it.
+    #[derive(Clone, Copy, Debug)]
+    struct NodeKind {
+        /// Its statuses name the command (else: bare, as nodes before command ids).
+        names: bool,
+        /// It executes a repeated command once (else: every publication, in turn).
+        once: bool,
+        /// It says `at_pose` twice.
+        twice: bool,
+        /// It says `moving` when it starts.
+        moving: bool,
+    }
+
+    /// What one simulated session showed.
+    #[derive(Default, Debug)]
+    struct Tally {
+        credited: usize,
+        stale: usize,
+        /// Statuses answering the command under way that were logged stale.
+        refused_current: usize,
+        commands_ended: usize,
+    }
+
+    /// A session of 30 commands against a node of `kind` that executes what it receives in
+    /// turn (one at a time, as an rclpy callback blocking on a move does), each move 1–40
+    /// steps. With `lossy`, the console publishes an unanswered command again (a resend, a
+    /// late match) and times some out. Every status goes through [`Attribution::heard`], as
+    /// in [`serve`], and is checked against the command that truly caused it.
+    fn simulate(kind: NodeKind, lossy: bool, seed: u64) -> Tally {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+        let mut attribution = Attribution::default();
+        let mut current: Option<Delivery> = None;
+        let mut inbox: std::collections::VecDeque<u64> = Default::default();
+        let mut busy: Option<(u64, u32)> = None;
+        let mut last_started: Option<u64> = None;
+        let mut sent = 0;
+        let mut tally = Tally::default();
+        let hear = |attribution: &mut Attribution,
+                    state: RobotState,
+                    k: u64,
+                    current: &mut Option<Delivery>,
+                    tally: &mut Tally| {
+            let id = CommandId::text(command(k).issued_ns);
+            let text = if kind.names { format!("{} {id}", state.name()) } else { state.name().to_string() };
+            let under_way = current.as_ref().map(|d| d.command.command.clone());
+            let report = attribution.heard(parse_status(&text), current);
+            if report.stale {
+                tally.stale += 1;
+                tally.refused_current += usize::from(under_way.as_deref() == Some(id.as_str()));
+            } else {
+                assert_eq!(
+                    report.command.as_deref(),
+                    Some(id.as_str()),
+                    "{kind:?} lossy {lossy} seed {seed}: credited"
+                );
+                assert_eq!(report.state, state);
+                tally.credited += 1;
+                tally.commands_ended += usize::from(state.is_final());
+            }
+        };
+        for _ in 0..100_000 {
+            if current.is_none() && sent < 30 {
+                sent += 1;
+                current = Some(Delivery::of(command(sent)));
+                current.as_mut().unwrap().publications += 1;
+                inbox.push_back(sent);
+            } else if let Some(d) = current.as_mut().filter(|d| lossy && !d.answered) {
+                if rng.random_bool(0.1) {
+                    d.publications += 1;
+                    inbox.push_back(d.command.issued_ns - 1_765_130_000_000_000_000);
+                } else if rng.random_bool(0.02) {
+                    attribution.replace(&mut current, None);
+                }
+            }
+            match busy {
+                Some((k, 0)) => {
+                    busy = None;
+                    let state = if rng.random_bool(0.1) { RobotState::Failed } else { RobotState::AtPose };
+                    hear(&mut attribution, state, k, &mut current, &mut tally);
+                    if kind.twice {
+                        hear(&mut attribution, state, k, &mut current, &mut tally);
+                    }
+                }
+                Some((k, left)) => busy = Some((k, left - 1)),
+                None => {
+                    if let Some(k) = inbox.pop_front()
+                        && !(kind.once && last_started == Some(k))
+                    {
+                        last_started = Some(k);
+                        busy = Some((k, rng.random_range(1..40)));
+                        if kind.moving {
+                            hear(&mut attribution, RobotState::Moving, k, &mut current, &mut tally);
+                        }
+                    }
+                }
+            }
+            if sent == 30 && current.is_none() && busy.is_none() && inbox.is_empty() {
+                break;
+            }
+            // A command nothing will answer any more (the node dropped it as a repeat, or its
+            // answers were all stale) times out, as the console's would.
+            if busy.is_none() && inbox.is_empty() && current.is_some() {
+                attribution.replace(&mut current, None);
+            }
+        }
+        tally
+    }
+
+    /// No status is ever credited to a command it does not answer, over every kind of node,
+    /// reliable and lossy delivery, 25 seeds each (800 sessions, 24 000 commands). A node that
+    /// names its commands has every answer to the command under way credited; a bare node
+    /// keeps working while it cannot be wrong (reliable delivery, one answer each).
+    #[test]
+    fn every_status_is_credited_to_the_command_it_answers_or_logged_stale() {
+        let mut sessions = 0;
+        let (mut credited, mut stale) = (0, 0);
+        for bits in 0..16u32 {
+            let bit = |i: u32| bits & (1 << i) != 0;
+            let kind = NodeKind { names: bit(0), once: bit(1), twice: bit(2), moving: bit(3) };
+            for lossy in [false, true] {
+                for seed in 0..25 {
+                    let t = simulate(kind, lossy, seed);
+                    sessions += 1;
+                    credited += t.credited;
+                    stale += t.stale;
+                    if kind.names {
+                        assert_eq!(t.refused_current, 0, "{kind:?} lossy {lossy} seed {seed}: {t:?}");
+                    }
+                    if kind.names && !lossy {
+                        assert_eq!(t.commands_ended, 30, "{kind:?} seed {seed}: {t:?}");
+                    }
+                    if !kind.names && !lossy && !kind.twice {
+                        assert_eq!((t.stale, t.commands_ended), (0, 30), "{kind:?} seed {seed}: {t:?}");
+                    }
+                    if kind.twice && kind.names {
+                        assert!(
+                            t.stale >= t.commands_ended,
+                            "{kind:?} seed {seed}: every second answer is stale: {t:?}"
+                        );
+                    }
+                }
+            }
+        }
+        assert_eq!(sessions, 800);
+        eprintln!("{sessions} simulated sessions: {credited} statuses credited, {stale} stale, none misattributed");
+        assert!(credited > 20_000 && stale > 1_000, "{credited} credited, {stale} stale");
+    }
 
     /// When a command is published: at once if anyone subscribes, at a later match and
     /// 0.5, 1 and 3 s after it unless published since, and every resend otherwise.

@@ -211,10 +211,15 @@ impl RobotSettings {
             return Err(SettingsError::TooLarge { file, bytes: text.len() });
         }
         let de = &mut serde_json::Deserializer::from_str(text);
-        let settings: Self = serde_path_to_error::deserialize(de).map_err(|e| SettingsError::Shape {
+        let settings: Self = serde_path_to_error::deserialize(&mut *de).map_err(|e| SettingsError::Shape {
             file: file.clone(),
             path: e.path().to_string(),
             message: e.inner().to_string(),
+        })?;
+        de.end().map_err(|e| SettingsError::Shape {
+            file: file.clone(),
+            path: ".".into(),
+            message: format!("{e}: expected nothing after the settings' one JSON document"),
         })?;
         settings.validate().map_err(|problem| SettingsError::Field { file, problem })?;
         Ok(settings)

@@ -47,6 +47,12 @@ fn settings_default_to_the_ros2_conventions_and_check_every_field() {
         };
         assert!(named && e.to_string().starts_with("lab.json: "), "{text}: {e:?}");
     }
+    // A second document after the first is refused, as every other input refuses it.
+    for text in [r#"{} {"timeout_s": 5}"#, "{}\n{}", r#"{"timeout_s": 5} x"#] {
+        let e = RobotSettings::from_json(text, "lab.json").unwrap_err();
+        assert!(e.to_string().contains("expected nothing after the settings' one JSON document"), "{text}: {e}");
+    }
+    assert!(RobotSettings::from_json("{}\n\n", "lab.json").is_ok(), "trailing white space is fine");
     let big = format!("{{\"x\": \"{}\"}}", "y".repeat(MAX_BYTES));
     let e = RobotSettings::from_json(&big, "lab.json").unwrap_err();
     assert!(matches!(e, SettingsError::TooLarge { .. }) && e.to_string().contains("budget"), "{e}");
@@ -75,13 +81,47 @@ fn the_domain_is_the_settings_else_ros_domain_id_else_zero() {
 
 #[test]
 fn statuses_are_read_as_the_robot_says_them() {
-    assert_eq!(parse_status("moving"), (RobotState::Moving, String::new()));
-    assert_eq!(parse_status(" at_pose\n"), (RobotState::AtPose, String::new()));
-    assert_eq!(parse_status("failed"), (RobotState::Failed, String::new()));
-    assert_eq!(parse_status("failed: joint limit"), (RobotState::Failed, "failed: joint limit".into()));
-    assert_eq!(parse_status("idle\u{7}"), (RobotState::Other, "idle".into()));
-    assert_eq!(parse_status(""), (RobotState::Other, "(empty status)".into()));
-    assert_eq!(parse_status(&"x".repeat(10_000)).1.len(), 500);
+    let st = |state, command: Option<&str>, detail: &str| Status {
+        state,
+        command: command.map(str::to_string),
+        detail: detail.to_string(),
+    };
+    let id = "1765130000.012345678";
+    // Bare statuses, as robot nodes before command ids say them.
+    assert_eq!(parse_status("moving"), st(RobotState::Moving, None, ""));
+    assert_eq!(parse_status(" at_pose\n"), st(RobotState::AtPose, None, ""));
+    assert_eq!(parse_status("failed"), st(RobotState::Failed, None, ""));
+    assert_eq!(parse_status("failed: joint limit"), st(RobotState::Failed, None, "failed: joint limit"));
+    // Statuses that name their command.
+    assert_eq!(parse_status(&format!("moving {id}")), st(RobotState::Moving, Some(id), ""));
+    assert_eq!(parse_status(&format!("at_pose  {id} ")), st(RobotState::AtPose, Some(id), ""));
+    assert_eq!(parse_status(&format!("failed {id}")), st(RobotState::Failed, Some(id), ""));
+    assert_eq!(
+        parse_status(&format!("failed {id}: no IK solution")),
+        st(RobotState::Failed, Some(id), "failed: no IK solution")
+    );
+    assert_eq!(parse_status("failed gripper fault"), st(RobotState::Failed, None, "failed: gripper fault"));
+    // Not an id, or words after one: the whole text, as `other` (a failure stays one).
+    assert_eq!(parse_status("at_pose 17"), st(RobotState::Other, None, "at_pose 17"));
+    assert_eq!(parse_status(&format!("at_pose {id} ok")), st(RobotState::Other, None, &format!("at_pose {id} ok")));
+    assert_eq!(parse_status("at_poses"), st(RobotState::Other, None, "at_poses"));
+    assert_eq!(parse_status("idle\u{7}"), st(RobotState::Other, None, "idle"));
+    assert_eq!(parse_status(""), st(RobotState::Other, None, "(empty status)"));
+    assert_eq!(parse_status(&"x".repeat(10_000)).detail.len(), 500);
+}
+
+#[test]
+fn command_ids_are_unique_increasing_and_valid() {
+    let ids: Vec<(String, u64)> = (0..10_000).map(|_| CommandId::issue()).collect();
+    assert!(ids.windows(2).all(|w| w[0].1 < w[1].1), "ids increase");
+    for (id, ns) in &ids {
+        crate::session::validate_command_id(id).unwrap();
+        assert_eq!(*id, CommandId::text(*ns));
+    }
+    assert_eq!(CommandId::text(1_765_130_000_000_000_007), "1765130000.000000007");
+    for bad in ["", "1", "1.5", "1.1234567890", "a.123456789", ".123456789", "1234567890123.123456789", "1,123456789"] {
+        assert!(crate::session::validate_command_id(bad).is_err(), "{bad}");
+    }
 }
 
 #[test]
@@ -130,7 +170,7 @@ impl Link for Scripted {
     }
     fn send(&mut self, command: &RobotCommand) -> Result<(), String> {
         if let Some(state) = self.answer {
-            let _ = self.tx.send(Report { query: command.query.clone(), state, detail: String::new() });
+            let _ = self.tx.send(command.report(state, ""));
         }
         Ok(())
     }
@@ -186,11 +226,12 @@ fn the_session_takes_robot_events_only_where_they_fit() {
     use crate::session::{SessionError, VoidReason};
     let mut s = session();
     let c = command_for(&s, &RobotSettings::default()).unwrap();
-    let report = |state| Event::RobotReported { query: c.query.clone(), state, detail: String::new() };
+    let report = |state| c.report(state, "").event();
     // A report is logged whenever it comes; a command only for the waiting query.
     s.apply(&report(RobotState::Moving)).unwrap();
     assert_eq!(s.robot(), None, "no command yet: nothing to attach it to");
-    let wrong = Event::RobotCommanded { query: "nope".into(), link: RobotLinkKind::Ros2, pose: c.sent_pose() };
+    let wrong =
+        Event::RobotCommanded { query: "nope".into(), link: RobotLinkKind::Ros2, pose: c.sent_pose(), command: None };
     assert!(matches!(s.apply(&wrong), Err(SessionError::WrongQuery { .. })));
     // Voiding an unpresented trial needs a command sent for it.
     let void = Event::TrialVoided { reason: VoidReason::RobotFault, detail: "timeout".into() };

@@ -80,10 +80,14 @@ impl Session {
                 self.paused = false;
                 Applied::Ended { completed: false }
             }
-            Event::RobotCommanded { query, .. } => self.command_robot(name, query)?,
-            Event::RobotReported { query, state, detail } => {
+            Event::RobotCommanded { query, command, .. } => self.command_robot(name, query, command)?,
+            Event::RobotReported { query, state, detail, command, stale } => {
                 let attempt = match &mut self.robot {
-                    Some(track) if track.query == *query => {
+                    // A report of format 4 on answers the command it names; an older one, the
+                    // last command for its query.
+                    Some(track)
+                        if !stale && track.query == *query && (command.is_none() || *command == track.command) =>
+                    {
                         track.last = Some((*state, detail.clone()));
                         Some(track.attempts)
                     }
@@ -128,7 +132,12 @@ impl Session {
         Ok(Applied::Presented { view, scores })
     }
 
-    fn command_robot(&mut self, name: &'static str, query: &str) -> Result<Applied, SessionError> {
+    fn command_robot(
+        &mut self,
+        name: &'static str,
+        query: &str,
+        command: &Option<String>,
+    ) -> Result<Applied, SessionError> {
         let Some(cursor) = self.cursor().filter(|c| !c.presented) else {
             return Err(not_now(name, "no trial is waiting for its query to be presented"));
         };
@@ -138,7 +147,7 @@ impl Session {
             return Err(SessionError::WrongQuery { found: query.to_string(), expected: expected.clone() });
         }
         let attempts = self.robot.as_ref().filter(|t| t.query == query).map_or(0, |t| t.attempts) + 1;
-        self.robot = Some(RobotTrack { query: query.to_string(), attempts, last: None });
+        self.robot = Some(RobotTrack { query: query.to_string(), attempts, command: command.clone(), last: None });
         // The robot moves on: the last grasp is final.
         self.undo = None;
         Ok(Applied::RobotCommanded { view, attempt: attempts })

@@ -185,6 +185,22 @@ pub fn validate_sent_pose(pose: &SentPose) -> Result<(), PoseProblem> {
     Ok(())
 }
 
+/// Why a text is not a command id.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error(
+    "command '{0}' is not a command id: expected seconds, '.', 9 digits of nanoseconds (e.g. 1765130000.123456789)"
+)]
+pub struct CommandIdProblem(pub String);
+
+/// A command id: the time it was issued, `SEC.NANOSEC` since the Unix epoch (1 to 12 digits,
+/// '.', 9 digits), as the pose's `header.stamp` carries it.
+pub fn validate_command_id(id: &str) -> Result<(), CommandIdProblem> {
+    let ok = id.split_once('.').is_some_and(|(sec, nsec)| {
+        (1..=12).contains(&sec.len()) && nsec.len() == 9 && sec.bytes().chain(nsec.bytes()).all(|b| b.is_ascii_digit())
+    });
+    if ok { Ok(()) } else { Err(CommandIdProblem(id.escape_debug().to_string())) }
+}
+
 /// Where a measurement of the arm came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "kebab-case")]
@@ -290,12 +306,20 @@ pub enum Event {
         query: String,
         link: RobotLinkKind,
         pose: SentPose,
+        /// The command's id ([`validate_command_id`]); none in logs before format 4.
+        command: Option<String>,
     },
     /// The robot (or the console's timeout) reported on a command for `query`.
     RobotReported {
         query: String,
         state: RobotState,
         detail: String,
+        /// The command it answers, or (stale) the one it names; none in logs before format
+        /// 4, and for a stale status that names no command.
+        command: Option<String>,
+        /// It answers a command other than the one under way, or cannot be told to answer
+        /// it: logged, and nothing in the session moves on it.
+        stale: bool,
     },
     /// The experimenter told the participant what comes next and goes on.
     TransitionConfirmed {

@@ -22,7 +22,7 @@ use crate::{SeededRng, derive_seed};
 
 pub use events::{
     ArmMeasurement, Event, MeasurementSource, RobotLinkKind, RobotState, SelectionOutcome, SentPose, SessionStart,
-    Stamped, VoidReason, program_letter, validate_frame_id, validate_sent_pose,
+    Stamped, VoidReason, program_letter, validate_command_id, validate_frame_id, validate_sent_pose,
 };
 pub use learner::{BeliefSummary, Learner, LearningContext};
 
@@ -212,7 +212,8 @@ pub enum Applied {
         view: TrialView,
         attempt: u32,
     },
-    /// A robot report; `attempt` is the command of the trial under way it answers, if any.
+    /// A robot report; `attempt` is the command of the trial under way it answers, if any
+    /// (never for a stale report).
     RobotReported {
         attempt: Option<u32>,
     },
@@ -248,6 +249,8 @@ enum Stage {
 pub struct RobotTrack {
     pub query: String,
     pub attempts: u32,
+    /// The last command's id (none in logs before format 4).
+    pub command: Option<String>,
     pub last: Option<(RobotState, String)>,
 }
 

@@ -541,8 +541,17 @@ impl App {
                 if let Some(why) = robot_failed {
                     self.status = format!("The robot could not be sent the pose: {why}");
                 }
-                if let Event::RobotReported {
-                    state: state @ (RobotState::Failed | RobotState::Timeout), detail, ..
+                if let Event::RobotReported { state, detail, command, stale: true, .. } = &event {
+                    let which = command.as_deref().map_or(String::new(), |c| format!(" for command {c}"));
+                    let detail = if detail.is_empty() { String::new() } else { format!(" ({detail})") };
+                    self.status = format!(
+                        "A stale robot status was logged and ignored: {}{which}, not the command under way{detail}",
+                        state.name()
+                    );
+                } else if let Event::RobotReported {
+                    state: state @ (RobotState::Failed | RobotState::Timeout),
+                    detail,
+                    ..
                 } = event
                 {
                     let detail = if detail.is_empty() { String::new() } else { format!(" ({detail})") };

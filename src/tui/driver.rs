@@ -10,7 +10,7 @@ use super::worker::{Done, Worker};
 use crate::dryrun::now_ns;
 use crate::record::RecordedSession;
 use crate::robot::joint_states::JointStateSource;
-use crate::robot::{PresentOn, Report, Robot, RobotCommand, command_for};
+use crate::robot::{PresentOn, Robot, RobotCommand, command_for};
 use crate::session::{ArmMeasurement, Event, Prompt, RobotState, Session, Stamped};
 use crate::setup::{Plan, SetupError, lock_for, start_session};
 use crate::study_dir::{ParticipantLock, StudyDirs};
@@ -151,7 +151,7 @@ impl Driver {
         let present_on_at_pose = robot.settings.present_on == PresentOn::AtPose || always_at_pose;
         let Some(report) = robot.next_report(Duration::ZERO) else { return };
         self.submit(report.event());
-        if let (RobotState::AtPose, true) = (report.state, present_on_at_pose)
+        if let (RobotState::AtPose, true, false) = (report.state, present_on_at_pose, report.stale)
             && let Some(Prompt::Present(v)) = self.session().map(Session::prompt)
         {
             let id = self.session().map(|s| s.query(v.query).query.id.clone());
@@ -165,7 +165,7 @@ impl Driver {
     fn dispatch_robot(&mut self) -> Option<String> {
         let (Some(robot), Some(command)) = (self.robot.as_mut(), self.robot_outbox.take()) else { return None };
         let why = robot.send(&command).err()?;
-        let report = Report { query: command.query.clone(), state: RobotState::Failed, detail: why.clone() };
+        let report = command.report(RobotState::Failed, why.clone());
         self.submit(report.event());
         Some(why)
     }

@@ -70,7 +70,7 @@ impl Link for ScriptedRobot {
         if let Some(late) = self.held.take() {
             let _ = self.tx.send(late);
         }
-        let report = |state, detail: &str| Report { query: command.query.clone(), state, detail: detail.into() };
+        let report = |state, detail: &str| command.report(state, detail);
         let answer = match self.rng.random_range(0..100) {
             0..55 => Answer::AtPose,
             55..70 => Answer::MovingThenAtPose,
@@ -351,7 +351,7 @@ fn every_table_agrees_with_an_independent_reader_of_the_logs() {
     ]);
     // The golden logs of every format, each in a folder of its own.
     let golden = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden");
-    for format in ["format-1", "format-2", "format-3"] {
+    for format in ["format-1", "format-2", "format-3", "format-4"] {
         let to = logs.join(format!("golden-{format}"));
         std::fs::create_dir_all(&to).unwrap();
         for f in mcap_files(&golden.join(format)) {

@@ -345,8 +345,7 @@ fn logs(dir: &Path) {
                 handover::robot::command_for(rec.session(), &handover::robot::RobotSettings::default()).unwrap();
             submit(&mut rec, command.event(handover::session::RobotLinkKind::Ros2));
             for state in [handover::session::RobotState::Moving, handover::session::RobotState::AtPose] {
-                let report = handover::robot::Report { query: command.query.clone(), state, detail: String::new() };
-                submit(&mut rec, report.event());
+                submit(&mut rec, command.report(state, "").event());
             }
             for _ in 0..2 {
                 let e = p.participant.respond(rec.session()).unwrap();
@@ -503,7 +502,8 @@ fn every_csv_matches_the_data_dictionary() {
     assert!(trials.contains(",undone,") && trials.contains(",voided,"), "{trials}");
     assert!(trials.contains("other,\"phone rang, 2 min\""), "{trials}");
     let robot = std::fs::read_to_string(dir.join("analyze/pilot/robot.csv")).unwrap();
-    assert!(robot.contains(",1,ros2,shoulder,") && robot.contains(",at_pose,"), "{robot}");
+    let first = robot.lines().nth(1).unwrap_or_default();
+    assert!(first.contains(",ros2,shoulder,") && first.contains(",at_pose,") && first.ends_with(",2,0"), "{robot}");
     let notes = std::fs::read_to_string(dir.join("analyze/pilot/notes.csv")).unwrap();
     assert!(notes.contains("\"asked to repeat, \"\"twice\"\"\""), "{notes}");
     let _ = std::fs::remove_dir_all(&dir);

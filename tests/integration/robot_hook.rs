@@ -51,7 +51,7 @@ fn every_command_reaches_the_program_and_the_answers_are_those_of_a_run_without_
         .events
         .iter()
         .filter_map(|e| match &e.event {
-            Event::RobotCommanded { query, link, pose } => Some((query, link, pose)),
+            Event::RobotCommanded { query, link, pose, .. } => Some((query, link, pose)),
             _ => None,
         })
         .collect();
@@ -122,13 +122,16 @@ fn a_failing_program_voids_the_trial_and_three_in_a_row_end_the_session() {
     assert!(err.contains("the robot failed 3 times in a row"), "{err}");
     let log = the_log(&dir.join("logs"));
     let events: Vec<&Event> = log.events.iter().map(|e| &e.event).collect();
-    let failed = Event::RobotReported {
-        query: match &events[0] {
-            Event::RobotCommanded { query, .. } => query.clone(),
-            e => panic!("{e:?}"),
+    // Each failure answers its own command (its id), never a stale one.
+    let failed = |k: usize| match &events[3 * k] {
+        Event::RobotCommanded { query, command: Some(command), .. } => Event::RobotReported {
+            query: query.clone(),
+            state: RobotState::Failed,
+            detail: "exit status 3: gripper jammed".into(),
+            command: Some(command.clone()),
+            stale: false,
         },
-        state: RobotState::Failed,
-        detail: "exit status 3: gripper jammed".into(),
+        e => panic!("{e:?}"),
     };
     let void = Event::TrialVoided {
         reason: VoidReason::RobotFault,
@@ -136,8 +139,7 @@ fn a_failing_program_voids_the_trial_and_three_in_a_row_end_the_session() {
     };
     assert_eq!(events.len(), 10, "{events:?}");
     for k in 0..3 {
-        assert!(matches!(events[3 * k], Event::RobotCommanded { .. }));
-        assert_eq!(events[3 * k + 1], &failed);
+        assert_eq!(events[3 * k + 1], &failed(k));
         assert_eq!(events[3 * k + 2], &void);
     }
     assert!(matches!(events[9], Event::Aborted { reason } if reason.contains("exit status 3")));

@@ -182,13 +182,17 @@ def rows_of(log):
                 robot.append({
                     "event_index": seq, "phase": d["phase"], "condition": d.get("condition"),
                     "program": d.get("program"), "trial": d["trial"], "query": d["query"],
-                    "attempt": d["attempt"], "link": d["link"], "frame": d["pose"]["frame"],
-                    "commanded_at": ms(t), "moving_at": None, "outcome": None, "outcome_at": None,
-                    "seconds_to_outcome": None, "detail": "", "reports": 0, "_t": t,
+                    "attempt": d["attempt"], "command": d.get("command"), "link": d["link"],
+                    "frame": d["pose"]["frame"], "commanded_at": ms(t), "moving_at": None, "outcome": None,
+                    "outcome_at": None, "seconds_to_outcome": None, "detail": "", "reports": 0,
+                    "stale_reports": 0, "_t": t,
                 })
                 open_robot = len(robot) - 1
             elif topic == "/robot/status":
                 r = robot[open_robot] if open_robot is not None else None
+                if r is not None and d.get("stale", False):
+                    r["stale_reports"] += 1  # an answer to another command, or to none that can be told
+                    continue
                 if r is None or "attempt" not in d or r["query"] != d["query"] or r["attempt"] != d["attempt"]:
                     continue
                 if r["outcome"] is not None:
@@ -406,7 +410,7 @@ def main():
             elif topic == "/robot/command":
                 presented = False
             elif topic == "/robot/status":
-                count(f"robot {d['state']}" + ("" if "attempt" in d else " (late)"))
+                count(f"robot {d['state']}" + (" (stale)" if d.get("stale") else "" if "attempt" in d else " (late)"))
     for pilot in (False, True):
         group = [l for l in chosen if l.start["pilot"] == pilot]
         if not group:

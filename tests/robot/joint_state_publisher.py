@@ -37,6 +37,15 @@ def main() -> None:
     publisher = node.create_publisher(JointState, args.topic, qos)
     out = open(args.out, "a", encoding="utf-8")
     print("ready", flush=True)
+    try:
+        publish(args, node, publisher, out, names, base)
+    except KeyboardInterrupt:
+        pass  # SIGINT: the node ends and DDS releases its shared memory
+    node.destroy_node()
+    rclpy.try_shutdown()
+
+
+def publish(args, node, publisher, out, names, base) -> None:
     k = 0
     while True:
         positions = [b + 0.001 * math.sin(0.37 * k + i) for i, b in enumerate(base)]

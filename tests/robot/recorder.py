@@ -3,7 +3,8 @@ trial and status topics, one JSON line each in --out, in the order they arrive. 
 written as Python's repr, which reads back to the same float64 bits.
 
 It subscribes with the ROS 2 default QoS at depth 100 (so nothing is dropped), prints
-"ready" once its subscriptions exist, and spins until killed.
+"ready" once its subscriptions exist, and spins until SIGINT. A pose's stamp is written as the
+command id it carries (`SEC.NANOSEC`).
 """
 
 import argparse
@@ -13,6 +14,8 @@ import rclpy
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from std_msgs.msg import String
+
+from spin import spin_until_sigint
 
 
 def main() -> None:
@@ -32,6 +35,7 @@ def main() -> None:
         write(
             {
                 "topic": "pose",
+                "stamp": f"{m.header.stamp.sec}.{m.header.stamp.nanosec:09d}",
                 "frame_id": m.header.frame_id,
                 "position": [p.x, p.y, p.z],
                 "orientation": [q.x, q.y, q.z, q.w],
@@ -44,7 +48,7 @@ def main() -> None:
         String, "/handover/robot_status", lambda m: write({"topic": "status", "data": m.data}), 100
     )
     print("ready", flush=True)
-    rclpy.spin(node)
+    spin_until_sigint(node)
 
 
 if __name__ == "__main__":
