@@ -29,9 +29,9 @@ use super::input::bad;
 /// session counts once. Exit status 1 if a file was skipped or --verify found a difference.
 #[derive(Debug, Args)]
 pub struct AnalyzeArgs {
-    /// Session logs (.mcap) or directories searched recursively (default with --study-dir
-    /// or --logs: the study's logs).
-    #[arg(required_unless_present_any = ["study_dir", "logs"], value_name = "LOG|DIR")]
+    /// Session logs (.mcap) or directories searched recursively (default with --study-dir,
+    /// --logs or $HANDOVER_STUDY_DIR: the study's logs).
+    #[arg(value_name = "LOG|DIR")]
     paths: Vec<PathBuf>,
     /// Write sessions.csv, trials.csv (every presentation: taken, undone or voided),
     /// notes.csv, robot.csv (sessions with a robot: every command and its timing),
@@ -54,7 +54,8 @@ pub struct AnalyzeArgs {
     #[arg(long, value_name = "N", default_value_t = EVIDENCE_PARTICLES)]
     alpha_particles: usize,
     /// The study directory, whose participants/ says who withdrew (their sessions are left
-    /// out).
+    /// out); with no LOG|DIR, its logs/ are analysed (default: $HANDOVER_STUDY_DIR when no
+    /// LOG|DIR is named, else each log's own study).
     #[arg(long, value_name = "DIR")]
     study_dir: Option<PathBuf>,
     /// Where participant records live (default: STUDY_DIR/participants).
@@ -137,7 +138,13 @@ pub fn run(args: AnalyzeArgs) -> Result<()> {
     args.figures.check()?;
     let mut files = Vec::new();
     let paths = if args.paths.is_empty() {
-        vec![StudyDirs::resolve(args.study_dir.as_deref(), args.participants.as_deref(), args.logs.as_deref()).logs]
+        let study = super::input::study_dir_or_env(args.study_dir.as_deref());
+        if study.is_none() && args.logs.is_none() {
+            return Err(bad(
+                "name the logs to analyse (LOG|DIR), or the study: --study-dir DIR, --logs DIR or HANDOVER_STUDY_DIR",
+            ));
+        }
+        vec![StudyDirs::resolve(study.as_deref(), args.participants.as_deref(), args.logs.as_deref()).logs]
     } else {
         args.paths.clone()
     };

@@ -19,6 +19,14 @@ pub fn output_dir_error(e: handover::output_dir::OutputDirError) -> anyhow::Erro
 }
 
 /// Shorthand for a bad-input error.
+/// `--study-dir` as given, else `$HANDOVER_STUDY_DIR`: the study of a command that starts from
+/// the study rather than from a log (`analyze` with no log or folder, `resume --participant`).
+/// A command that starts from a log takes the log's own study, never the variable, so that a
+/// log of another study is never judged by this one's withdrawals.
+pub fn study_dir_or_env(given: Option<&Path>) -> Option<std::path::PathBuf> {
+    given.map(Path::to_path_buf).or_else(|| std::env::var_os("HANDOVER_STUDY_DIR").map(std::path::PathBuf::from))
+}
+
 pub fn bad(msg: impl Into<String>) -> anyhow::Error {
     BadInput(msg.into()).into()
 }

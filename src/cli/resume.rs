@@ -42,7 +42,8 @@ pub struct ResumeArgs {
     #[arg(long)]
     fork: bool,
     /// The study directory: participant records in DIR/participants, logs in DIR/logs
-    /// (default: the log's own study, else the current directory).
+    /// (default: with --participant $HANDOVER_STUDY_DIR, else the log's own study, else the
+    /// current directory).
     #[arg(long, value_name = "DIR")]
     study_dir: Option<PathBuf>,
     /// Where session logs are (default: STUDY_DIR/logs); with --participant.
@@ -112,10 +113,10 @@ fn unfinished_of(participant: &str, dirs: &StudyDirs) -> Result<PathBuf> {
 pub fn run(args: ResumeArgs) -> Result<()> {
     let log = match (&args.log, &args.participant) {
         (Some(log), _) => log.clone(),
-        (None, Some(p)) => unfinished_of(
-            p,
-            &StudyDirs::resolve(args.study_dir.as_deref(), args.participants.as_deref(), args.logs.as_deref()),
-        )?,
+        (None, Some(p)) => {
+            let study = super::input::study_dir_or_env(args.study_dir.as_deref());
+            unfinished_of(p, &StudyDirs::resolve(study.as_deref(), args.participants.as_deref(), args.logs.as_deref()))?
+        }
         (None, None) => return Err(bad("name the session's log, or --participant ID")),
     };
     let given = read_log(&log).map_err(|e| bad(e.to_string()))?;

@@ -6,7 +6,7 @@ use anyhow::Result;
 use clap::{Args, ValueEnum};
 use handover::study_status::{ParticipantState, StudyStatus, study_status};
 
-use super::input::{StudyFolders, load_protocol};
+use super::input::{StudyFolders, bad, load_protocol};
 
 /// Where the study stands: participants (registered, waiting, in progress, completed,
 /// dropped out, withdrawn), pilot sessions, the counterbalancing slots and the next
@@ -33,6 +33,17 @@ enum Format {
 pub fn run(args: StatusArgs) -> Result<()> {
     let (_, study) = load_protocol(args.protocol.as_deref())?;
     let dirs = args.folders.resolve();
+    // A folder with neither records nor logs is not a study (a mistyped --study-dir, or
+    // HANDOVER_STUDY_DIR unset): said, not printed as an empty study.
+    if !dirs.participants.exists() && !dirs.logs.exists() {
+        return Err(bad(format!(
+            "{} is not a study: it has neither {} nor {} (name the study with --study-dir DIR or HANDOVER_STUDY_DIR; \
+             `participant new` or a session makes them)",
+            dirs.root.display(),
+            dirs.participants.display(),
+            dirs.logs.display()
+        )));
+    }
     let status = study_status(&dirs, &study);
     match args.format {
         Format::Json => outln!("{}", serde_json::to_string_pretty(&status)?),

@@ -277,6 +277,30 @@ fn resume_by_participant_finds_the_unfinished_session() {
     assert_eq!(mcap_files(&folder).len(), 2);
     let (code, _, err) = handover_in(&dir, &["resume", "--no-console", "--participant", &id]);
     assert_eq!(code, 2, "everything is finished again: {err}");
+    // From another folder, the study named by HANDOVER_STUDY_DIR: found there, as `status`
+    // finds it; `analyze` with no log reads that study's logs.
+    assert_eq!(handover_in(&dir, &["dry-run", "--protocol", "small.json", "--seed", "5", "--logs", "logs"]).0, 0);
+    let other = mcap_files(&dir.join("logs")).into_iter().find(|f| !f.starts_with(&folder)).unwrap();
+    let other_id = other.parent().unwrap().file_name().unwrap().to_string_lossy().into_owned();
+    let bytes = cut(&other, 0.5);
+    std::fs::write(&other, bytes).unwrap();
+    let elsewhere = tmpdir("by-participant-elsewhere");
+    let in_study = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_handover"))
+            .args(args)
+            .current_dir(&*elsewhere)
+            .env("HANDOVER_STUDY_DIR", &*dir)
+            .stdin(std::process::Stdio::null())
+            .output()
+            .unwrap();
+        (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    let (code, err) = in_study(&["resume", "--no-console", "--participant", &other_id]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("resumed"), "{err}");
+    let (code, err) = in_study(&["analyze", "--out", elsewhere.join("out").to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(elsewhere.join("out/pilot/sessions.csv").exists() || elsewhere.join("out/sessions.csv").exists(), "{err}");
     // A log and --participant together, or an id that is not one, are refused.
     let (code, _, _) = handover_in(&dir, &["resume", "--participant", &id, complete.to_str().unwrap()]);
     assert_eq!(code, 2);

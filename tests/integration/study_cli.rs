@@ -571,6 +571,10 @@ fn status_shows_where_the_study_stands() {
     let dir = tmpdir("status");
     let (parts, logs) = (dir.join("participants"), dir.join("logs"));
     let d = dir.to_str().unwrap();
+    // Before anything is in it, the folder is not a study: said, exit 2, not an empty study.
+    let (code, out, err) = handover(&["status", "--study-dir", d]);
+    assert_eq!((code, out.as_str()), (2, ""), "{err}");
+    assert!(err.contains(&format!("{d} is not a study: it has neither {d}/participants nor {d}/logs")), "{err}");
     let mut ids = Vec::new();
     for _ in 0..4 {
         let (code, out, err) = handover(&["participant", "new", "--study-dir", d]);
@@ -654,7 +658,8 @@ fn the_reference_is_generated_from_the_command_line() {
 }
 
 /// `HANDOVER_STUDY_DIR` names the study folder for the commands that take `--study-dir`'s
-/// shared folders (`run`, `participant`, `status`); the flag wins over it.
+/// shared folders (`run`, `participant`, `status`; `analyze` with no log and `resume
+/// --participant` in `durability.rs`); the flag wins over it.
 #[test]
 fn the_study_folder_can_come_from_the_environment() {
     let dir = tmpdir("env-study");
@@ -673,6 +678,7 @@ fn the_study_folder_can_come_from_the_environment() {
     let (_, status) = run(&dir, &["status"]);
     assert!(status.contains("1 registered"), "{status}");
     let other = tmpdir("env-study-flag");
+    std::fs::create_dir(other.join("participants")).unwrap();
     let (_, status) = run(&dir, &["status", "--study-dir", other.to_str().unwrap()]);
     assert!(status.contains("0 registered"), "the flag wins: {status}");
 }
