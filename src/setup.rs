@@ -42,7 +42,8 @@ pub struct Plan {
     /// The protocol as this session runs it: the participant's body height scales the arm.
     pub study: Arc<Study>,
     pub protocol_text: String,
-    /// The study's folders, and which of them are new (read once, when planned).
+    /// The study's folders, and whether the study is new: neither its participants' nor its
+    /// logs' folder exists yet, so counterbalancing starts afresh (read once, when planned).
     pub folders: String,
     pub new_folders: bool,
     /// The counterbalancing so far, one line (none for a rehearsal).
@@ -84,7 +85,7 @@ pub fn plan_session(c: &SetupConfig) -> Plan {
             study: Arc::clone(study),
             protocol_text: c.protocol_text.to_string(),
             folders: c.dirs.describe(),
-            new_folders: !c.dirs.missing().is_empty(),
+            new_folders: c.dirs.missing().len() == 2,
             balance: None,
         };
     }
@@ -178,7 +179,7 @@ pub fn plan_session(c: &SetupConfig) -> Plan {
         study,
         protocol_text,
         folders: c.dirs.describe(),
-        new_folders: !c.dirs.missing().is_empty(),
+        new_folders: c.dirs.missing().len() == 2,
         balance: Some(balance),
     }
 }

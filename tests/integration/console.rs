@@ -391,6 +391,25 @@ fn a_void_is_confirmed_kept_in_the_history_and_other_asks_why() {
     assert!(a.status.starts_with("Press Enter when the robot holds the object there first"), "{}", a.status);
 }
 
+/// A study whose participants are registered but which has no logs yet is not new: the
+/// setup screen does not say counterbalancing starts afresh; with neither folder it does.
+#[test]
+fn only_a_study_with_no_folders_is_called_new() {
+    let dir = tmpdir("newfolders");
+    let mut a = App::new(AppConfig { participant: "new".into(), ..config(&dir, false) });
+    a.tick(T0);
+    assert!(screen(&mut a, 100, 30).contains("counterbalancing starts afresh"));
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_handover"))
+        .args(["participant", "new", "--study-dir", dir.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(out.status.success() && !dir.join("logs").exists());
+    let mut a = App::new(AppConfig { participant: "new".into(), ..config(&dir, false) });
+    a.tick(T0);
+    let s = screen(&mut a, 100, 30);
+    assert!(!s.contains("counterbalancing starts afresh") && s.contains("1 registered"), "{s}");
+}
+
 /// A participant id with no record is one clear state: not "existing record", no start
 /// offered; Enter does not start it.
 #[test]
@@ -893,6 +912,11 @@ fn a_pilot_with_a_real_person_is_kept_apart() {
     let dir = tmpdir("pilot");
     let mut a = App::new(AppConfig { pilot: true, ..config(&dir, false) });
     a.tick(T0);
+    let setup = screen(&mut a, 100, 30);
+    assert!(
+        setup.contains("(pilot with a person: no record, logged as pilot)") && !setup.contains("existing record"),
+        "{setup}"
+    );
     press(&mut a, KeyCode::Enter);
     let start = a.session().unwrap().start().clone();
     assert!(start.pilot && start.participant.starts_with("pilot-"), "{start:?}");

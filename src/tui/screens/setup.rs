@@ -34,6 +34,8 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect) {
                 format!("{} (new; created when the session starts)", plan.start.participant)
             } else if plan.error.is_some() {
                 format!("{} (cannot be used: see above)", plan.start.participant)
+            } else if plan.start.pilot {
+                format!("{} (pilot with a person: no record, logged as pilot)", plan.start.participant)
             } else {
                 format!("{} (existing record)", plan.start.participant)
             };
