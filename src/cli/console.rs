@@ -29,8 +29,9 @@ pub struct RunArgs {
     /// The study's folders (counterbalancing counts the sessions and participants there).
     #[command(flatten)]
     folders: StudyFolders,
-    /// Let a simulated participant answer (a rehearsal; the log is flagged pilot).
-    #[arg(long, alias = "simulate")]
+    /// Let a simulated participant answer (a rehearsal under its own `pilot-` id; the log is
+    /// flagged pilot), never a registered participant's.
+    #[arg(long, alias = "simulate", conflicts_with = "participant")]
     simulated_participant: bool,
     /// A pilot with a real person (a colleague, a dress rehearsal): its own `pilot-` id and no
     /// participant record; the log is flagged pilot, so analyze reports it apart and

@@ -929,8 +929,12 @@ fn a_pilot_with_a_real_person_is_kept_apart() {
     assert!(message.contains("handover resume ") && message.contains(".mcap"), "by its log: {message}");
     let counts = handover::counterbalance::completed_per_slot(&dir.join("logs"), &dir.join("participants"), 2);
     assert_eq!((counts.completed, counts.waiting), (vec![0, 0], vec![0, 0]));
-    for args in [&["run", "--pilot", "--simulated-participant"][..], &["run", "--pilot", "--participant", "p-abcdefgh"]]
-    {
+    // A pilot or a rehearsal never runs under a registered participant's id.
+    for args in [
+        &["run", "--pilot", "--simulated-participant"][..],
+        &["run", "--pilot", "--participant", "p-abcdefgh"],
+        &["run", "--simulated-participant", "--participant", "p-abcdefgh"],
+    ] {
         let out = std::process::Command::new(env!("CARGO_BIN_EXE_handover")).args(args).output().unwrap();
         assert_eq!(out.status.code(), Some(2), "{args:?}");
     }
