@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 use ratatui::crossterm::event::KeyEvent;
 
 use super::driver::{Driver, Heard};
-use super::keys::{Counts, Mode, action_for, why_not};
+use super::keys::{Counts, Mode, QuestionnaireAt, action_for, why_not};
 use crate::analysis::{SessionAnalysis, analyse};
 use crate::dryrun::now_ns;
 use crate::participant::{ScriptedParticipant, SimulatedPerson};
@@ -421,6 +421,11 @@ impl App {
                 self.session().map(|s| s.prompt()),
                 Some(Prompt::Present(v) | Prompt::Grasp(v)) if v.phase == crate::session::Phase::Training
             ),
+            questionnaire: match self.cursor.cmp(&self.likert_count()) {
+                std::cmp::Ordering::Less => QuestionnaireAt::Statement,
+                std::cmp::Ordering::Equal => QuestionnaireAt::ForcedChoice,
+                std::cmp::Ordering::Greater => QuestionnaireAt::Review,
+            },
         }
     }
 

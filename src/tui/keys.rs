@@ -115,6 +115,18 @@ pub struct Counts {
     pub can_undo: bool,
     /// Whether the particle view with its joints is shown (training trials: Tab acts).
     pub joints: bool,
+    /// Where the questionnaire's cursor is: the digits answer a statement, `a`/`b` the
+    /// forced choice (and change it from the review).
+    pub questionnaire: QuestionnaireAt,
+}
+
+/// The questionnaire screen shown.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum QuestionnaireAt {
+    #[default]
+    Statement,
+    ForcedChoice,
+    Review,
 }
 
 impl Counts {
@@ -422,6 +434,8 @@ fn acts(b: &Binding, counts: Counts) -> bool {
     in_help(b, counts)
         && (!matches!(b.does, Does::Is(Action::Undo)) || counts.can_undo)
         && (!matches!(b.does, Does::Is(Action::SwitchJoints)) || counts.joints)
+        && (!matches!(b.keys, Keys::Digits(Picked::ScalePoint)) || counts.questionnaire == QuestionnaireAt::Statement)
+        && (!matches!(b.does, Does::Is(Action::Choice(_))) || counts.questionnaire != QuestionnaireAt::Statement)
 }
 
 /// Whether the help lists a binding: every key of the session, the robot's only with a robot
@@ -538,8 +552,15 @@ mod tests {
         KeyEvent::new(code, KeyModifiers::NONE)
     }
 
-    const COUNTS: Counts =
-        Counts { regions: 2, scale_points: 5, void_reasons: 4, robot: false, can_undo: true, joints: true };
+    const COUNTS: Counts = Counts {
+        regions: 2,
+        scale_points: 5,
+        void_reasons: 4,
+        robot: false,
+        can_undo: true,
+        joints: true,
+        questionnaire: QuestionnaireAt::Statement,
+    };
 
     fn action_for(mode: Mode, key: KeyEvent) -> Option<Action> {
         super::action_for(mode, key, COUNTS)

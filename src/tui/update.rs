@@ -225,6 +225,20 @@ impl App {
                 let message = "Chosen: Enter to review the answers, or the other letter to change it".to_string();
                 self.submit_saying(Event::ForcedChoice { program: p }, message);
             }
+            // A key of another questionnaire screen says where it acts.
+            Action::Likert(_) => {
+                self.status = if self.cursor == n {
+                    "This is the forced choice: a or b answers it (← goes back to the statements)".into()
+                } else {
+                    "This is the review: ← goes back to a statement to change it, Enter finishes".into()
+                };
+            }
+            Action::Choice(_) => {
+                let points = s.study().protocol.questionnaire.scale.len();
+                self.status = format!(
+                    "a and b answer the forced choice, after the statements: 1–{points} answers this statement"
+                );
+            }
             Action::Confirm => {
                 if s.prompt() == Prompt::Finish && self.cursor > n {
                     if self.participant_mode {

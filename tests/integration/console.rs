@@ -196,6 +196,11 @@ fn every_screen_at_three_sizes() {
     snap!("transition_before_questionnaire", &mut a);
     past_transition(&mut a);
     snap!("questionnaire", &mut a);
+    // A key of another questionnaire screen says where it acts (it is not in the footer).
+    let events = a.session().unwrap().event_count();
+    keys(&mut a, "a");
+    assert!(a.status.starts_with("a and b answer the forced choice, after the statements: 1–5"), "{}", a.status);
+    assert_eq!(a.session().unwrap().event_count(), events);
     keys(&mut a, "4");
     snap!("questionnaire_answered", &mut a);
     press(&mut a, KeyCode::Enter);
@@ -208,8 +213,12 @@ fn every_screen_at_three_sizes() {
     snap!("participant_hand_back", &mut a);
     a.key(KeyEvent::new(KeyCode::Char('e'), KeyModifiers::CONTROL));
     snap!("questionnaire_review", &mut a);
+    keys(&mut a, "3");
+    assert!(a.status.starts_with("This is the review: ← goes back to a statement"), "{}", a.status);
     press(&mut a, KeyCode::Left);
     snap!("forced_choice", &mut a);
+    keys(&mut a, "3");
+    assert!(a.status.starts_with("This is the forced choice: a or b answers it"), "{}", a.status);
     press(&mut a, KeyCode::Right);
     press(&mut a, KeyCode::Enter);
     a.wait_idle();

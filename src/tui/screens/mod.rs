@@ -183,8 +183,9 @@ fn header(app: &App, frame: &mut Frame, area: Rect) {
     frame.render_widget(Paragraph::new(Line::from(spans)), area);
 }
 
-/// Footer hints that give way first when the footer does not fit, most dispensable first.
-const DISPENSABLE: [&str; 5] = ["joints", "choice", "move", "pause", "note"];
+/// Footer hints that give way first when the footer does not fit, most dispensable first
+/// (never the keys that answer the screen shown: the choice is listed only where it acts).
+const DISPENSABLE: [&str; 4] = ["joints", "move", "pause", "note"];
 
 /// The footer: the keys that act now, spaced out when they fit, packed when not, and at the
 /// narrowest the most dispensable dropped, then the last ones (help and quit are always
