@@ -78,6 +78,9 @@ pub struct PopulationSettings {
 pub struct ComponentFit {
     /// `q_star` or `w`.
     pub part: &'static str,
+    /// The joint's 0-based index; written 1-based (q*1 … q*7), as every screen, table and
+    /// JSON output numbers joints.
+    #[serde(serialize_with = "one_based")]
     pub joint: usize,
     pub mean: f64,
     pub sd: f64,
@@ -93,6 +96,11 @@ pub struct ComponentFit {
     /// The fitted spread is at the smallest the fit allows: the data do not tell this
     /// population from a narrower one.
     pub sd_at_floor: bool,
+}
+
+/// A 0-based index written 1-based.
+fn one_based<S: serde::Serializer>(index: &usize, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_u64(*index as u64 + 1)
 }
 
 /// The fitted population and how well the data determine it.

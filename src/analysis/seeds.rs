@@ -169,7 +169,7 @@ fn joint_error(s: &SessionAnalysis, condition: &str, iteration: usize, j: usize)
 /// One joint's error of the posterior mean's q* at the end of training, in dry runs.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct JointError {
-    /// 0-based joint.
+    /// The joint, 1-based (q*1 … q*7, as every screen and table numbers them).
     pub joint: usize,
     /// The last iteration.
     pub iteration: usize,
@@ -214,7 +214,7 @@ pub fn joint_errors(runs: &[SeedRun]) -> Vec<JointError> {
             Paired::over_groups("abs_error_deg", iteration, first.clone(), second.clone(), &groups)
         });
         out.push(JointError {
-            joint: j,
+            joint: j + 1,
             iteration,
             prior: mean(&prior),
             conditions: cs.iter().map(|c| (c.clone(), mean(&at(c, iteration)))).collect(),

@@ -416,7 +416,7 @@ fn print_joint_errors(runs: &[SeedRun]) -> Result<()> {
     }
     outln!("{head}");
     for r in &rows {
-        let mut line = format!("  {:>9} {:>8.1}", format!("q*{}", r.joint + 1), r.prior);
+        let mut line = format!("  {:>9} {:>8.1}", format!("q*{}", r.joint), r.prior);
         for (_, e) in &r.conditions {
             line += &format!(" {e:>10.1}");
         }

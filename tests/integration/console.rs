@@ -154,6 +154,11 @@ fn every_screen_at_three_sizes() {
     press(&mut a, KeyCode::Enter);
     snap!("trial_present", &mut a);
     assert_full_instruction(&mut a);
+    // Joints are numbered as every table and output numbers them: q*1 … q*7.
+    for (w, h) in [(100, 30), (160, 45)] {
+        let s = screen(&mut a, w, h);
+        assert!(s.contains("q*1 ") && s.contains("q*7 ") && !s.contains("q*0"), "{s}");
+    }
     press(&mut a, KeyCode::Enter);
     snap!("trial_grasp", &mut a);
     // Presented, on a short screen: the object and the pose, and the rows to the history.

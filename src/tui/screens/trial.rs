@@ -250,8 +250,9 @@ fn joint_pairs(free: &[usize]) -> Vec<(usize, usize)> {
     free.chunks(2).map(|c| if c.len() == 2 { (c[0], c[1]) } else { (free[0], c[0]) }).collect()
 }
 
+/// A component of λ as every screen and table numbers it: q*1 … q*7, w1 … w7 (1-based).
 fn component_name(c: usize) -> String {
-    if c < 7 { format!("q*{} {}", c, JOINT_NAMES[c]) } else { format!("w{} {}", c - 7, JOINT_NAMES[c - 7]) }
+    if c < 7 { format!("q*{} {}", c + 1, JOINT_NAMES[c]) } else { format!("w{} {}", c - 6, JOINT_NAMES[c - 7]) }
 }
 
 fn shown(c: usize, v: f64) -> f64 {
@@ -343,5 +344,5 @@ fn belief_panel(app: &App, session: &Session, run: usize, frame: &mut Frame, are
 }
 
 fn short(c: usize) -> String {
-    if c < 7 { format!("q*{c}") } else { format!("w{}", c - 7) }
+    if c < 7 { format!("q*{}", c + 1) } else { format!("w{}", c - 6) }
 }
