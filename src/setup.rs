@@ -24,8 +24,9 @@ pub struct SetupConfig<'a> {
     pub participant: &'a str,
     /// A simulated participant answers (a rehearsal; the log is flagged pilot).
     pub simulate: bool,
-    /// A pilot with a real person: a `pilot-` id, no record, the log flagged pilot.
-    pub pilot: bool,
+    /// A pilot with a real person, of this body: a `pilot-` id, no record, the log flagged
+    /// pilot, the protocol fitted to the body as to a participant's.
+    pub pilot: Option<crate::protocol::Body>,
     /// The session seed (random when absent).
     pub seed: Option<u64>,
 }
@@ -94,10 +95,16 @@ pub fn plan_session(c: &SetupConfig) -> Plan {
     let status = crate::study_status::study_status(c.dirs, &study);
     let balance = format!("{} · {}", status.summary_line(), status.counts.describe());
     let next_slot = status.next_slot;
-    let (id, slot, new_record, error) = if c.pilot {
+    let (id, slot, new_record, error) = if let Some(body) = c.pilot {
         // Kept apart as dry runs are: no record, no slot of the study's taken.
         let id = format!("pilot-{}", new_id(&mut rand::rng()).trim_start_matches("p-"));
-        (id, next_slot, None, None)
+        match for_body(c.protocol_text, &study.source_name, body) {
+            Ok((text, fitted)) => {
+                (study, protocol_text) = (Arc::new(fitted), text);
+                (id, next_slot, None, None)
+            }
+            Err(e) => (id, next_slot, None, Some(e.to_string())),
+        }
     } else if c.participant == "new" {
         let id = new_id(&mut rand::rng());
         let slot = next_slot;
@@ -162,7 +169,7 @@ pub fn plan_session(c: &SetupConfig) -> Plan {
         condition_order: condition_order(&study, slot),
         program_labels: study.protocol.session.program_labels.clone(),
         software_version: env!("CARGO_PKG_VERSION").to_string(),
-        pilot: c.pilot,
+        pilot: c.pilot.is_some(),
         slot,
         started_at,
         simulated_truth: None,

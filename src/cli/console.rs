@@ -7,11 +7,12 @@ use std::time::Duration;
 use anyhow::Result;
 use clap::Args;
 use handover::participant::validate_id;
+use handover::protocol::Body;
 use handover::record::{LogContents, SharedTap, study_of};
 use handover::study_dir::StudyDirs;
 use handover::tui::{App, AppConfig, Outcome, run_terminal};
 
-use super::input::{Pace, StudyFolders, bad, load_protocol};
+use super::input::{HandArg, Pace, StudyFolders, bad, body_height as checked_height, load_protocol};
 use super::live::LiveArgs;
 use super::robot::RobotArgs;
 
@@ -38,6 +39,13 @@ pub struct RunArgs {
     /// counterbalancing never counts it.
     #[arg(long, conflicts_with_all = ["simulated_participant", "participant"])]
     pilot: bool,
+    /// With --pilot: the person's body height (m), as `participant new` records it for a
+    /// participant (the arm and the poses are scaled to it).
+    #[arg(long, value_name = "M", requires = "pilot")]
+    body_height: Option<f64>,
+    /// With --pilot: the person's dominant hand (a left hand: the mirrored arm and poses).
+    #[arg(long, value_enum, requires = "pilot")]
+    handedness: Option<HandArg>,
     /// A rehearsal to practise on: a simulated participant chooses, the status line says
     /// what they did, and you press every key (the log is flagged pilot).
     #[arg(long, conflicts_with_all = ["simulated_participant", "pilot", "participant"])]
@@ -63,6 +71,8 @@ impl RunArgs {
             folders: StudyFolders::default(),
             simulated_participant: false,
             pilot: false,
+            body_height: None,
+            handedness: None,
             practice: false,
             pace: Pace::default(),
             seed: None,
@@ -93,12 +103,29 @@ fn finish(result: Result<Outcome, String>) -> Result<()> {
 }
 
 pub fn run(args: RunArgs) -> Result<()> {
-    let RunArgs { protocol, participant, folders, simulated_participant, pilot, practice, pace, seed, robot, live } =
-        args;
+    let RunArgs {
+        protocol,
+        participant,
+        folders,
+        simulated_participant,
+        pilot,
+        body_height,
+        handedness,
+        practice,
+        pace,
+        seed,
+        robot,
+        live,
+    } = args;
     if participant != "new" {
         validate_id(&participant).map_err(|e| bad(format!("--participant: {e}")))?;
     }
     let (protocol_text, study) = load_protocol(protocol.as_deref())?;
+    // A pilot has no record to hold a body: the flags give it.
+    let pilot_body = Body {
+        height_m: body_height.map(|h| checked_height("--body-height", h)).transpose()?,
+        hand: handedness.map(Into::into).unwrap_or_default(),
+    };
     let study = Arc::new(study);
     let config = AppConfig {
         study,
@@ -107,6 +134,7 @@ pub fn run(args: RunArgs) -> Result<()> {
         participant,
         simulate: simulated_participant || practice,
         pilot,
+        pilot_body,
         practice,
         pace: pace.in_console(),
         seed,
@@ -137,6 +165,8 @@ fn config_of(old: &LogContents, dirs: StudyDirs, simulate: bool, pace: Duration)
         participant: old.start.participant.clone(),
         simulate,
         pilot: old.start.pilot && old.start.simulated_truth.is_none(),
+        // A resumed session runs the protocol its log embeds, already fitted to the body.
+        pilot_body: Body::default(),
         practice: false,
         pace,
         seed: Some(old.start.seed),

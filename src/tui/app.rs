@@ -38,6 +38,8 @@ pub struct AppConfig {
     /// A pilot with a real person (a colleague, a dress rehearsal): its own `pilot-` id, no
     /// participant record, the log flagged pilot (reported apart, never counterbalanced).
     pub pilot: bool,
+    /// A pilot's body (a participant's is in their record): the protocol is fitted to it.
+    pub pilot_body: crate::protocol::Body,
     /// With `simulate`: the operator presses every key; the simulated participant only
     /// chooses, and the status line says what they did (a rehearsal to practise on).
     pub practice: bool,
@@ -259,7 +261,7 @@ impl App {
             dirs: &c.dirs,
             participant: &c.participant,
             simulate: c.simulate,
-            pilot: c.pilot,
+            pilot: c.pilot.then_some(c.pilot_body),
             seed: c.seed,
         })
     }

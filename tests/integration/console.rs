@@ -35,6 +35,7 @@ fn config(dir: &Path, simulate: bool) -> AppConfig {
         participant: "new".into(),
         simulate,
         pilot: false,
+        pilot_body: Default::default(),
         practice: false,
         pace: Duration::ZERO,
         seed: Some(1),
@@ -943,11 +944,25 @@ fn a_pilot_with_a_real_person_is_kept_apart() {
     assert!(message.contains("handover resume ") && message.contains(".mcap"), "by its log: {message}");
     let counts = handover::counterbalance::completed_per_slot(&dir.join("logs"), &dir.join("participants"), 2);
     assert_eq!((counts.completed, counts.waiting), (vec![0, 0], vec![0, 0]));
+    // A pilot's body and hand, which no record holds, come from the command line: the
+    // protocol is fitted to them as to a participant's.
+    let body = handover::protocol::Body { height_m: Some(1.95), hand: handover::kinematics::Hand::Left };
+    let mut tall = App::new(AppConfig { pilot: true, pilot_body: body, ..config(&tmpdir("pilot-body"), false) });
+    tall.tick(T0);
+    let setup = screen(&mut tall, 100, 30);
+    assert!(setup.contains("Hand: the participant's LEFT hand"), "{setup}");
+    press(&mut tall, KeyCode::Enter);
+    let study = tall.session().unwrap().study();
+    assert_eq!(study.arm.side, handover::kinematics::Hand::Left);
+    assert!(study.pose_scale() > 1.05, "poses scaled to 1.95 m: ×{}", study.pose_scale());
     // A pilot or a rehearsal never runs under a registered participant's id.
     for args in [
         &["run", "--pilot", "--simulated-participant"][..],
         &["run", "--pilot", "--participant", "p-abcdefgh"],
         &["run", "--simulated-participant", "--participant", "p-abcdefgh"],
+        // A body on the command line is a pilot's only (a participant's is in their record).
+        &["run", "--body-height", "1.8"],
+        &["run", "--pilot", "--body-height", "3"],
     ] {
         let out = std::process::Command::new(env!("CARGO_BIN_EXE_handover")).args(args).output().unwrap();
         assert_eq!(out.status.code(), Some(2), "{args:?}");

@@ -198,6 +198,7 @@ fn the_console_blocks_on_a_failed_write_until_it_is_retried() {
         participant: "new".into(),
         simulate: false,
         pilot: false,
+        pilot_body: Default::default(),
         practice: false,
         pace: std::time::Duration::ZERO,
         seed: Some(3),

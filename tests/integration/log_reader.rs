@@ -133,6 +133,7 @@ fn config(dir: &Path, text: &str, seed: u64) -> AppConfig {
         participant: "new".into(),
         simulate: false,
         pilot: false,
+        pilot_body: Default::default(),
         practice: false,
         pace: Duration::ZERO,
         seed: Some(seed),
