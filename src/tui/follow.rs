@@ -10,7 +10,7 @@ use ratatui::layout::{Constraint, Layout};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Paragraph, Wrap};
 
-use super::screens::trial::{instruction_lines, robot_status};
+use super::screens::trial::{instruction_lines, phase_title, robot_status};
 use super::theme;
 use crate::record::Follower;
 use crate::session::{Prompt, Session};
@@ -98,14 +98,29 @@ pub fn render(view: &FollowView, frame: &mut Frame) {
 
 /// The panel's title and lines for what the session waits for now.
 fn now(view: &FollowView, session: &Session) -> (String, Vec<Line<'static>>) {
-    if view.console_lost() {
-        // No pose: the last one shown may already be past, and no one confirms the next.
+    // One rule whenever no console runs the session, whether it was lost (a crash, `kill -9`)
+    // or left it (a quit, a signal): no pose, since the last one shown may already be past
+    // and no one confirms the next.
+    let left = view.follower.closed() && !matches!(session.prompt(), Prompt::Done { .. });
+    if view.console_lost() || left {
         let log = view.follower.path().display().to_string();
+        let (title, headline) = if left {
+            (" Console left ", "THE CONSOLE LEFT THE SESSION — do not move the robot.")
+        } else {
+            (" Console lost ", "THE CONSOLE HAS STOPPED — do not move the robot.")
+        };
+        // Where it stopped, without the pose.
+        let at = match session.prompt() {
+            Prompt::Present(v) | Prompt::Grasp(v) => {
+                format!("It stopped at {}; that instruction is no longer current.", phase_title(session, &v).trim())
+            }
+            _ => "Its last instruction is no longer current.".to_string(),
+        };
         return (
-            " Console lost ".into(),
+            title.into(),
             vec![
-                Line::from(Span::styled("THE CONSOLE HAS STOPPED — do not move the robot.", theme::warning())),
-                Line::from(Span::raw("Its last instruction is no longer current.")),
+                Line::from(Span::styled(headline, theme::warning())),
+                Line::from(Span::raw(at)),
                 Line::from(Span::raw(format!(
                     "The experimenter resumes the session: handover resume {}",
                     crate::text::printable(&log)
@@ -118,7 +133,7 @@ fn now(view: &FollowView, session: &Session) -> (String, Vec<Line<'static>>) {
         let since = session.robot().map(|_| Duration::from_nanos(view.now_ns.saturating_sub(t)));
         robot_status(session, since, "not sent yet")
     });
-    let (title, mut lines) = match session.prompt() {
+    let (title, lines) = match session.prompt() {
         // Until the experimenter has told the participant what comes next, the next pose is
         // not shown: the robot stays where it is.
         Prompt::Present(_) if session.transition().is_some() => (
@@ -134,12 +149,12 @@ fn now(view: &FollowView, session: &Session) -> (String, Vec<Line<'static>>) {
             // The experimenter confirms it, on the console.
             lines.pop();
             lines.push(Line::from(Span::styled(theme::FOLLOW_PRESENT_DONE, theme::instruction())));
-            (super::screens::trial::phase_title(session, &v), lines)
+            (phase_title(session, &v), lines)
         }
         Prompt::Grasp(v) => {
             let mut lines = instruction_lines(session, &v, true, true, robot);
             lines.push(Line::from(Span::styled("The participant is taking the object.", theme::instruction())));
-            (super::screens::trial::phase_title(session, &v), lines)
+            (phase_title(session, &v), lines)
         }
         Prompt::Paused => {
             (" Paused ".into(), vec![Line::from(Span::styled("PAUSED — wait for the experimenter", theme::warning()))])
@@ -156,11 +171,5 @@ fn now(view: &FollowView, session: &Session) -> (String, Vec<Line<'static>>) {
             ))],
         ),
     };
-    if view.follower.closed() && !matches!(session.prompt(), Prompt::Done { .. }) {
-        lines.push(Line::from(Span::styled(
-            "The console left this session (resumable): waiting for it to be resumed.",
-            theme::warning(),
-        )));
-    }
     (title, lines)
 }

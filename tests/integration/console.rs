@@ -1184,7 +1184,13 @@ fn follow_shows_the_current_instruction_from_the_live_log() {
     keys(&mut a, "qy");
     drop(a);
     view.tick(T0 + 3);
-    assert!(draw(&view, 80, 24).contains("waiting for it to be resumed"));
+    // As after a kill: no pose and no "taking the object" once no console runs the session.
+    let s = draw(&view, 80, 24);
+    assert!(
+        s.contains("THE CONSOLE LEFT THE SESSION — do not move the robot.") && s.contains("handover resume"),
+        "{s}"
+    );
+    assert!(!s.contains("(query ") && !s.contains("taking the object"), "{s}");
     let log = read_log(&path).unwrap();
     let mut r = App::resume(config(&dir, false), &log).unwrap();
     r.wait_idle();
