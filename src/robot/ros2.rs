@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 
 use super::discovery::{Endpoint, Side, diagnose, peers};
 use super::{Domain, Link, Report, RobotCommand, RobotSettings, Ros2Settings, Status, parse_status};
-use crate::session::RobotLinkKind;
+use crate::session::{RobotLinkKind, RobotState};
 
 /// `builtin_interfaces/msg/Time`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -270,7 +270,8 @@ const REMEMBERED: usize = 64;
 /// names the command under way answers it; one that names another is stale. A bare status
 /// (a robot node written before statuses named commands) is taken for the command under way
 /// only while that cannot be wrong: no earlier command's pose was published more than once,
-/// every earlier command was answered, and no status came while none was under way. Once
+/// every earlier command was answered, and no state (`moving`, `at_pose`, `failed`) came
+/// while none was under way. Once
 /// any of that happens, the robot may still be answering an earlier command, and every bare
 /// status after it is stale, with the reason.
 #[derive(Default)]
@@ -337,7 +338,9 @@ impl Attribution {
             }
             (None, Some(d)) if self.bare_refused.is_none() => d.command.report(state, detail),
             (None, current) => {
-                if current.is_none() && self.bare_refused.is_none() {
+                // An answer while nothing is under way may be a second answer to the last
+                // command (an unknown text, such as a heartbeat, answers nothing).
+                if current.is_none() && self.bare_refused.is_none() && state != RobotState::Other {
                     self.bare_refused = Some("a status came while no command was under way".into());
                 }
                 let why = self.bare_refused.clone().unwrap_or_default();
@@ -455,7 +458,7 @@ impl Link for Ros2Link {
 mod tests {
     use super::*;
     use crate::robot::{CommandId, Xyzw};
-    use crate::session::{Phase, RobotState};
+    use crate::session::Phase;
     use rand::{RngExt, SeedableRng};
 
     fn command(k: u64) -> RobotCommand {
