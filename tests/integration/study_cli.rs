@@ -749,3 +749,34 @@ fn unreadable_folders_and_records_are_named_not_dropped() {
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("p-zzzzzzzz.json is not counted toward counterbalancing"), "{err}");
 }
+
+/// `follow` started with the log path the setup screen shows, before the session starts,
+/// waits for the log to appear and then reads it (here it then stops, with no terminal to
+/// draw on); a path in no study's `logs/` is refused at once.
+#[test]
+fn follow_waits_for_a_log_the_console_has_named() {
+    let dir = tmpdir("follow-wait");
+    std::fs::create_dir(dir.join("logs")).unwrap();
+    let log = dir.join("logs/p-abcdefgh/p-abcdefgh_20261207T120000Z.mcap");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_handover"))
+        .args(["follow", log.to_str().unwrap()])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    assert!(child.try_wait().unwrap().is_none(), "it waits for the log");
+    std::fs::create_dir(log.parent().unwrap()).unwrap();
+    let golden = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden/format-4/dry-run.mcap");
+    std::fs::copy(golden, &log).unwrap();
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("not there yet; waiting for the console to start the session"), "{err}");
+    // It read the log: what stops it now is the missing terminal, not the log.
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("needs an interactive terminal"), "{err}");
+    let (code, _, err) = handover(&["follow", dir.join("nowhere/p-x/p-x_1.mcap").to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(!err.contains("waiting"), "{err}");
+}
