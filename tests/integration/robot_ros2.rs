@@ -292,10 +292,12 @@ fn a_robot_that_fails_says_nothing_or_cannot_be_matched_voids_the_trial_and_is_s
             assert!(err.contains(says), "{case}: expected '{says}' in: {err}");
             // The console's own endpoints are never cited as seen on other topics.
             assert!(!err.contains("seen on /handover/trial"), "{case}: {err}");
+            // Three answers taken; under load the 0.5 s resend gets a repeat answered too, which
+            // names its command and is logged stale.
             let finals = log
                 .events
                 .iter()
-                .filter(|e| matches!(&e.event, Event::RobotReported { state: s, .. } if *s == state))
+                .filter(|e| matches!(&e.event, Event::RobotReported { state: s, stale: false, .. } if *s == state))
                 .count();
             assert_eq!(finals, 3, "{case}");
             let voids = log
@@ -559,8 +561,9 @@ fn each_robot_answer_is_credited_only_to_the_command_it_answers() {
         ("names", format!("{m} --answer at_pose_only --move-s 5 --names"), 60.0, true, 1..=usize::MAX),
         ("once", format!("{m} --answer at_pose_only --move-s 5 --names --once"), 60.0, true, 0..=0),
         ("bare", format!("{m} --answer at_pose_only --move-s 5"), 12.0, false, 1..=usize::MAX),
-        // The last command's second answer may come after the log is finished.
-        ("twice", format!("{m} --names --twice"), 60.0, true, 5..=6),
+        // Every second answer is stale; the last command's may come after the log is finished,
+        // and under load a repeat published before `moving` came back is answered too.
+        ("twice", format!("{m} --names --twice"), 60.0, true, 5..=usize::MAX),
         ("shipped", r#""$PY" "$EXAMPLES/robot_node.py" --move-s 5"#.to_string(), 60.0, true, 0..=0),
     ]
     .map(|(name, robot, timeout_s, completes, stale)| Behaviour { name, robot, timeout_s, completes, stale });
