@@ -44,7 +44,7 @@ pub struct Peer {
 }
 
 /// A GUID prefix's bytes.
-fn prefix_bytes(prefix: &impl AsRef<[u8]>) -> [u8; 12] {
+fn prefix_bytes(prefix: &(impl AsRef<[u8]> + ?Sized)) -> [u8; 12] {
     let mut out = [0; 12];
     let b = prefix.as_ref();
     out[..b.len().min(12)].copy_from_slice(&b[..b.len().min(12)]);
@@ -106,7 +106,7 @@ pub fn announcements(domain: u16, wait: std::time::Duration) -> std::collections
             && n >= 20
             && &buf[..4] == b"RTPS"
         {
-            let prefix = prefix_bytes(&&buf[8..20]);
+            let prefix = prefix_bytes(&buf[8..20]);
             let sources = heard.entry(prefix).or_default();
             if !sources.contains(&from.ip()) {
                 sources.push(from.ip());
@@ -187,7 +187,7 @@ fn policy_value(qos: &QosPolicies, id: QosPolicyId) -> String {
 }
 
 /// Why `peer` (on `ours`' topic) cannot exchange messages with `ours`, or `None` when it can.
-pub fn problem(ours: &Endpoint, peer: &Peer) -> Option<String> {
+fn problem(ours: &Endpoint, peer: &Peer) -> Option<String> {
     let they = match ours.side {
         Side::Publishes => "subscriber",
         Side::Subscribes => "publisher",
@@ -213,8 +213,13 @@ pub fn problem(ours: &Endpoint, peer: &Peer) -> Option<String> {
 
 /// How many of `peers` can exchange messages with `ours`.
 pub fn matching(ours: &Endpoint, peers: &[Peer]) -> usize {
+    matching_peers(ours, peers).count()
+}
+
+/// The endpoints among `peers` that can exchange messages with `ours`.
+pub fn matching_peers<'a>(ours: &'a Endpoint, peers: &'a [Peer]) -> impl Iterator<Item = &'a Peer> {
     let topic = dds_topic(&ours.topic);
-    peers.iter().filter(|p| p.dds_topic == topic && problem(ours, p).is_none()).count()
+    peers.iter().filter(move |p| p.dds_topic == topic && problem(ours, p).is_none())
 }
 
 /// Why the other side of `ours` cannot be heard, or `None` when discovery shows a matching

@@ -5,7 +5,9 @@
 
 use std::time::Duration;
 
-use super::discovery::{Endpoint, Side, announcements, diagnose, interfaces, matching, peers, problem, reached_via};
+use super::discovery::{
+    Endpoint, Side, announcements, diagnose, interfaces, matching, matching_peers, peers, reached_via,
+};
 use super::ros2::{ConsoleEndpoints, start_node};
 use super::{Domain, RobotSettings};
 use ros2_client::dds::rustdds::RTPSEntity;
@@ -72,10 +74,7 @@ pub fn check_setup(settings: &RobotSettings, checked: Checked, wait: Duration) -
         .into_iter()
         .map(|(ours, required)| {
             let others = peers(&started.participant, ours.side);
-            let topic = super::discovery::dds_topic(&ours.topic);
-            let addresses: Vec<_> = others
-                .iter()
-                .filter(|p| p.dds_topic == topic && problem(&ours, p).is_none())
+            let addresses: Vec<_> = matching_peers(&ours, &others)
                 .flat_map(|p| heard.get(&p.participant).into_iter().flatten().copied())
                 .collect();
             TopicCheck {
