@@ -523,6 +523,11 @@ impl Session {
         }
     }
 
+    /// How many statements [`Self::likert_order`] lists, without listing them.
+    pub fn likert_count(&self) -> usize {
+        self.learners.len() * self.study.protocol.questionnaire.items.len()
+    }
+
     /// The questionnaire's items in the order asked: every item about Program A, then B.
     pub fn likert_order(&self) -> Vec<(usize, usize)> {
         let items = self.study.protocol.questionnaire.items.len();

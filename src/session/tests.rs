@@ -62,6 +62,7 @@ fn a_whole_session_runs_from_training_to_the_end() {
     assert_eq!(s.trials().len(), 26);
     assert_eq!(s.trials().iter().filter(|t| t.phase == Phase::Training).count(), 10);
     let order = s.likert_order();
+    assert_eq!(s.likert_count(), order.len());
     assert_eq!(order.len(), 8);
     for (k, &(program, item)) in order.iter().enumerate() {
         assert_eq!(s.prompt(), Prompt::Likert { program, item, index: k, total: 8 });

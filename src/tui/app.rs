@@ -650,7 +650,7 @@ impl App {
 
     /// Number of Likert questions.
     pub fn likert_count(&self) -> usize {
-        self.session().map_or(0, |s| s.likert_order().len())
+        self.session().map_or(0, Session::likert_count)
     }
 
     fn finish_log(&mut self, completed: bool) {
