@@ -45,7 +45,7 @@ pub const PAUSED: &str = "PAUSED — press p to resume";
 pub fn whose_left(hand: crate::kinematics::Hand) -> &'static str {
     match hand {
         crate::kinematics::Hand::Right => "always the participant's, as they face the robot",
-        crate::kinematics::Hand::Left => "the participant's (the protocol's labels mirrored); colours hold",
+        crate::kinematics::Hand::Left => "the participant's (protocol labels mirrored, colours kept)",
     }
 }
 

@@ -23,7 +23,7 @@ use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 
 pub(crate) const T0: u64 = 1_800_000_000_000_000_000;
 
-fn config(dir: &Path, simulate: bool) -> AppConfig {
+pub(crate) fn config(dir: &Path, simulate: bool) -> AppConfig {
     let mut v: serde_json::Value = serde_json::from_str(DEFAULT_PROTOCOL).unwrap();
     v["learning"]["particles"] = 300.into();
     let text = v.to_string();
@@ -73,7 +73,7 @@ pub(crate) fn keys(app: &mut App, s: &str) {
 }
 
 /// The screen as text, drawn 65 s after the clock's start.
-fn screen(app: &mut App, width: u16, height: u16) -> String {
+pub(crate) fn screen(app: &mut App, width: u16, height: u16) -> String {
     let now = app.now_ns;
     app.now_ns = T0 + 65_000_000_000;
     let mut t = Terminal::new(TestBackend::new(width, height)).unwrap();
@@ -528,7 +528,7 @@ fn an_existing_participant_s_body_height_scales_the_arm() {
 }
 
 /// The robot operator's screen (`handover follow`) drawn at `w`×`h`.
-fn draw_follow(view: &handover::tui::follow::FollowView, w: u16, h: u16) -> String {
+pub(crate) fn draw_follow(view: &handover::tui::follow::FollowView, w: u16, h: u16) -> String {
     let mut t = Terminal::new(TestBackend::new(w, h)).unwrap();
     t.draw(|f| handover::tui::follow::render(view, f)).unwrap();
     t.backend().to_string()
@@ -574,7 +574,7 @@ fn a_left_handed_short_participant_gets_mirrored_scaled_poses_named_from_both_si
     );
     // The protocol's labels are written for a right hand: mirrored, their "left" is the
     // participant's right, so the screen names poses and grips as the participant has them.
-    assert!(trial.contains("left, right  the participant's (the protocol's labels mirrored); colours hold"), "{trial}");
+    assert!(trial.contains("left, right  the participant's (protocol labels mirrored, colours kept)"), "{trial}");
     let label = handover::tui::theme::as_experienced(&q_label(&a), handover::kinematics::Hand::Left);
     assert!(trial.contains(&format!("pose         {label}")), "{trial}");
     assert!(

@@ -6,6 +6,7 @@ mod support;
 mod analyze_cli;
 mod architecture;
 mod console;
+mod console_combinations;
 mod console_tmux;
 mod durability;
 mod engine_properties;

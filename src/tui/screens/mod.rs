@@ -134,27 +134,12 @@ pub(crate) fn clip_wrapped(text: &str, width: usize, rows: usize) -> String {
     lines.join(" ")
 }
 
-/// The rows lines take when word-wrapped at `width` columns.
+/// The rows lines take when word-wrapped at `width` columns, counted by the paragraph that
+/// draws them (ratatui's own word wrapper, untrimmed as every screen draws it), so a panel
+/// sized by it always holds its lines.
 pub(crate) fn rows_of(lines: &[Line], width: usize) -> usize {
-    lines.iter().map(|l| wrapped_rows(l, width.max(1))).sum()
-}
-
-/// The rows a line takes when word-wrapped at `width` columns (as the paragraph wraps it).
-fn wrapped_rows(line: &Line, width: usize) -> usize {
-    let text = line.to_string();
-    let mut rows = 1;
-    let mut used = 0;
-    for word in text.split(' ') {
-        let w = word.chars().count();
-        let needed = if used == 0 { w } else { used + 1 + w };
-        if needed <= width {
-            used = needed;
-        } else {
-            rows += 1 + w.saturating_sub(1) / width;
-            used = if w > width { w % width } else { w };
-        }
-    }
-    rows
+    let width = u16::try_from(width.max(1)).unwrap_or(u16::MAX);
+    Paragraph::new(lines.to_vec()).wrap(Wrap { trim: false }).line_count(width)
 }
 
 fn header(app: &App, frame: &mut Frame, area: Rect) {
