@@ -64,34 +64,45 @@ impl Verifier {
         }
     }
 
-    /// Compares the log's messages with those recomputed.
+    /// Compares the log's messages with those recomputed: for each event, the messages on
+    /// event topics and those on derived topics as two sequences, so that a difference is
+    /// named by the kind of topic it is on (an earlier format's derived topics differ by design).
     pub fn differences(&self, log: &LogContents) -> Vec<Difference> {
         let mut logged: BTreeMap<u32, Vec<(&str, &Value)>> = BTreeMap::new();
         for m in &log.messages {
             logged.entry(m.sequence).or_default().push((m.topic.as_str(), &m.value));
         }
+        let is_event = |name: &str| Topic::from_name(name).is_some_and(Topic::is_event);
         let mut differences = Vec::new();
         for (index, logged_msgs) in &logged {
             let Some(exp) = self.expected.get(index) else { continue };
             // A truncated log may lack the tail of its last event's messages.
             let last = Some(index) == logged.keys().next_back();
-            if logged_msgs.len() != exp.len() && !(last && logged_msgs.len() < exp.len()) {
-                differences.push(Difference {
-                    topic: logged_msgs.first().map_or("", |m| m.0).to_string(),
-                    event_index: *index,
-                    detail: format!("{} messages logged, {} recomputed", logged_msgs.len(), exp.len()),
-                });
-                continue;
-            }
-            for ((topic, value), (etopic, evalue)) in logged_msgs.iter().zip(exp) {
-                if *topic != etopic.name() {
+            for event_topics in [true, false] {
+                let logged: Vec<_> = logged_msgs.iter().filter(|m| is_event(m.0) == event_topics).collect();
+                let exp: Vec<_> = exp.iter().filter(|m| m.0.is_event() == event_topics).collect();
+                if logged.len() != exp.len() && !(last && logged.len() < exp.len()) {
+                    let topic =
+                        logged.first().map(|m| m.0.to_string()).or_else(|| exp.first().map(|m| m.0.name().to_string()));
                     differences.push(Difference {
-                        topic: topic.to_string(),
+                        topic: topic.unwrap_or_default(),
                         event_index: *index,
-                        detail: format!("logged on {topic}, recomputed on {etopic}"),
+                        detail: format!("{} messages logged, {} recomputed", logged.len(), exp.len()),
                     });
-                } else if let Some(d) = first_difference("", value, evalue) {
-                    differences.push(Difference { topic: topic.to_string(), event_index: *index, detail: d });
+                    continue;
+                }
+                for ((topic, value), (etopic, evalue)) in
+                    logged.iter().map(|m| (m.0, m.1)).zip(exp.iter().map(|m| (&m.0, &m.1)))
+                {
+                    if topic != etopic.name() {
+                        differences.push(Difference {
+                            topic: topic.to_string(),
+                            event_index: *index,
+                            detail: format!("logged on {topic}, recomputed on {etopic}"),
+                        });
+                    } else if let Some(d) = first_difference("", value, evalue) {
+                        differences.push(Difference { topic: topic.to_string(), event_index: *index, detail: d });
+                    }
                 }
             }
         }
