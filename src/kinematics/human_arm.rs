@@ -66,6 +66,38 @@ impl Hand {
         }
     }
 
+    /// A protocol label (a pose, a grip) as a participant with this hand experiences it: for
+    /// a left hand, whose poses are mirrored (docs/kinematics.md), its whole words "left" and
+    /// "right" swapped (case kept); unchanged for a right hand. Every screen and the 3D scene
+    /// name poses and grips this way; the logs' data and the tables keep the protocol's words.
+    pub fn experienced(self, label: &str) -> String {
+        if self == Hand::Right {
+            return label.to_string();
+        }
+        fn swap(word: &str) -> &str {
+            match word {
+                "left" => "right",
+                "right" => "left",
+                "Left" => "Right",
+                "Right" => "Left",
+                "LEFT" => "RIGHT",
+                "RIGHT" => "LEFT",
+                w => w,
+            }
+        }
+        let mut out = String::with_capacity(label.len());
+        let mut start = 0;
+        for (i, c) in label.char_indices() {
+            if !c.is_alphanumeric() {
+                out.push_str(swap(&label[start..i]));
+                out.push(c);
+                start = i + c.len_utf8();
+            }
+        }
+        out.push_str(swap(&label[start..]));
+        out
+    }
+
     /// A pose in this arm's shoulder frame as the right arm's model sees it: itself for the
     /// right arm, its mirror image M T M for the left (M = diag(1, −1, 1)).
     pub fn as_right(self, t: &Isometry3<f64>) -> Isometry3<f64> {
@@ -261,4 +293,20 @@ pub(crate) fn ry(a: f64) -> Matrix3<f64> {
 pub(crate) fn rz(a: f64) -> Matrix3<f64> {
     let (s, c) = a.sin_cos();
     Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Hand;
+
+    #[test]
+    fn a_left_hand_has_left_and_right_swapped_in_whole_words() {
+        let l = |s: &str| Hand::Left.experienced(s);
+        assert_eq!(l("Handlebars at chest height, turned left"), "Handlebars at chest height, turned right");
+        assert_eq!(l("Left grip (blue)"), "Right grip (blue)");
+        assert_eq!(l("RIGHT shackle"), "LEFT shackle");
+        assert_eq!(l("leftover, upright, bright"), "leftover, upright, bright");
+        assert_eq!(l("Über-left → right"), "Über-right → left");
+        assert_eq!(Hand::Right.experienced("Left grip (blue)"), "Left grip (blue)");
+    }
 }

@@ -139,7 +139,8 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
             };
             out.push(on(Topic::RobotHandoverPose, &pose));
             out.push(on(Topic::Transforms, &scene::query_transforms(s.time_ns, &study.arm, q)));
-            out.push(on(Topic::ObjectScene, &scene::object(s.time_ns, study.object(q), q)));
+            out.push(on(Topic::HumanArm, &scene::arm_cleared(s.time_ns, &study.arm)));
+            out.push(on(Topic::ObjectScene, &scene::object(s.time_ns, study.object(q), q, study.arm.side)));
         }
         (Event::GraspRecorded { region, .. }, Applied::Responded { view, record, belief }) => {
             let configuration = session.set(view.query).configs().config(record.config);
@@ -194,9 +195,13 @@ pub fn messages_for(s: &Stamped, index: usize, applied: &Applied, session: &Sess
                 retracted: *retracted,
             };
             out.push(on(Topic::TrialVoid, &m));
+            if *retracted {
+                out.push(on(Topic::HumanArm, &scene::arm_cleared(s.time_ns, &study.arm)));
+            }
         }
         (Event::GraspUndone, Applied::Undone { view, belief }) => {
             out.push(on(Topic::TrialUndo, &TrialUndo { trial: trial_fields(index, view, session) }));
+            out.push(on(Topic::HumanArm, &scene::arm_cleared(s.time_ns, &study.arm)));
             if let (Some(b), Some(run)) = (belief, view.program) {
                 out.push(belief_message(index, run, b, session));
             }

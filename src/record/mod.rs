@@ -55,10 +55,13 @@ pub use writer::{McapWriter, Sink};
 ///    its queries' measured outcomes (format 2 scored regions).
 /// 4: robot commands have ids (`/robot/command`'s `command`), and each `/robot/status` says
 ///    which command it answers and whether it is stale.
-pub const LOG_FORMAT: u32 = 4;
+/// 5: the 3D scene: a `view` frame the layout's camera follows; the last grasp's arm deleted
+///    with each query, undo and retracting void; grip labels as the participant has them, in
+///    a column above the object.
+pub const LOG_FORMAT: u32 = 5;
 
 /// What `handover --version` says: the software's version and the log format it writes.
-pub const VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), " (writes log format 4, reads 1 to 4)");
+pub const VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), " (writes log format 5, reads 1 to 5)");
 
 /// Name of the attachment that holds the protocol text.
 pub const PROTOCOL_ATTACHMENT: &str = "protocol.json";

@@ -3,7 +3,12 @@
 //!
 //! Frames: `world` is on the floor below the modelled shoulder (x forward, y to the person's
 //! left, z up); `shoulder` is the arm's frame (`docs/kinematics.md`), at the body's shoulder
-//! height above `world`; `object` is the object's frame as commanded for the current query.
+//! height above `world`; `object` is the object's frame as commanded for the current query;
+//! `view` is where the layout's 3D camera looks: the middle of the body from hip to head and
+//! of the arm's reach, so that one camera distance frames every body from 1.50 to 1.95 m.
+//!
+//! What the scene names it names as the console does: a left hand's grips and poses with
+//! "left" and "right" swapped ([`Hand::experienced`]), where the mirrored poses put them.
 
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3 as NVector3};
 
@@ -17,6 +22,7 @@ use crate::protocol::ResolvedQuery;
 pub const WORLD: &str = "world";
 pub const SHOULDER: &str = "shoulder";
 pub(crate) const OBJECT: &str = "object";
+pub const VIEW: &str = "view";
 
 /// Fractions of body height (Winter; `HUMAN-ARM.md`).
 const SHOULDER_HEIGHT: f64 = 0.818;
@@ -24,6 +30,12 @@ const HALF_SHOULDER_WIDTH: f64 = 0.129;
 const HIP_HEIGHT: f64 = 0.530;
 const CHIN_HEIGHT: f64 = 0.870;
 const HEAD_TOP: f64 = 1.0;
+/// The `view` frame's origin in `world`, in body heights: ahead of the chest towards the
+/// objects (which are offered within about 0.3 body heights ahead), between the shoulders
+/// (towards the other one) and halfway from the hip to the top of the head.
+const VIEW_AHEAD: f64 = 0.10;
+const VIEW_ACROSS: f64 = 0.065;
+const VIEW_UP: f64 = (HIP_HEIGHT + HEAD_TOP) / 2.0;
 
 const ARM: Color = Color { r: 0.9, g: 0.6, b: 0.2, a: 1.0 };
 /// The measured arm: cyan, against the mapped configuration's orange.
@@ -35,8 +47,16 @@ const OBJECT_BODY: Color = Color { r: 0.2, g: 0.2, b: 0.2, a: 1.0 };
 const NOT_OFFERED_TEXT: Color = Color { r: 0.45, g: 0.45, b: 0.5, a: 1.0 };
 /// The smallest side of a grip's box, so that a grip reads at the layout's camera distance.
 const MIN_GRIP_SIDE: f64 = 0.05;
-/// How far a grip's label is from its box's centre (m).
-const LABEL_OFFSET: f64 = 0.07;
+/// The length of the object's axes (m).
+const AXES_LENGTH: f64 = 0.12;
+/// The gap between the highest of the object's boxes and axes and the lowest label (m). The
+/// layout's camera looks down on the object at 25°: the z axis rises on the screen by 0.9 of
+/// its length, and a label over a grip nearer the camera (up to a handlebar's 24 cm) sits
+/// lower by 0.4 of that, so 16 cm keeps every label above every axis at that view
+/// (tests/readers/scene_view.py measures it on the logs).
+const LABEL_GAP: f64 = 0.16;
+/// The height between two grips' labels (m): a line of text at the layout's camera distance.
+const LABEL_STEP: f64 = 0.08;
 
 /// The colour a grip's label names (`"Left grip (blue)"`), else one of a fixed palette.
 pub(crate) fn grip_colour(label: &str, index: usize) -> Color {
@@ -78,16 +98,36 @@ fn world_to_shoulder(arm: &HumanArm) -> Isometry3<f64> {
     Isometry3::translation(0.0, 0.0, SHOULDER_HEIGHT * body_height(arm))
 }
 
-/// `/tf` at the start: world → shoulder.
-pub fn start_transforms(time_ns: u64, arm: &HumanArm) -> FrameTransforms {
-    FrameTransforms { transforms: vec![transform(time_ns, WORLD, SHOULDER, &world_to_shoulder(arm))] }
+/// The other shoulder's side: +y for a right arm, −y for a left one.
+fn across(arm: &HumanArm) -> f64 {
+    match arm.side {
+        Hand::Right => 1.0,
+        Hand::Left => -1.0,
+    }
 }
 
-/// `/tf` of a presented query: world → shoulder and shoulder → object (the commanded pose).
+fn world_to_view(arm: &HumanArm) -> Isometry3<f64> {
+    let h = body_height(arm);
+    Isometry3::translation(VIEW_AHEAD * h, across(arm) * VIEW_ACROSS * h, VIEW_UP * h)
+}
+
+/// `/tf` at the start: world → shoulder and world → view.
+pub fn start_transforms(time_ns: u64, arm: &HumanArm) -> FrameTransforms {
+    FrameTransforms {
+        transforms: vec![
+            transform(time_ns, WORLD, SHOULDER, &world_to_shoulder(arm)),
+            transform(time_ns, WORLD, VIEW, &world_to_view(arm)),
+        ],
+    }
+}
+
+/// `/tf` of a presented query: world → shoulder, world → view and shoulder → object (the
+/// commanded pose).
 pub fn query_transforms(time_ns: u64, arm: &HumanArm, q: &ResolvedQuery) -> FrameTransforms {
     FrameTransforms {
         transforms: vec![
             transform(time_ns, WORLD, SHOULDER, &world_to_shoulder(arm)),
+            transform(time_ns, WORLD, VIEW, &world_to_view(arm)),
             transform(time_ns, SHOULDER, OBJECT, &q.pose.to_isometry()),
         ],
     }
@@ -115,10 +155,7 @@ fn strip(points: Vec<Vector3>, thickness: f64, color: Color) -> LinePrimitive {
 pub fn body(time_ns: u64, arm: &HumanArm) -> SceneEntity {
     let h = body_height(arm);
     // The modelled shoulder is at y = 0; the other is across the chest.
-    let other = match arm.side {
-        Hand::Right => 2.0 * HALF_SHOULDER_WIDTH * h,
-        Hand::Left => -2.0 * HALF_SHOULDER_WIDTH * h,
-    };
+    let other = across(arm) * 2.0 * HALF_SHOULDER_WIDTH * h;
     let mid = other / 2.0;
     let mut e = SceneEntity::new(time_ns, WORLD, "body");
     let v = |x: f64, y: f64, z: f64| Vector3 { x, y, z };
@@ -136,6 +173,15 @@ pub fn body(time_ns: u64, arm: &HumanArm) -> SceneEntity {
 /// `/human/arm` at the start: the body alone.
 pub fn body_only(time_ns: u64, arm: &HumanArm) -> SceneUpdate {
     SceneUpdate { deletions: Vec::new(), entities: vec![body(time_ns, arm)] }
+}
+
+/// `/human/arm` when no grasp is shown (a new query presented, a grasp undone or voided):
+/// the body, and the last grasp's arms deleted, so that the scene never shows an arm that
+/// did not take the object offered.
+pub fn arm_cleared(time_ns: u64, arm: &HumanArm) -> SceneUpdate {
+    let deletion =
+        |id: &str| super::foxglove::SceneEntityDeletion { timestamp: Time::from_ns(time_ns), kind: 0, id: id.into() };
+    SceneUpdate { deletions: vec![deletion("human_arm"), deletion("measured_arm")], entities: vec![body(time_ns, arm)] }
 }
 
 /// `/human/arm` of a grasp: the body again (a viewer that seeks, or joins a live session late,
@@ -188,48 +234,71 @@ fn axes(length: f64) -> Vec<ArrowPrimitive> {
 }
 
 /// `/scene/object`: the object of a presented query in `object`: each grip a box spanning its
-/// TSR's translation bounds (at least [`MIN_GRIP_SIDE`]) in the colour its label names,
-/// labelled in that colour (one that reads on a light and a dark theme) above or below the box, the
-/// offered ones opaque and the others faint; a bar through the grips; the object's axes
-/// (x red, y green, z blue: the offered pose).
-pub fn object(time_ns: u64, object: &Object, q: &ResolvedQuery) -> SceneUpdate {
+/// TSR's translation bounds (at least [`MIN_GRIP_SIDE`]) in the colour its label names, the
+/// offered ones opaque and the others faint; each labelled as the participant with `hand`
+/// has it, in that colour (one that reads on a light and a dark theme), above the whole
+/// object; a bar through the grips; the object's axes (x red, y green, z blue: the offered
+/// pose).
+pub fn object(time_ns: u64, object: &Object, q: &ResolvedQuery, hand: Hand) -> SceneUpdate {
     let mut e = SceneEntity::new(time_ns, OBJECT, "object");
+    // Up as the participant stands, in the object's frame, whatever the object's turn.
+    let up = q.pose.to_isometry().rotation.inverse() * NVector3::z();
+    let grips: Vec<_> = object
+        .regions
+        .iter()
+        .map(|region| {
+            let b = region.tsr.bw;
+            let centre = NVector3::new((b[0][0] + b[0][1]) / 2.0, (b[1][0] + b[1][1]) / 2.0, (b[2][0] + b[2][1]) / 2.0);
+            let pose = region.tsr.t0_w.to_isometry() * Translation3::from(centre);
+            let extent = NVector3::from_fn(|k, _| (b[k][1] - b[k][0]).max(MIN_GRIP_SIDE));
+            (pose, extent)
+        })
+        .collect();
+    // The labels stand in a column above everything the object draws (its boxes, its axes and
+    // so the pose arrow at its centre), one line per grip, each over its own grip and joined
+    // to it by a thin line in its colour: no label covers a box, an axis, the pose arrow or
+    // another label.
+    let top = grips
+        .iter()
+        .map(|(pose, extent)| pose.translation.vector.dot(&up) + extent.norm() / 2.0)
+        .fold(AXES_LENGTH, f64::max)
+        + LABEL_GAP;
     let mut centres = Vec::new();
-    for (i, region) in object.regions.iter().enumerate() {
-        let b = region.tsr.bw;
-        let centre = NVector3::new((b[0][0] + b[0][1]) / 2.0, (b[1][0] + b[1][1]) / 2.0, (b[2][0] + b[2][1]) / 2.0);
-        let pose = region.tsr.t0_w.to_isometry() * Translation3::from(centre);
-        let extent = |k: usize| (b[k][1] - b[k][0]).max(MIN_GRIP_SIDE);
+    for (i, (region, (pose, extent))) in object.regions.iter().zip(&grips).enumerate() {
         let offered = q.regions.contains(&i);
         let color = if offered { grip_colour(&region.label, i) } else { NOT_OFFERED };
         e.cubes.push(CubePrimitive {
-            pose: Pose::from_isometry(&pose),
-            size: Vector3 { x: extent(0), y: extent(1), z: extent(2) },
+            pose: Pose::from_isometry(pose),
+            size: Vector3 { x: extent.x, y: extent.y, z: extent.z },
             color,
         });
-        // Labels alternate above and below their grips (up as the participant stands, whatever
-        // the object's turn), so that the labels of neighbouring grips never overlap.
-        let side = if i % 2 == 0 { LABEL_OFFSET } else { -LABEL_OFFSET };
-        let up = q.pose.to_isometry().rotation.inverse() * NVector3::z();
-        let above =
-            Isometry3::from_parts(Translation3::from(pose.translation.vector + up * side), UnitQuaternion::identity());
+        let c = pose.translation.vector;
+        let height = top + LABEL_STEP * i as f64;
+        let at = c + up * (height - c.dot(&up));
+        let label = Isometry3::from_parts(Translation3::from(at), UnitQuaternion::identity());
+        let leader = [c + up * (extent.norm() / 2.0), at - up * (LABEL_STEP / 3.0)];
+        e.lines.push(strip(leader.iter().map(|&p| point(Point3::from(p))).collect(), 0.003, color));
         e.texts.push(TextPrimitive {
-            pose: Pose::from_isometry(&above),
+            pose: Pose::from_isometry(&label),
             billboard: true,
             font_size: 13.0,
             scale_invariant: true,
             color: if offered { color } else { NOT_OFFERED_TEXT },
-            text: if offered { region.label.clone() } else { format!("{} (not offered)", region.label) },
+            text: if offered {
+                hand.experienced(&region.label)
+            } else {
+                format!("{} (not offered)", hand.experienced(&region.label))
+            },
         });
-        centres.push(point(Point3::from(pose.translation.vector)));
+        centres.push(point(Point3::from(c)));
     }
     if centres.len() > 1 {
         e.lines.push(strip(centres, 0.02, OBJECT_BODY));
     }
-    e.arrows = axes(0.12);
+    e.arrows = axes(AXES_LENGTH);
     e.metadata = vec![
         super::foxglove::KeyValuePair { key: "query".into(), value: q.query.id.clone() },
-        super::foxglove::KeyValuePair { key: "pose".into(), value: q.query.label.clone() },
+        super::foxglove::KeyValuePair { key: "pose".into(), value: hand.experienced(&q.query.label) },
         super::foxglove::KeyValuePair { key: "object".into(), value: object.label.clone() },
     ];
     SceneUpdate { deletions: Vec::new(), entities: vec![e] }

@@ -575,7 +575,7 @@ fn a_left_handed_short_participant_gets_mirrored_scaled_poses_named_from_both_si
     // The protocol's labels are written for a right hand: mirrored, their "left" is the
     // participant's right, so the screen names poses and grips as the participant has them.
     assert!(trial.contains("left, right  the participant's (protocol labels mirrored, colours kept)"), "{trial}");
-    let label = handover::tui::theme::as_experienced(&q_label(&a), handover::kinematics::Hand::Left);
+    let label = handover::kinematics::Hand::Left.experienced(&q_label(&a));
     assert!(trial.contains(&format!("pose         {label}")), "{trial}");
     assert!(
         trial.contains("Right grip (blue)") && trial.contains("Left grip (red)"),

@@ -33,17 +33,17 @@ struct Golden {
 
 const GOLDEN: &[Golden] = &[
     // A dry run: a simulated participant, every phase, the questionnaire.
-    Golden { name: "dry-run", files: &["dry-run.mcap"], finished: true, formats: &[1, 2, 3, 4] },
+    Golden { name: "dry-run", files: &["dry-run.mcap"], finished: true, formats: &[1, 2, 3, 4, 5] },
     // A console session by keys: a grasp undone, a trial voided, a note, a pause.
-    Golden { name: "console", files: &["console.mcap"], finished: true, formats: &[2, 3, 4] },
+    Golden { name: "console", files: &["console.mcap"], finished: true, formats: &[2, 3, 4, 5] },
     // A dry run with a robot program in the loop: every pose commanded and reported.
-    Golden { name: "robot", files: &["robot.mcap"], finished: true, formats: &[2, 3, 4] },
+    Golden { name: "robot", files: &["robot.mcap"], finished: true, formats: &[2, 3, 4, 5] },
     // A dry run whose participant's arm is measured at every grasp.
-    Golden { name: "measured", files: &["measured.mcap"], finished: true, formats: &[2, 3, 4] },
+    Golden { name: "measured", files: &["measured.mcap"], finished: true, formats: &[2, 3, 4, 5] },
     // A dry run killed (SIGKILL) half-way: what was acknowledged is there, nothing more.
-    Golden { name: "killed", files: &["killed.mcap"], finished: false, formats: &[2, 3, 4] },
+    Golden { name: "killed", files: &["killed.mcap"], finished: false, formats: &[2, 3, 4, 5] },
     // The killed session resumed to its end: the killed log and its continuation.
-    Golden { name: "resumed", files: &["killed.mcap", "resumed.mcap"], finished: true, formats: &[2, 3, 4] },
+    Golden { name: "resumed", files: &["killed.mcap", "resumed.mcap"], finished: true, formats: &[2, 3, 4, 5] },
 ];
 
 fn format_dir(format: u32) -> PathBuf {

@@ -23,7 +23,7 @@ const BELIEF_COMPACT_WIDTH: u16 = 34;
 
 /// A grip's label as this session's participant experiences it (their left, their right).
 pub fn grip_label(session: &Session, label: &str) -> String {
-    theme::as_experienced(label, session.study().arm.side)
+    session.study().arm.side.experienced(label)
 }
 
 /// The grasp panel's width: its widest line (key, label, id) and its borders.
@@ -153,7 +153,7 @@ pub fn instruction_lines(
             Span::styled(format!("  {}", object.label), theme::title()),
             Span::raw(format!("  (query {})", q.query.id)),
         ]),
-        Line::from(format!("  pose         {}", theme::as_experienced(&q.query.label, side))),
+        Line::from(format!("  pose         {}", side.experienced(&q.query.label))),
     ];
     if detail {
         lines.extend([
