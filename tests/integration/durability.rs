@@ -113,13 +113,22 @@ fn fill(dir: &Path) {
 #[test]
 fn a_full_disk_names_its_cause_and_leaves_only_whole_files() {
     let dir = tmpdir("full");
+    small_protocol(&dir);
+    // A disk that holds three and a half sessions' logs, measured on one, so that the fourth
+    // log fills it half-way whatever today's log size.
+    let one = dir.join("one");
+    let (code, _, err) = handover_in(
+        &dir,
+        &["dry-run", "--protocol", "small.json", "--participants", "1", "--logs", one.to_str().unwrap()],
+    );
+    assert_eq!(code, 0, "{err}");
+    let log_kib = std::fs::metadata(&mcap_files(&one)[0]).unwrap().len().div_ceil(1024) as u32;
     let disk = dir.join("disk");
-    if !mount_small(&disk, 1152) {
+    if !mount_small(&disk, log_kib * 7 / 2 + 64) {
         crate::support::missing("a small tmpfs to fill (mount needs root)");
         return;
     }
     let _unmount = Unmount(disk.clone());
-    small_protocol(&dir);
     let logs = disk.join("logs");
     let (code, _, err) = handover_in(
         &dir,
@@ -182,7 +191,7 @@ fn the_console_blocks_on_a_failed_write_until_it_is_retried() {
     use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
     let dir = tmpdir("console-full");
     let disk = dir.join("disk");
-    if !mount_small(&disk, 256) {
+    if !mount_small(&disk, 1300) {
         crate::support::missing("a small tmpfs to fill (mount needs root)");
         return;
     }
