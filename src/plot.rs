@@ -519,11 +519,11 @@ fn tick_label(v: f64, span: f64) -> String {
     let step = (span / 10.0).max(1e-12);
     let decimals = (-step.log10()).ceil().clamp(0.0, 6.0) as usize;
     let text = format!("{v:.decimals$}");
-    // "-0" reads as a value below zero.
+    // "-0" reads as a value below zero; a negative value takes a minus sign, not a hyphen.
     if text.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
         text.trim_start_matches('-').into()
     } else {
-        text
+        text.replacen('-', "\u{2212}", 1)
     }
 }
 
@@ -967,7 +967,7 @@ pub fn front_plot(path: &Path, style: &FigureStyle, title: &str, panels: &[Front
             let mut chart = chart_on(&area, &l, Some(&panel.title), 0.8..x_max, y_min..y_max)?;
             mesh(&mut chart, &l, "true cost / passive's", "fraction of active's gain")
                 .y_labels(if l.narrow { 6 } else { 8 })
-                .y_label_formatter(&|y| format!("{:.0} %", 100.0 * y))
+                .y_label_formatter(&|y| tick_label(100.0 * y, 100.0) + " %")
                 .draw()
                 .map_err(drawing)?;
             let (tx, ty) = panel.target;
@@ -1014,7 +1014,7 @@ mod tests {
 
     #[test]
     fn tick_labels_carry_the_decimals_their_spacing_needs() {
-        assert_eq!(tick_label(-14000.0, 20000.0), "-14000");
+        assert_eq!(tick_label(-14000.0, 20000.0), "\u{2212}14000");
         assert_eq!(tick_label(14.0, 18.0), "14");
         assert_eq!(tick_label(1.5, 5.0), "1.5");
         assert_eq!(tick_label(0.25, 0.5), "0.25");

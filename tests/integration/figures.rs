@@ -129,6 +129,11 @@ fn check(kind: &str, path: &Path, drawn: &Drawn, words: &[&str]) {
     for w in words {
         assert!(text.contains(w), "{kind}: no {w:?} in {text:?}");
     }
+    // A negative number is written with a minus sign (U+2212), as print typesetting does.
+    for e in els.iter().filter(|e| e.name == "text") {
+        let hyphen = e.text.strip_prefix('-').is_some_and(|t| t.starts_with(|c: char| c.is_ascii_digit()));
+        assert!(!hyphen, "{kind}: '{}' has a hyphen for a minus sign", e.text);
+    }
     // Every mark in a data colour lies inside a plotting area or in the legend.
     let mut marks = 0;
     for e in els.iter().filter(|e| e.palette_colour().is_some()) {
