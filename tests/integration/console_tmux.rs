@@ -409,3 +409,70 @@ fn follow_says_when_the_console_is_lost_and_follows_its_resumption() {
     wait_for(&resumer, "handover resume");
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// A left-handed 1.95 m participant at the smallest size (80×24), in a real terminal: every
+/// line of each trial's instruction is on screen whole (the mirrored whose-left line included,
+/// and "Press Enter when the robot holds the object there."), and the grips are named as the
+/// participant has them (the protocol's "Left grip (blue)" is their "Right grip (blue)").
+#[test]
+fn a_left_handed_tall_participant_gets_the_whole_instruction_at_80_by_24() {
+    if !has_tmux() {
+        crate::support::missing("tmux");
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("handover-tmux-left-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let proto = small_protocol(&dir);
+    let study = dir.join("study");
+    let (code, out, err) = crate::support::handover(&[
+        "participant",
+        "new",
+        "--study-dir",
+        study.to_str().unwrap(),
+        "--body-height",
+        "1.95",
+        "--handedness",
+        "left",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let id = out.split_whitespace().find(|w| w.starts_with("p-")).expect("the new id is printed").to_string();
+    let name = format!("handover-left-{}", std::process::id());
+    let cmd = format!(
+        "{} run --protocol {} --study-dir {} --participant {id} --seed 3; sleep 30",
+        env!("CARGO_BIN_EXE_handover"),
+        proto.display(),
+        study.display()
+    );
+    let _guard = Session::start(&name, 80, 24, &cmd);
+    wait_for(&name, "Press Enter to start the session.");
+    send(&name, &["Enter"]);
+    for trial in 1..=3 {
+        let screen = wait_for(&name, &format!("trial {trial}/5"));
+        let lines: Vec<&str> = screen.lines().map(|l| l.trim_matches('│').trim()).collect();
+        for needle in [
+            "frame        participant's left shoulder: x ahead, y to their left, z up",
+            "hand         LEFT hand (on your right, facing them)",
+            "left, right  the participant's (protocol labels mirrored, colours kept)",
+            "Press Enter when the robot holds the object there.",
+            "Which grip did the participant take?",
+        ] {
+            assert!(lines.iter().any(|l| l.starts_with(needle)), "trial {trial}: '{needle}' is not whole:\n{screen}");
+        }
+        assert!(
+            lines.iter().any(|l| l.starts_with("position     x ") && l.ends_with("m, of the object's centre")),
+            "trial {trial}: the position is cut:\n{screen}"
+        );
+        // Each offered grip: blue is the participant's right, red their left.
+        for l in lines.iter().filter(|l| l.contains("grip (")) {
+            assert!(
+                (l.contains("Right") && l.contains("(blue)")) || (l.contains("Left") && l.contains("(red)")),
+                "trial {trial}: a grip named as the protocol's right hand has it: '{l}'\n{screen}"
+            );
+        }
+        send(&name, &["Enter", "1"]);
+    }
+    send(&name, &["q", "y"]);
+    wait_for(&name, "handover resume");
+    let _ = std::fs::remove_dir_all(&dir);
+}
