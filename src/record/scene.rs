@@ -121,16 +121,12 @@ pub fn start_transforms(time_ns: u64, arm: &HumanArm) -> FrameTransforms {
     }
 }
 
-/// `/tf` of a presented query: world → shoulder, world → view and shoulder → object (the
+/// `/tf` of a presented query: the start's frames again and shoulder → object (the
 /// commanded pose).
 pub fn query_transforms(time_ns: u64, arm: &HumanArm, q: &ResolvedQuery) -> FrameTransforms {
-    FrameTransforms {
-        transforms: vec![
-            transform(time_ns, WORLD, SHOULDER, &world_to_shoulder(arm)),
-            transform(time_ns, WORLD, VIEW, &world_to_view(arm)),
-            transform(time_ns, SHOULDER, OBJECT, &q.pose.to_isometry()),
-        ],
-    }
+    let mut tf = start_transforms(time_ns, arm);
+    tf.transforms.push(transform(time_ns, SHOULDER, OBJECT, &q.pose.to_isometry()));
+    tf
 }
 
 fn point(p: Point3<f64>) -> Vector3 {
@@ -179,9 +175,15 @@ pub fn body_only(time_ns: u64, arm: &HumanArm) -> SceneUpdate {
 /// the body, and the last grasp's arms deleted, so that the scene never shows an arm that
 /// did not take the object offered.
 pub fn arm_cleared(time_ns: u64, arm: &HumanArm) -> SceneUpdate {
-    let deletion =
-        |id: &str| super::foxglove::SceneEntityDeletion { timestamp: Time::from_ns(time_ns), kind: 0, id: id.into() };
-    SceneUpdate { deletions: vec![deletion("human_arm"), deletion("measured_arm")], entities: vec![body(time_ns, arm)] }
+    SceneUpdate {
+        deletions: vec![deletion(time_ns, "human_arm"), deletion(time_ns, "measured_arm")],
+        entities: vec![body(time_ns, arm)],
+    }
+}
+
+/// The deletion of the entity `id` (kind 0: by id).
+fn deletion(time_ns: u64, id: &str) -> super::foxglove::SceneEntityDeletion {
+    super::foxglove::SceneEntityDeletion { timestamp: Time::from_ns(time_ns), kind: 0, id: id.into() }
 }
 
 /// `/human/arm` of a grasp: the body again (a viewer that seeks, or joins a live session late,
@@ -202,11 +204,7 @@ pub fn measured_arm(update: &mut SceneUpdate, time_ns: u64, arm: &HumanArm, q: O
             e.lines.push(strip(arm.points(q).into_iter().map(point).collect(), 0.015, MEASURED));
             update.entities.push(e);
         }
-        None => update.deletions.push(super::foxglove::SceneEntityDeletion {
-            timestamp: Time::from_ns(time_ns),
-            kind: 0,
-            id: "measured_arm".into(),
-        }),
+        None => update.deletions.push(deletion(time_ns, "measured_arm")),
     }
 }
 
@@ -276,6 +274,7 @@ pub fn object(time_ns: u64, object: &Object, q: &ResolvedQuery, hand: Hand) -> S
         let height = top + LABEL_STEP * i as f64;
         let at = c + up * (height - c.dot(&up));
         let label = Isometry3::from_parts(Translation3::from(at), UnitQuaternion::identity());
+        let name = hand.experienced(&region.label);
         let leader = [c + up * (extent.norm() / 2.0), at - up * (LABEL_STEP / 3.0)];
         e.lines.push(strip(leader.iter().map(|&p| point(Point3::from(p))).collect(), 0.003, color));
         e.texts.push(TextPrimitive {
@@ -284,11 +283,7 @@ pub fn object(time_ns: u64, object: &Object, q: &ResolvedQuery, hand: Hand) -> S
             font_size: 13.0,
             scale_invariant: true,
             color: if offered { color } else { NOT_OFFERED_TEXT },
-            text: if offered {
-                hand.experienced(&region.label)
-            } else {
-                format!("{} (not offered)", hand.experienced(&region.label))
-            },
+            text: if offered { name } else { format!("{name} (not offered)") },
         });
         centres.push(point(Point3::from(c)));
     }
