@@ -68,44 +68,47 @@ impl Verifier {
     /// event topics and those on derived topics as two sequences, so that a difference is
     /// named by the kind of topic it is on (an earlier format's derived topics differ by design).
     pub fn differences(&self, log: &LogContents) -> Vec<Difference> {
-        let mut logged: BTreeMap<u32, Vec<(&str, &Value)>> = BTreeMap::new();
+        // Per event: its logged messages on event topics, then those on derived topics.
+        type Split<'a> = [Vec<(&'a str, &'a Value)>; 2];
+        let mut logged: BTreeMap<u32, Split> = BTreeMap::new();
         for m in &log.messages {
-            logged.entry(m.sequence).or_default().push((m.topic.as_str(), &m.value));
+            let derived = !Topic::from_name(&m.topic).is_some_and(Topic::is_event);
+            logged.entry(m.sequence).or_default()[usize::from(derived)].push((m.topic.as_str(), &m.value));
         }
-        let is_event = |name: &str| Topic::from_name(name).is_some_and(Topic::is_event);
+        let last = logged.keys().next_back().copied();
         let mut differences = Vec::new();
-        for (index, logged_msgs) in &logged {
-            let Some(exp) = self.expected.get(index) else { continue };
-            // A truncated log may lack the tail of its last event's messages.
-            let last = Some(index) == logged.keys().next_back();
-            for event_topics in [true, false] {
-                let logged: Vec<_> = logged_msgs.iter().filter(|m| is_event(m.0) == event_topics).collect();
-                let exp: Vec<_> = exp.iter().filter(|m| m.0.is_event() == event_topics).collect();
-                if logged.len() != exp.len() && !(last && logged.len() < exp.len()) {
-                    let topic =
-                        logged.first().map(|m| m.0.to_string()).or_else(|| exp.first().map(|m| m.0.name().to_string()));
-                    differences.push(Difference {
-                        topic: topic.unwrap_or_default(),
-                        event_index: *index,
-                        detail: format!("{} messages logged, {} recomputed", logged.len(), exp.len()),
-                    });
-                    continue;
-                }
-                for ((topic, value), (etopic, evalue)) in
-                    logged.iter().map(|m| (m.0, m.1)).zip(exp.iter().map(|m| (&m.0, &m.1)))
-                {
-                    if topic != etopic.name() {
-                        differences.push(Difference {
-                            topic: topic.to_string(),
-                            event_index: *index,
-                            detail: format!("logged on {topic}, recomputed on {etopic}"),
-                        });
-                    } else if let Some(d) = first_difference("", value, evalue) {
-                        differences.push(Difference { topic: topic.to_string(), event_index: *index, detail: d });
-                    }
-                }
+        for (&index, split) in &logged {
+            let Some(exp) = self.expected.get(&index) else { continue };
+            for (derived, logged) in split.iter().enumerate() {
+                let exp: Vec<_> = exp.iter().filter(|m| m.0.is_event() != (derived == 1)).collect();
+                compare(index, Some(index) == last, logged, &exp, &mut differences);
             }
         }
         differences
+    }
+}
+
+/// Compares one event's logged messages of one kind with those recomputed, in order. A
+/// truncated log may lack the tail of its last event's messages.
+fn compare(index: u32, last: bool, logged: &[(&str, &Value)], exp: &[&(Topic, Value)], out: &mut Vec<Difference>) {
+    if logged.len() != exp.len() && !(last && logged.len() < exp.len()) {
+        let topic = logged.first().map(|m| m.0).or_else(|| exp.first().map(|m| m.0.name()));
+        out.push(Difference {
+            topic: topic.unwrap_or_default().to_string(),
+            event_index: index,
+            detail: format!("{} messages logged, {} recomputed", logged.len(), exp.len()),
+        });
+        return;
+    }
+    for ((topic, value), (etopic, evalue)) in logged.iter().zip(exp.iter().map(|m| (&m.0, &m.1))) {
+        if *topic != etopic.name() {
+            out.push(Difference {
+                topic: topic.to_string(),
+                event_index: index,
+                detail: format!("logged on {topic}, recomputed on {etopic}"),
+            });
+        } else if let Some(d) = first_difference("", value, evalue) {
+            out.push(Difference { topic: topic.to_string(), event_index: index, detail: d });
+        }
     }
 }
