@@ -284,7 +284,7 @@ fn every_screen_shows_every_line_for_every_hand_body_and_size() {
             trials += 1;
         }
         assert_eq!(trials, 26, "{combo}: every trial was walked");
-        // The questionnaire: each statement with its scale, the forced choice, the review.
+        // The questionnaire: each statement with its scale, then the forced choice.
         let scale: Vec<String> = protocol["questionnaire"]["scale"]
             .as_array()
             .unwrap()

@@ -225,8 +225,7 @@ def check_log(path, layout, canvas, margin, failures):
                 frames[t["child_frame_id"]] = (t["parent_frame_id"], Pose.of(t["translation"], t["rotation"]))
             continue
         if topic == "/trial/query":
-            query = (m["event_index"] if "event_index" in m else m["trial"]["event_index"], m["query"],
-                     m["region_labels"])
+            query = (m["event_index"], m["query"], m["region_labels"])
             continue
         for d in m.get("deletions", []):
             entities.pop(d["id"], None)
