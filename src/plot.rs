@@ -181,11 +181,32 @@ impl Layout {
     }
 
     /// A grid of `n` panels in at most `cols` columns (and the layout's most): its columns,
-    /// rows and each panel's height, `aspect` × its width within `heights`.
-    fn grid(&self, n: usize, cols: usize, aspect: f64, heights: std::ops::RangeInclusive<f64>) -> (usize, usize, u32) {
-        let cols = cols.clamp(1, self.max_cols);
-        let height = (self.width as f64 / cols as f64 * aspect).clamp(*heights.start(), *heights.end());
-        (cols, n.div_ceil(cols).max(1), height as u32)
+    /// rows and each panel's height, `aspect` × its width within `heights`, and no taller
+    /// than lets the figure, with `fixed` pixels of title and legend, fit a page
+    /// ([`PAGE_HEIGHT`]). Panels shrink to [`MIN_PANEL`] first; below it a column is added
+    /// (one more than the layout's most), and past that they shrink further.
+    fn grid(
+        &self,
+        n: usize,
+        cols: usize,
+        aspect: f64,
+        heights: std::ops::RangeInclusive<f64>,
+        fixed: u32,
+    ) -> (usize, usize, u32) {
+        let room = PAGE_HEIGHT.saturating_sub(fixed) as f64;
+        let first = cols.clamp(1, self.max_cols);
+        let widest = (self.max_cols + 1).min(n.max(1)).max(first);
+        let mut best = (first, 1, MIN_PANEL as u32);
+        for c in first..=widest {
+            let rows = n.div_ceil(c).max(1);
+            let ideal = (self.width as f64 / c as f64 * aspect).clamp(*heights.start(), *heights.end());
+            let height = ideal.min(room / rows as f64);
+            best = (c, rows, height.floor() as u32);
+            if height >= MIN_PANEL.min(ideal) {
+                break;
+            }
+        }
+        best
     }
 
     /// The height of a title block of `lines`.
@@ -193,11 +214,21 @@ impl Layout {
         (lines as f64 * self.title * 1.3).ceil() as u32 + 10
     }
 
+    /// The height of a chart's caption of `lines` (above the chart's own margin).
+    fn caption_height(&self, lines: usize) -> u32 {
+        (lines as f64 * self.caption * 1.3 + self.caption * 0.8).ceil() as u32
+    }
+
     /// The height of an in-chart legend of `entries` one-line entries.
     fn legend_height(&self, entries: usize) -> u32 {
         (entries as f64 * self.legend * 1.3).ceil() as u32 + 14
     }
 }
+
+/// The tallest a figure is (pixels): 9 in, a journal page's text height less its caption.
+const PAGE_HEIGHT: u32 = 864;
+/// The height a panel keeps before a grid takes another column (pixels).
+const MIN_PANEL: f64 = 170.0;
 
 /// `points` (1/72 in) in the SVG's pixels (1/96 in).
 fn pt(points: f64) -> f64 {
@@ -373,11 +404,17 @@ fn y_ends(lo: f64, hi: f64, plot_px: f64, legend_px: f64) -> (f64, f64) {
     (lo - 0.05 * plot_px * per_px, hi + legend_px * per_px)
 }
 
-/// The plotting area's height in a chart area `height` high (margins, x labels, caption).
-fn plot_height(height: u32, l: &Layout, caption: bool) -> f64 {
-    // plotters gives a caption its size (× 1.24) and a margin.
-    let caption = if caption { l.caption * 2.1 } else { 0.0 };
-    height as f64 - 2.0 * MARGIN as f64 - l.x_area() as f64 - caption
+/// The plotting area's height in a chart area `width` × `height` with `caption` over it
+/// (margins, x labels, caption).
+fn plot_height((width, height): (u32, u32), l: &Layout, caption: Option<&str>) -> f64 {
+    let caption = caption.map_or(0, |c| l.caption_height(Layout::wrap(c, width, l.caption).len()));
+    height as f64 - 2.0 * MARGIN as f64 - l.x_area() as f64 - caption as f64
+}
+
+/// How many y tick labels an axis `plot_px` high holds (at most `most`), each at least two
+/// of its lines from the next.
+fn y_ticks(plot_px: f64, most: usize, l: &Layout) -> usize {
+    ((plot_px / (l.tick * 2.2)) as usize).clamp(2, most)
 }
 
 /// A chart's margin.
@@ -392,8 +429,8 @@ pub fn scatter_grid(
     cols: usize,
 ) -> Result<Drawn, PlotError> {
     let l = style.layout();
-    let (cols, rows, ph) = l.grid(panels.len(), cols, 0.85, 250.0..=f64::INFINITY);
     let lines = Layout::wrap(title, l.width, l.title);
+    let (cols, rows, ph) = l.grid(panels.len(), cols, 0.85, 250.0..=f64::INFINITY, l.title_height(lines.len()));
     figure(path, style, (l.width, l.title_height(lines.len()) + ph * rows as u32), |root| {
         let body = title_block(root, &lines, &l)?;
         let mut drawn = Drawn::default();
@@ -401,7 +438,7 @@ pub fn scatter_grid(
             let xs = range(panel.groups.iter().flat_map(|g| g.points.iter().map(|p| p.0)));
             let ys = range(panel.groups.iter().flat_map(|g| g.points.iter().map(|p| p.1)));
             let legend_px = l.legend_height(panel.groups.len()) as f64;
-            let (bottom, top) = y_ends(ys.start, ys.end, plot_height(ph, &l, false), legend_px);
+            let (bottom, top) = y_ends(ys.start, ys.end, plot_height((l.width, ph), &l, None), legend_px);
             let (x_span, y_span) = (xs.end - xs.start, top - bottom);
             let mut chart = chart_on(&area, &l, None, xs, bottom..top)?;
             mesh(&mut chart, &l, panel.x_label, panel.y_label)
@@ -427,7 +464,8 @@ pub fn scatter_grid(
 /// A chart of f64 axes on any backend.
 type AnyChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
-/// A chart in `area` with the layout's margin and label areas, its caption above it.
+/// A chart in `area` with the layout's margin and label areas, its caption above it (centred,
+/// wrapped to the area's width).
 fn chart_on<'a, DB: DrawingBackend>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
     l: &Layout,
@@ -435,11 +473,18 @@ fn chart_on<'a, DB: DrawingBackend>(
     x: std::ops::Range<f64>,
     y: std::ops::Range<f64>,
 ) -> Result<AnyChart<'a, DB>, PlotError> {
-    let mut builder = ChartBuilder::on(area);
+    let mut area = area.clone();
     if let Some(caption) = caption {
-        builder.caption(caption, sans(l.caption));
+        let lines = Layout::wrap(caption, area.dim_in_pixel().0, l.caption);
+        let font = sans(l.caption).into_font().color(&BLACK).pos(Pos::new(HPos::Center, VPos::Top));
+        let centre = area.dim_in_pixel().0 as i32 / 2;
+        for (k, line) in lines.iter().enumerate() {
+            let y = MARGIN as i32 + (k as f64 * l.caption * 1.3) as i32;
+            area.draw(&Text::new(line.clone(), (centre, y), font.clone())).map_err(drawing)?;
+        }
+        area = area.split_vertically(l.caption_height(lines.len())).1;
     }
-    builder
+    ChartBuilder::on(&area)
         .margin(MARGIN)
         .x_label_area_size(l.x_area())
         .y_label_area_size(l.y_area)
@@ -504,6 +549,20 @@ pub struct LinePlot<'a> {
 impl LinePlot<'_> {
     /// The lowest band end (cut at the floor) and the highest, over every series; none
     /// without a finite point.
+    /// Whether a band reaches below the floor (and is cut there).
+    fn cut(&self) -> bool {
+        let points = self.series.iter().flat_map(|s| &s.points).filter(|p| p.1.is_finite() && p.2.is_finite());
+        self.floor.is_some_and(|f| points.clone().any(|p| p.1 - p.2 < f))
+    }
+
+    /// The band's legend entry, saying where it is cut when `cut`.
+    fn band_entry(&self, cut: bool) -> String {
+        match self.floor.filter(|_| cut) {
+            Some(f) => format!("shaded: {}, cut at {f}, the least value", self.band),
+            None => format!("shaded: {}", self.band),
+        }
+    }
+
     pub(crate) fn data_range(&self) -> Option<(f64, f64)> {
         let points = self.series.iter().flat_map(|s| &s.points).filter(|p| p.1.is_finite() && p.2.is_finite());
         let low = |p: &(f64, f64, f64)| self.floor.map_or(p.1 - p.2, |f| (p.1 - p.2).max(f));
@@ -532,17 +591,22 @@ fn tick_label(v: f64, span: f64) -> String {
 pub fn mean_se_plot(path: &Path, style: &FigureStyle, plot: &LinePlot) -> Result<Drawn, PlotError> {
     let l = style.layout();
     let lines = Layout::wrap(plot.title, l.width, l.title);
-    let height = (l.width as f64 * 0.6).max(260.0) as u32;
+    // Tall enough that the y description (a character about 0.56 of its size) fits the axis.
+    let label_px = plot.y_label.chars().count() as f64 * l.label * 0.56;
+    let height =
+        (l.width as f64 * 0.6).max(260.0).max(label_px + l.x_area() as f64 + 2.0 * MARGIN as f64 + 24.0) as u32;
     figure(path, style, (l.width, l.title_height(lines.len()) + height), |root| {
         let body = title_block(root, &lines, &l)?;
-        let axes = draw_lines(&body, plot, false, None, &l)?;
+        let axes = draw_lines(&body, plot, plot.y_label, false, None, true, &l)?;
         Ok(Drawn { axes: vec![axes], legend: None })
     })
 }
 
 /// Line plots of means with bands (as [`mean_se_plot`]) in a grid of at most `cols` columns
 /// under a title. Panels with the same `y_groups` entry share one y axis spanning all their
-/// data (panels of one measure compare at a glance); without groups each has its own.
+/// data (panels of one measure compare at a glance); without groups each has its own. Panels
+/// that show the same series share one legend, under the grid, and a row's panels of one y
+/// axis one y description, at its left.
 pub fn line_grid(
     path: &Path,
     style: &FigureStyle,
@@ -552,31 +616,119 @@ pub fn line_grid(
     y_groups: Option<&[usize]>,
 ) -> Result<Drawn, PlotError> {
     let l = style.layout();
-    let (cols, rows, ph) = l.grid(plots.len(), cols, 0.8, 260.0..=f64::INFINITY);
     let lines = Layout::wrap(title, l.width, l.title);
+    let same_series = |p: &LinePlot, q: &LinePlot| p.series.iter().map(|s| s.name).eq(q.series.iter().map(|s| s.name));
+    let common = plots.len() > 1 && plots.iter().all(|p| same_series(p, &plots[0]) && p.band == plots[0].band);
+    let entries: Vec<(Mark, String)> = match plots.first().filter(|_| common) {
+        Some(first) => {
+            let mut entries: Vec<(Mark, String)> = first
+                .series
+                .iter()
+                .enumerate()
+                .map(|(k, s)| (Mark::Line(PALETTE[k % PALETTE.len()]), s.name.to_string()))
+                .collect();
+            // The band's entry names the cut of the first panel cut; where panels' measures
+            // differ in their least value, it says the cut is theirs alone.
+            let band = match plots.iter().find(|p| p.cut()) {
+                Some(cut) if plots.iter().all(|p| p.floor == cut.floor) => cut.band_entry(true),
+                Some(cut) => format!(
+                    "shaded: {}, cut at {} where a measure cannot be lower",
+                    first.band,
+                    cut.floor.unwrap_or_default()
+                ),
+                None => first.band_entry(false),
+            };
+            entries.push((Mark::Band(GREY), band));
+            entries
+        }
+        None => Vec::new(),
+    };
+    let legend_h = if common { legend_block_height(&entries, l.width, &l) } else { 0 };
+    let fixed = l.title_height(lines.len()) + legend_h;
+    let (cols, rows, ph) = l.grid(plots.len(), cols, 0.8, 260.0..=f64::INFINITY, fixed);
     let group = |k: usize| y_groups.and_then(|g| g.get(k).copied());
     let shared = |k: usize| {
         let g = group(k)?;
         let ranges = plots.iter().enumerate().filter(|(j, _)| group(*j) == Some(g)).filter_map(|(_, p)| p.data_range());
         ranges.reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
     };
-    figure(path, style, (l.width, l.title_height(lines.len()) + ph * rows as u32), |root| {
+    // Panels stacked with one y description: written once, along the whole grid's left edge
+    // (a panel's own would be longer than the panel and run into its neighbour's).
+    let one_label = rows > 1 && plots.iter().all(|p| p.y_label == plots[0].y_label);
+    // A panel right of one with its y axis and description needs neither described again.
+    let described_left = |k: usize| {
+        let first = k - k % cols;
+        k != first && group(k).is_some() && group(k) == group(first) && plots[k].y_label == plots[first].y_label
+    };
+    figure(path, style, (l.width, fixed + ph * rows as u32), |root| {
         let body = title_block(root, &lines, &l)?;
+        let (charts, under) = body.split_vertically(ph * rows as u32);
         let mut drawn = Drawn::default();
-        for (k, (plot, area)) in plots.iter().zip(body.split_evenly((rows, cols))).enumerate() {
-            drawn.axes.push(draw_lines(&area, plot, true, shared(k), &l)?);
+        for (k, (plot, area)) in plots.iter().zip(charts.split_evenly((rows, cols))).enumerate() {
+            let y_desc = if one_label || described_left(k) { "" } else { plot.y_label };
+            drawn.axes.push(draw_lines(&area, plot, y_desc, true, shared(k), !common, &l)?);
+        }
+        if one_label && let Some(first) = plots.first() {
+            let mid = charts.dim_in_pixel().1 as i32 / 2;
+            y_description(&charts, &[first.y_label.to_string()], mid, &l)?;
+        }
+        if common {
+            drawn.legend = Some(legend_block(&under, &entries, &l)?);
         }
         Ok(drawn)
     })
 }
 
+/// A y description's `lines`, rotated, at the left edge of `area` and centred on `mid`.
+fn y_description<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    lines: &[String],
+    mid: i32,
+    l: &Layout,
+) -> Result<(), PlotError> {
+    let font = sans(l.label)
+        .into_font()
+        .transform(plotters::style::FontTransform::Rotate270)
+        .color(&BLACK)
+        .pos(Pos::new(HPos::Center, VPos::Top));
+    for (k, line) in lines.iter().enumerate() {
+        let x = MARGIN as i32 + (k as f64 * l.label * DESC_LINE) as i32;
+        area.draw(&Text::new(line.clone(), (x, mid), font.clone())).map_err(drawing)?;
+    }
+    Ok(())
+}
+
+/// `text` on two lines, split at the space nearest its middle (one line without a space).
+fn two_lines(text: &str) -> Vec<String> {
+    let middle = text.chars().count() / 2;
+    let split = text
+        .char_indices()
+        .filter(|(_, c)| *c == ' ')
+        .min_by_key(|(i, _)| text[..*i].chars().count().abs_diff(middle))
+        .map(|(i, _)| i);
+    match split {
+        Some(i) => vec![text[..i].to_string(), text[i + 1..].to_string()],
+        None => vec![text.to_string()],
+    }
+}
+
+/// A y description's line spacing, in its font's size.
+const DESC_LINE: f64 = 1.35;
+
+/// Grey: bands' legend marks.
+const GREY: RGBColor = RGBColor(120, 120, 120);
+
 /// One line plot in `area` (its title as a caption when `caption`); its y axis spans
-/// `y_range` (the data's own when none). Returns its plotting area.
+/// `y_range` (the data's own when none); its legend inside it when `in_legend` (else the
+/// figure shows it). A y description longer than the axis takes two lines. Returns its
+/// plotting area.
 fn draw_lines<DB: DrawingBackend>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
     plot: &LinePlot,
+    y_desc: &str,
     caption: bool,
     y_range: Option<(f64, f64)>,
+    in_legend: bool,
     l: &Layout,
 ) -> Result<PixelRect, PlotError> {
     let finite = || plot.series.iter().flat_map(|s| &s.points).filter(|p| p.1.is_finite() && p.2.is_finite());
@@ -584,26 +736,29 @@ fn draw_lines<DB: DrawingBackend>(
     let x_max = finite().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
     let (x_min, x_max) = if x_min.is_finite() { (x_min.floor(), x_max.ceil()) } else { (0.0, 1.0) };
     let low = |p: &(f64, f64, f64)| plot.floor.map_or(p.1 - p.2, |f| (p.1 - p.2).max(f));
-    let cut = plot.floor.is_some_and(|f| finite().any(|p| p.1 - p.2 < f));
     let (lo, hi) = y_range.or_else(|| plot.data_range()).unwrap_or((0.0, 1.0));
-    let band = match plot.floor.filter(|_| cut) {
-        Some(f) => format!("shaded: {}, cut at {f}, the least value", plot.band),
-        None => format!("shaded: {}", plot.band),
-    };
     // The legend's width is what the chart leaves: the band's entry wraps onto more lines.
-    let band = Layout::wrap(&band, area.dim_in_pixel().0.saturating_sub(l.y_area + 60), l.legend);
-    let entries = plot.series.len() + band.len();
-    let plot_px = plot_height(area.dim_in_pixel().1, l, caption);
-    let (bottom, top) = y_ends(lo, hi, plot_px, l.legend_height(entries) as f64);
+    let band =
+        Layout::wrap(&plot.band_entry(plot.cut()), area.dim_in_pixel().0.saturating_sub(l.y_area + 60), l.legend);
+    let entries = if in_legend { plot.series.len() + band.len() } else { 0 };
     let caption = caption.then_some(plot.title);
-    let mut chart = chart_on(area, l, caption, x_min - 0.3..x_max + 0.3, bottom..top)?;
-    mesh(&mut chart, l, plot.x_label, plot.y_label)
+    let plot_px = plot_height(area.dim_in_pixel(), l, caption);
+    let legend_px = if in_legend { l.legend_height(entries) as f64 } else { 0.0 };
+    let (bottom, top) = y_ends(lo, hi, plot_px, legend_px);
+    // A description longer than the axis is drawn here, on two lines, the y area widened for
+    // the second; a shorter one by plotters.
+    let desc_lines =
+        if y_desc.chars().count() as f64 * l.label * 0.6 > plot_px { two_lines(y_desc) } else { Vec::new() };
+    let widened =
+        Layout { y_area: l.y_area + if desc_lines.len() > 1 { (l.label * DESC_LINE) as u32 } else { 0 }, ..*l };
+    let mut chart = chart_on(area, &widened, caption, x_min - 0.3..x_max + 0.3, bottom..top)?;
+    mesh(&mut chart, l, plot.x_label, if desc_lines.is_empty() { y_desc } else { "" })
         // At most one label per integer: plotters then steps by 1, 2 or 5, all integers.
         .x_labels(((x_max - x_min) as usize + 1).min(if l.narrow { 7 } else { 11 }))
         .x_label_formatter(&|x| {
             if (x - x.round()).abs() < 1e-6 { format!("{}", x.round() as i64) } else { String::new() }
         })
-        .y_labels(if l.narrow { 6 } else { 9 })
+        .y_labels(y_ticks(plot_px, if l.narrow { 6 } else { 9 }, l))
         .y_label_formatter(&|y| tick_label(*y, top - bottom))
         .draw()
         .map_err(drawing)?;
@@ -616,16 +771,25 @@ fn draw_lines<DB: DrawingBackend>(
             .collect();
         draw_band_line(&mut chart, s.name, PALETTE[k % PALETTE.len()], &pts)?;
     }
-    let grey = RGBColor(120, 120, 120);
-    // One legend entry a line (plotters draws an entry on one line), the mark on the first.
-    for (k, line) in band.into_iter().enumerate() {
-        let entry = chart.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>()).map_err(drawing)?.label(line);
-        if k == 0 {
-            entry.legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], grey.mix(0.3).filled()));
-        }
+    let axes = pixel_rect(chart.plotting_area());
+    if !desc_lines.is_empty() {
+        // Centred on the room from the axes' top to the panel's bottom (the x area has no
+        // text at its left), which holds more than the axes' height.
+        let bottom = area.get_base_pixel().1 + area.dim_in_pixel().1 as i32 - MARGIN as i32;
+        let mid = (axes.1 + bottom) / 2 - area.get_base_pixel().1;
+        y_description(area, &desc_lines, mid, l)?;
     }
-    legend(&mut chart, l)?;
-    Ok(pixel_rect(chart.plotting_area()))
+    if in_legend {
+        // One legend entry a line (plotters draws an entry on one line), the mark on the first.
+        for (k, line) in band.into_iter().enumerate() {
+            let entry = chart.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>()).map_err(drawing)?.label(line);
+            if k == 0 {
+                entry.legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], GREY.mix(0.3).filled()));
+            }
+        }
+        legend(&mut chart, l)?;
+    }
+    Ok(axes)
 }
 
 /// One series as a shaded band from low to high, a line and its points, named in the
@@ -681,37 +845,78 @@ fn chart_with_legend(
     let under = if l.narrow { legend_block_height(entries, l.width, &l) } else { 0 };
     figure(path, style, (l.width, l.title_height(lines.len()) + chart_height + under), |root| {
         let body = title_block(root, &lines, &l)?;
-        let (area, legend) =
-            if l.narrow { body.split_vertically(chart_height) } else { body.split_horizontally(l.width - SIDE_LEGEND) };
+        let (area, legend) = if l.narrow {
+            body.split_vertically(chart_height)
+        } else {
+            // Beside the chart, the legend starts level with the plotting area's top.
+            let (area, beside) = body.split_horizontally(l.width - SIDE_LEGEND);
+            (area, beside.split_vertically(MARGIN + 14).1)
+        };
         let axes = draw(&area, &l)?;
         Ok(Drawn { axes: vec![axes], legend: Some(legend_block(&legend, entries, &l)?) })
     })
 }
 
+/// One legend entry placed: its mark's left end, its first line's centre, its lines.
+struct LegendPlace {
+    x: i32,
+    y: i32,
+    lines: Vec<String>,
+}
+
+/// A legend's mark is this wide, and its text starts this far right of the mark's left end.
+const LEGEND_MARK: i32 = 24;
+const LEGEND_TEXT: i32 = 32;
+
+/// Where a legend block `width` pixels wide puts each of `entries`, and its height. Entries
+/// that fit sit in aligned columns, as many as the width holds (each as wide as the widest of
+/// them), filled in reading order; a longer entry takes a row of its own, wrapped.
+fn legend_places(entries: &[(Mark, String)], width: u32, l: &Layout) -> (Vec<LegendPlace>, u32) {
+    let line = l.legend * 1.45;
+    let gap = l.legend * 0.6;
+    let (left, room) = (8.0, width as f64 - 16.0);
+    let one_line = |text: &str| LEGEND_TEXT as f64 + text_width(text, l.legend);
+    let short = |text: &str| one_line(text) <= room / 2.0;
+    let cell = entries.iter().filter(|e| short(&e.1)).map(|e| one_line(&e.1) + 3.0 * gap).fold(0.0, f64::max);
+    let cols = if cell > 0.0 { ((room + 3.0 * gap) / cell).floor().max(1.0) as usize } else { 1 };
+    let (mut y, mut col, mut row_lines) = (8.0 + l.legend / 2.0, 0usize, 0usize);
+    let mut places = Vec::new();
+    for (_, text) in entries {
+        let alone = !short(text);
+        if col > 0 && (alone || col == cols) {
+            y += row_lines as f64 * line + gap;
+            (col, row_lines) = (0, 0);
+        }
+        let lines = if one_line(text) <= room {
+            vec![text.clone()]
+        } else {
+            Layout::wrap(text, (room as u32).saturating_sub(LEGEND_TEXT as u32), l.legend)
+        };
+        row_lines = row_lines.max(lines.len());
+        places.push(LegendPlace { x: (left + col as f64 * cell) as i32, y: y as i32, lines });
+        col = if alone { cols } else { col + 1 };
+    }
+    let bottom = y + (row_lines.max(1) - 1) as f64 * line + l.legend / 2.0 + 8.0;
+    (places, bottom.ceil() as u32)
+}
+
 /// The height of a legend block of `entries` in `width` pixels.
 fn legend_block_height(entries: &[(Mark, String)], width: u32, l: &Layout) -> u32 {
-    let lines: usize = entries.iter().map(|(_, t)| legend_lines(t, width, l).len()).sum();
-    let line = l.legend * 1.45;
-    (lines as f64 * line + entries.len() as f64 * l.legend * 0.6 + 16.0).ceil() as u32
+    legend_places(entries, width, l).1
 }
 
-fn legend_lines(text: &str, width: u32, l: &Layout) -> Vec<String> {
-    Layout::wrap(text, width.saturating_sub(48), l.legend)
-}
-
-/// A legend in an area of its own beside or under a chart: one entry per line, its mark and
-/// its text (long texts wrap at the area's width). Returns where it is.
+/// A legend in an area of its own beside or under a chart: each entry its mark and its text,
+/// laid out by [`legend_places`]. Returns where it is.
 fn legend_block<DB: DrawingBackend>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
     entries: &[(Mark, String)],
     l: &Layout,
 ) -> Result<PixelRect, PlotError> {
     let font = sans(l.legend).into_font().color(&BLACK).pos(Pos::new(HPos::Left, VPos::Center));
-    let width = area.dim_in_pixel().0;
-    let line = (l.legend * 1.45) as i32;
-    let mut y = if l.narrow { 8 + (l.legend / 2.0) as i32 } else { 30 };
-    let (x0, x1) = (8, 32);
-    for (mark, text) in entries {
+    let (places, _) = legend_places(entries, area.dim_in_pixel().0, l);
+    let line = l.legend * 1.45;
+    for ((mark, _), place) in entries.iter().zip(places) {
+        let (x0, x1, y) = (place.x, place.x + LEGEND_MARK, place.y);
         match mark {
             Mark::Line(c) => area.draw(&PathElement::new(vec![(x0, y), (x1, y)], c.stroke_width(2))),
             Mark::Dashed(c) => area
@@ -722,11 +927,10 @@ fn legend_block<DB: DrawingBackend>(
             Mark::Triangle(c) => area.draw(&TriangleMarker::new(((x0 + x1) / 2, y), 6, c.filled())),
         }
         .map_err(drawing)?;
-        for text in legend_lines(text, width, l) {
-            area.draw(&Text::new(text, (x1 + 8, y), font.clone())).map_err(drawing)?;
-            y += line;
+        for (k, text) in place.lines.into_iter().enumerate() {
+            let at = (x0 + LEGEND_TEXT, y + (k as f64 * line) as i32);
+            area.draw(&Text::new(text, at, font.clone())).map_err(drawing)?;
         }
-        y += (l.legend * 0.6) as i32;
     }
     Ok(pixel_rect(area))
 }
@@ -741,7 +945,7 @@ pub fn power_plot(
     band: &str,
     series: &[PowerSeries],
 ) -> Result<Drawn, PlotError> {
-    let grey = RGBColor(120, 120, 120);
+    let grey = GREY;
     let mut entries = vec![
         (Mark::Dashed(grey), "80 % (a common target)".into()),
         (Mark::Dashed(grey), "5 % (the significance level)".into()),
@@ -934,7 +1138,6 @@ pub struct FrontPanel {
 /// panels share their axes and one legend, under them.
 pub fn front_plot(path: &Path, style: &FigureStyle, title: &str, panels: &[FrontPanel]) -> Result<Drawn, PlotError> {
     let l = style.layout();
-    let (cols, rows, ph) = l.grid(panels.len(), panels.len(), 0.75, 240.0..=420.0);
     let lines = Layout::wrap(title, l.width, l.title);
     // One x and one y range over every panel.
     let xs =
@@ -959,13 +1162,18 @@ pub fn front_plot(path: &Path, style: &FigureStyle, title: &str, panels: &[Front
         entries.push((Mark::Triangle(passive), "passive".to_string()));
     }
     let legend_h = legend_block_height(&entries, l.width, &l);
+    let (cols, rows, ph) =
+        l.grid(panels.len(), panels.len(), 0.75, 240.0..=420.0, l.title_height(lines.len()) + legend_h);
     figure(path, style, (l.width, l.title_height(lines.len()) + ph * rows as u32 + legend_h), |root| {
         let body = title_block(root, &lines, &l)?;
         let (charts, under) = body.split_vertically(ph * rows as u32);
         let mut drawn = Drawn::default();
         for (panel, area) in panels.iter().zip(charts.split_evenly((rows, cols))) {
             let mut chart = chart_on(&area, &l, Some(&panel.title), 0.8..x_max, y_min..y_max)?;
+            // A tick label (at most "10.0") every 40 pixels at most.
+            let x_px = area.dim_in_pixel().0.saturating_sub(l.y_area + 2 * MARGIN) as usize;
             mesh(&mut chart, &l, "true cost / passive's", "fraction of active's gain")
+                .x_labels((x_px / 40).clamp(2, 10))
                 .y_labels(if l.narrow { 6 } else { 8 })
                 .y_label_formatter(&|y| tick_label(100.0 * y, 100.0) + " %")
                 .draw()
@@ -990,27 +1198,110 @@ pub fn front_plot(path: &Path, style: &FigureStyle, title: &str, panels: &[Front
                     .draw_series(LineSeries::new(pts.iter().map(|p| (p.0, p.1)), colour.stroke_width(2)))
                     .map_err(drawing)?;
                 chart.draw_series(pts.iter().map(|p| Circle::new((p.0, p.1), 3, colour.filled()))).map_err(drawing)?;
-                chart
-                    .draw_series(
-                        pts.iter().map(|p| Text::new(p.2.clone(), (p.0, p.1), sans(l.tick).into_font().color(&colour))),
-                    )
-                    .map_err(drawing)?;
             }
             for (point, colour) in [(panel.active, active), (panel.passive, passive)] {
                 if let Some(pt) = point {
                     chart.draw_series(std::iter::once(TriangleMarker::new(pt, 7, colour.filled()))).map_err(drawing)?;
                 }
             }
-            drawn.axes.push(pixel_rect(chart.plotting_area()));
+            // Each point's label where it covers no mark and no other label.
+            let px = |p: (f64, f64)| chart.backend_coord(&p);
+            let marks: Vec<PixelRect> = panel
+                .lines
+                .iter()
+                .flat_map(|(_, pts)| pts.iter().map(|p| around(px((p.0, p.1)), 4)))
+                .chain([panel.active, panel.passive].into_iter().flatten().map(|p| around(px(p), 8)))
+                .collect();
+            let labels: Vec<((i32, i32), String, RGBColor)> = panel
+                .lines
+                .iter()
+                .enumerate()
+                .flat_map(|(k, (_, pts))| pts.iter().map(move |p| (px((p.0, p.1)), p.2.clone(), PALETTE[k % 2])))
+                .collect();
+            let plotting = pixel_rect(chart.plotting_area());
+            let font = sans(l.tick);
+            let sizes: Vec<(i32, i32)> = labels
+                .iter()
+                .map(|(_, t, _)| (text_width(t, l.tick).ceil() as i32, (l.tick * 1.25).ceil() as i32))
+                .collect();
+            let anchors: Vec<(i32, i32)> = labels.iter().map(|(at, _, _)| *at).collect();
+            let base = area.get_base_pixel();
+            for ((text, colour), (x, y)) in
+                labels.iter().map(|(_, t, c)| (t, c)).zip(place_labels(&anchors, &sizes, &marks, plotting))
+            {
+                let style = font.into_font().color(colour).pos(Pos::new(HPos::Left, VPos::Top));
+                area.draw(&Text::new(text.clone(), (x - base.0, y - base.1), style)).map_err(drawing)?;
+            }
+            drawn.axes.push(plotting);
         }
-        drawn.legend = Some(legend_block(&under, &entries, &Layout { narrow: true, ..l })?);
+        drawn.legend = Some(legend_block(&under, &entries, &l)?);
         Ok(drawn)
     })
 }
 
+/// The box `r` pixels around `p`.
+fn around(p: (i32, i32), r: i32) -> PixelRect {
+    (p.0 - r, p.1 - r, p.0 + r, p.1 + r)
+}
+
+/// A text's width at `px` pixels, erring wide (a sans-serif character is at most about 0.6
+/// of its size wide).
+fn text_width(text: &str, px: f64) -> f64 {
+    text.chars().count() as f64 * px * 0.6
+}
+
+/// The area two boxes share (0 if apart).
+fn shared_area(a: PixelRect, b: PixelRect) -> i64 {
+    let w = (a.2.min(b.2) - a.0.max(b.0)).max(0) as i64;
+    let h = (a.3.min(b.3) - a.1.max(b.1)).max(0) as i64;
+    w * h
+}
+
+/// Top-left corners for labels of `sizes` (width, height) next to `anchors`, placed one after
+/// another: each at the first of 26 spots around its point, nearest first, that covers no box
+/// of `marks`, no label placed before it, and stays `inside`; where none does, the spot that
+/// covers least.
+fn place_labels(
+    anchors: &[(i32, i32)],
+    sizes: &[(i32, i32)],
+    marks: &[PixelRect],
+    inside: PixelRect,
+) -> Vec<(i32, i32)> {
+    let mut taken: Vec<PixelRect> = Vec::new();
+    let mut corners = Vec::new();
+    for (&(x, y), &(w, h)) in anchors.iter().zip(sizes) {
+        // Beside the point, level with it, then stacked a label's height further at a time.
+        let mut spots = vec![(x + 5, y - h / 2), (x - w - 5, y - h / 2)];
+        for k in 0..4 {
+            spots.extend([
+                (x + 5, y + 1 + k * h),
+                (x + 5, y - h - 1 - k * h),
+                (x - w - 5, y + 1 + k * h),
+                (x - w - 5, y - h - 1 - k * h),
+                (x - w / 2, y + 6 + k * h),
+                (x - w / 2, y - h - 6 - k * h),
+            ]);
+        }
+        let cost = |(cx, cy): (i32, i32)| {
+            let b = (cx, cy, cx + w, cy + h);
+            let outside = (b.0 < inside.0 || b.1 < inside.1 || b.2 > inside.2 || b.3 > inside.3) as i64;
+            let covered: i64 = marks.iter().chain(&taken).map(|&m| shared_area(b, m)).sum();
+            outside * i64::from(w * h) + covered
+        };
+        let best = spots
+            .iter()
+            .copied()
+            .find(|&c| cost(c) == 0)
+            .unwrap_or_else(|| spots.iter().copied().min_by_key(|&c| cost(c)).expect("26 spots"));
+        taken.push((best.0, best.1, best.0 + w, best.1 + h));
+        corners.push(best);
+    }
+    corners
+}
+
 #[cfg(test)]
 mod tests {
-    use super::{tick_label, with_resolution};
+    use super::{place_labels, tick_label, with_resolution};
 
     #[test]
     fn tick_labels_carry_the_decimals_their_spacing_needs() {
@@ -1019,6 +1310,42 @@ mod tests {
         assert_eq!(tick_label(1.5, 5.0), "1.5");
         assert_eq!(tick_label(0.25, 0.5), "0.25");
         assert_eq!(tick_label(-0.0001, 10.0), "0");
+    }
+
+    /// Labels of points that coincide, or nearly, never cover one another or the points:
+    /// every pair of 1–4 anchors within 6 pixels of each other (648 layouts).
+    #[test]
+    fn labels_of_points_close_together_stand_apart() {
+        let inside = (0, 0, 300, 200);
+        let offsets = [(0, 0), (3, 0), (0, 3), (-6, 2), (5, -5), (2, 6)];
+        let mut layouts = 0;
+        for n in 1..=4usize {
+            for a in 0..offsets.len() {
+                for b in 0..offsets.len() {
+                    for &w in &[8, 20, 36] {
+                        let anchors: Vec<(i32, i32)> = (0..n)
+                            .map(|k| if k % 2 == 0 { offsets[a] } else { offsets[b] })
+                            .map(|(dx, dy)| (150 + dx, 100 + dy))
+                            .collect();
+                        let sizes = vec![(w, 12); n];
+                        let marks: Vec<_> = anchors.iter().map(|&p| super::around(p, 4)).collect();
+                        let corners = place_labels(&anchors, &sizes, &marks, inside);
+                        let boxes: Vec<_> = corners.iter().map(|&(x, y)| (x, y, x + w, y + 12)).collect();
+                        for (i, bi) in boxes.iter().enumerate() {
+                            assert!(bi.0 >= 0 && bi.1 >= 0 && bi.2 <= 300 && bi.3 <= 200, "{bi:?} outside");
+                            for m in &marks {
+                                assert_eq!(super::shared_area(*bi, *m), 0, "{bi:?} covers a point {m:?}");
+                            }
+                            for bj in &boxes[i + 1..] {
+                                assert_eq!(super::shared_area(*bi, *bj), 0, "{bi:?} and {bj:?} overlap");
+                            }
+                        }
+                        layouts += 1;
+                    }
+                }
+            }
+        }
+        assert_eq!(layouts, 4 * 6 * 6 * 3);
     }
 
     #[test]

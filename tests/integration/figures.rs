@@ -406,3 +406,147 @@ fn a_missing_font_is_found_before_any_work() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(out.join("pilot/fig10.svg").exists());
 }
+
+/// A text and its box (left, top, right, bottom) in a figure's pixels.
+type TextBox = (String, (f64, f64, f64, f64));
+
+/// Every text of an SVG with its box as rendered (usvg lays the text out in DejaVu Sans, the
+/// face PDF and PNG figures are drawn in).
+fn text_boxes(svg: &str) -> Vec<TextBox> {
+    use resvg::usvg;
+    fn walk(group: &usvg::Group, out: &mut Vec<TextBox>) {
+        for node in group.children() {
+            match node {
+                usvg::Node::Group(g) => walk(g, out),
+                usvg::Node::Text(t) => {
+                    let text: String = t.chunks().iter().map(|c| c.text()).collect();
+                    let b = t.abs_bounding_box();
+                    out.push((text, (b.left() as f64, b.top() as f64, b.right() as f64, b.bottom() as f64)));
+                }
+                _ => {}
+            }
+        }
+    }
+    let mut options = usvg::Options::default();
+    options.fontdb_mut().load_system_fonts();
+    options.fontdb_mut().set_sans_serif_family("DejaVu Sans");
+    let tree = usvg::Tree::from_str(svg, &options).unwrap();
+    let mut out = Vec::new();
+    walk(tree.root(), &mut out);
+    out
+}
+
+/// What a figure must be on a page, read from its SVG: at most 9 in (864 px at 96 an inch)
+/// tall; every text inside the canvas and apart from every other; no in-chart legend box
+/// over a data point; negative tick values with a minus sign (U+2212), not a hyphen.
+fn page_problems(path: &Path) -> Vec<String> {
+    let svg = std::fs::read_to_string(path).unwrap();
+    let els = elements(&svg);
+    let canvas = els.iter().find(|e| e.name == "svg").unwrap();
+    let (w, h) = (canvas.num("width"), canvas.num("height"));
+    let mut problems = Vec::new();
+    if h > 864.0 {
+        problems.push(format!("{:.1} in tall (at most 9)", h / 96.0));
+    }
+    let texts = text_boxes(&svg);
+    for (text, b) in &texts {
+        if b.0 < -0.5 || b.1 < -0.5 || b.2 > w + 0.5 || b.3 > h + 0.5 {
+            problems.push(format!("'{text}' reaches outside the canvas ({b:.0?} in {w}×{h})"));
+        }
+        if text.starts_with('-') && text[1..].starts_with(|c: char| c.is_ascii_digit()) {
+            problems.push(format!("'{text}' has a hyphen for a minus sign"));
+        }
+    }
+    for (i, (a, ba)) in texts.iter().enumerate() {
+        for (b, bb) in &texts[i + 1..] {
+            let overlap_x = ba.2.min(bb.2) - ba.0.max(bb.0);
+            let overlap_y = ba.3.min(bb.3) - ba.1.max(bb.1);
+            if overlap_x > 0.5 && overlap_y > 0.5 {
+                problems.push(format!("'{a}' and '{b}' overlap"));
+            }
+        }
+    }
+    // plotters' in-chart legend: a translucent white box with a black frame, drawn after the
+    // data and before its own marks: a data point drawn before it and inside it is hidden.
+    for (i, l) in els.iter().enumerate() {
+        if !(l.name == "rect" && l.attr("fill") == Some("#FFFFFF") && l.attr("opacity") != Some("1")) {
+            continue;
+        }
+        let r = (l.num("x"), l.num("y"), l.num("x") + l.num("width"), l.num("y") + l.num("height"));
+        for e in els[..i].iter().filter(|e| e.name == "circle" && e.palette_colour().is_some()) {
+            let (x, y) = (e.num("cx"), e.num("cy"));
+            if x > r.0 && x < r.2 && y > r.1 && y < r.3 {
+                problems.push(format!("a data point at ({x}, {y}) is under the legend {r:?}"));
+            }
+        }
+    }
+    problems
+}
+
+/// Every kind of figure the commands draw, from the commands themselves at small sizes, at
+/// both widths: each fits a page as `page_problems` reads it.
+#[test]
+fn every_figure_kind_at_both_widths_fits_a_page_with_its_text_apart() {
+    use crate::support::handover;
+    let d = crate::support::tmpdir("figure-pages");
+    let small = ["--trials", "2", "--menu", "4", "--iterations", "3", "--test-size", "20", "--particles", "100"];
+    let logs = d.join("logs");
+    let logs = logs.to_str().unwrap();
+    let (code, _, err) = handover(&["dry-run", "--participants", "3", "--seed", "2", "--logs", logs]);
+    assert_eq!(code, 0, "{err}");
+    let mut figures = Vec::new();
+    for width in ["one-column", "two-column"] {
+        let out = |name: &str| d.join(format!("{name}-{width}")).to_str().unwrap().to_string();
+        let runs: Vec<Vec<String>> = vec![
+            [&["research", "simulate", "arm7", "--seeds", "2"][..], &small]
+                .concat()
+                .iter()
+                .map(|s| s.to_string())
+                .collect(),
+            [&["research", "simulate", "planar2", "--learn", "both", "--seeds", "1"][..], &small]
+                .concat()
+                .iter()
+                .map(|s| s.to_string())
+                .collect(),
+            [&["research", "observations", "--seeds", "2", "--sigma-deg", "2,5,10,20"][..], &small]
+                .concat()
+                .iter()
+                .map(|s| s.to_string())
+                .collect(),
+            [&["research", "front", "--seeds", "2", "--betas", "0.1,1", "--epsilons", "0,0.5"][..], &small]
+                .concat()
+                .iter()
+                .map(|s| s.to_string())
+                .collect(),
+            // A three-digit size at the axis' right end.
+            ["plan", "--sizes", "4,8,128", "--studies", "2"].iter().map(|s| s.to_string()).collect(),
+            ["analyze", logs, "--alpha-particles", "500"].iter().map(|s| s.to_string()).collect(),
+        ];
+        for (k, run) in runs.iter().enumerate() {
+            let dir = out(&format!("run{k}"));
+            let mut args: Vec<&str> = run.iter().map(String::as_str).collect();
+            args.extend(["--out", &dir, "--figure-width", width]);
+            let (code, _, err) = handover(&args);
+            assert_eq!(code, 0, "{args:?}: {err}");
+            figures.extend(
+                std::fs::read_dir(&dir)
+                    .unwrap()
+                    .map(|e| e.unwrap().path())
+                    .filter(|p| p.extension().is_some_and(|e| e == "svg")),
+            );
+        }
+        let plot = out("feasible");
+        let (code, _, err) =
+            handover(&["feasible", "--query", "bars-low-level", "--plot", &plot, "--figure-width", width]);
+        assert_eq!(code, 0, "{err}");
+        figures.extend(std::fs::read_dir(&plot).unwrap().map(|e| e.unwrap().path()));
+    }
+    let mut failures = Vec::new();
+    for f in &figures {
+        for p in page_problems(f) {
+            failures.push(format!("{}: {p}", f.strip_prefix(&*d).unwrap().display()));
+        }
+    }
+    println!("{} figures checked (every kind the commands draw, at both widths)", figures.len());
+    assert!(failures.is_empty(), "{} problems:\n{}", failures.len(), failures.join("\n"));
+}
