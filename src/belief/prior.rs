@@ -27,10 +27,16 @@ pub enum PriorError {
     NonFinite { component: String, field: &'static str, value: f64 },
     #[error("{component}: sd is {sd}, expected a positive number")]
     BadSd { component: String, sd: f64 },
+    #[error(
+        "{component}: mean {mean} lies outside [{min}, {max}], expected a mean inside the range it is truncated to"
+    )]
+    MeanOutside { component: String, mean: f64, min: f64, max: f64 },
     #[error("{component}: a weight's support must be non-negative, found min {min}")]
     NegativeWeight { component: String, min: f64 },
     #[error("q* has {q_star} components and w has {w}; they must agree")]
     LengthMismatch { q_star: usize, w: usize },
+    #[error("the prior has {prior} joints and the known λ {known}; they must agree")]
+    KnownMismatch { prior: usize, known: usize },
 }
 
 impl ComponentPrior {
@@ -68,7 +74,16 @@ impl ComponentPrior {
                 if !(sd.is_finite() && sd > 0.0) {
                     return Err(PriorError::BadSd { component, sd });
                 }
-                if min < max { Ok(()) } else { Err(PriorError::EmptyRange { component, min, max }) }
+                if min >= max {
+                    return Err(PriorError::EmptyRange { component, min, max });
+                }
+                // A mean outside the range puts nearly all its mass outside: the draws would
+                // fall back to uniform and the prior would not be the one written.
+                if (min..=max).contains(&mean) {
+                    Ok(())
+                } else {
+                    Err(PriorError::MeanOutside { component, mean, min, max })
+                }
             }
         }
     }
@@ -79,8 +94,9 @@ impl ComponentPrior {
             ComponentPrior::Fixed { value } => value,
             ComponentPrior::Uniform { min, max } => min + (max - min) * rng.random::<f64>(),
             ComponentPrior::Gaussian { mean, sd, min, max } => {
-                // Rejection from the untruncated normal; if the window is far in a tail,
-                // fall back to uniform on the window after many misses.
+                // Rejection from the untruncated normal (the mean lies in the window, so a
+                // draw lands in it at least about half the time); after many misses (a window
+                // far narrower than sd) uniform on the window, which the normal nearly is there.
                 for _ in 0..1000 {
                     let z: f64 = StandardNormal.sample(rng);
                     let x = mean + sd * z;
@@ -129,6 +145,13 @@ impl Prior {
         known: &Lambda,
     ) -> Result<Self, PriorError> {
         let dim = q_star.len();
+        if w.len() != dim {
+            return Err(PriorError::LengthMismatch { q_star: dim, w: w.len() });
+        }
+        if known.q_star.len() != dim || known.w.len() != dim {
+            let known = if known.q_star.len() != dim { known.q_star.len() } else { known.w.len() };
+            return Err(PriorError::KnownMismatch { prior: dim, known });
+        }
         let fix = |c: usize, p: ComponentPrior, v: f64| {
             if mask.learns(c, dim) { p } else { ComponentPrior::Fixed { value: v } }
         };
@@ -193,7 +216,7 @@ mod tests {
     fn draws_stay_in_support() {
         let p = Prior::new(
             vec![ComponentPrior::Uniform { min: -1.0, max: 1.0 }],
-            vec![ComponentPrior::Gaussian { mean: 0.0, sd: 5.0, min: 0.1, max: 2.0 }],
+            vec![ComponentPrior::Gaussian { mean: 0.1, sd: 5.0, min: 0.1, max: 2.0 }],
         )
         .unwrap();
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
@@ -220,6 +243,14 @@ mod tests {
         )
         .unwrap_err();
         assert_eq!(e.to_string(), "q_star[0]: min 1 must be below max 0");
+        let outside = ComponentPrior::Gaussian { mean: 300.0, sd: 10.0, min: -10.0, max: 60.0 };
+        let e = Prior::new(vec![outside], vec![ComponentPrior::Fixed { value: 1.0 }]).unwrap_err();
+        assert!(e.to_string().starts_with("q_star[0]: mean 300 lies outside [-10, 60]"), "{e}");
+        // A known λ of another length than the prior's is refused, not indexed past its end.
+        let u = ComponentPrior::Uniform { min: 0.0, max: 1.0 };
+        let known = Lambda { q_star: vec![0.3], w: vec![0.7] };
+        let e = Prior::with_mask(LearnMask::QStar, vec![u.clone(), u.clone()], vec![u.clone(), u], &known).unwrap_err();
+        assert_eq!(e, PriorError::KnownMismatch { prior: 2, known: 1 });
         let e = Prior::new(
             vec![ComponentPrior::Fixed { value: 0.0 }],
             vec![ComponentPrior::Uniform { min: -1.0, max: 1.0 }],

@@ -729,6 +729,8 @@ pub(super) fn study(protocol: Protocol, name: &str, sha256: String) -> Result<St
     // once: every later use takes the study's.
     let prior = match protocol.learning.prior() {
         Ok(prior) => Some(prior),
+        // What the checks above found already, in the file's degrees.
+        Err(_) if !p.0.is_empty() => None,
         Err(e) => {
             p.add("learning.prior", e.to_string());
             None

@@ -668,3 +668,198 @@ fn fifos_and_link_loops_are_refused_without_waiting() {
     assert!(sessions <= 1, "the log was found through a link:\n{}", r.stdout);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The JSON paths of every array in a value.
+fn array_paths(v: &serde_json::Value, path: &mut Vec<String>, out: &mut Vec<Vec<String>>) {
+    match v {
+        serde_json::Value::Array(a) => {
+            out.push(path.clone());
+            for (i, x) in a.iter().enumerate() {
+                path.push(i.to_string());
+                array_paths(x, path, out);
+                path.pop();
+            }
+        }
+        serde_json::Value::Object(o) => {
+            for (k, x) in o {
+                path.push(k.clone());
+                array_paths(x, path, out);
+                path.pop();
+            }
+        }
+        _ => {}
+    }
+}
+
+/// The default protocol in the three shapes its sections take: as shipped; with a
+/// `population` (each learned component's mean mid-range, sd a sixth of it); learning from
+/// the measured arm (`learning.measurement`).
+fn protocol_shapes() -> Vec<(&'static str, serde_json::Value)> {
+    let base: serde_json::Value = serde_json::from_str(DEFAULT_PROTOCOL).unwrap();
+    let mut with_population = base.clone();
+    let spreads = |field: &str| -> serde_json::Value {
+        base["learning"]["prior"][field]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| match (c["min"].as_f64(), c["max"].as_f64()) {
+                (Some(lo), Some(hi)) => serde_json::json!({"mean": (lo + hi) / 2.0, "sd": (hi - lo) / 6.0}),
+                _ => serde_json::json!({"mean": c["value"].as_f64().unwrap_or(0.0), "sd": 0.0}),
+            })
+            .collect()
+    };
+    with_population["population"] = serde_json::json!({"q_star_deg": spreads("q_star_deg"), "w": spreads("w")});
+    let mut measured = base.clone();
+    measured["learning"]["observation"] = "measured".into();
+    measured["learning"]["measurement"] = serde_json::json!({"sigma_deg": vec![3.0; 7]});
+    vec![("as shipped", base), ("with a population", with_population), ("measured", measured)]
+}
+
+/// A protocol's sections take one entry per joint, per region, per query: every array of
+/// the protocol in each of its shapes lengthened by one (its last entry again), shortened by
+/// one, and emptied is refused naming a field, or accepted and runs; never a panic.
+#[test]
+fn every_array_of_a_protocol_lengthened_shortened_or_emptied_is_refused_or_runs() {
+    let (mut refused, mut accepted) = (0, 0);
+    for (shape, base) in protocol_shapes() {
+        assert!(Study::from_json(&base.to_string(), "shape.json").is_ok(), "{shape}: the base is valid");
+        let mut paths = Vec::new();
+        array_paths(&base, &mut Vec::new(), &mut paths);
+        for path in &paths {
+            type Edit = (&'static str, fn(&mut Vec<serde_json::Value>));
+            let edits: [Edit; 3] = [
+                ("lengthened", |a| {
+                    let last = a.last().cloned().unwrap_or(serde_json::json!(0));
+                    a.push(last)
+                }),
+                ("shortened", |a| {
+                    a.pop();
+                }),
+                ("emptied", |a| a.clear()),
+            ];
+            for (what, edit) in edits {
+                let mut v = base.clone();
+                edit(at_path(&mut v, path).as_array_mut().unwrap());
+                let text = v.to_string();
+                let field = format!("{shape}: {} {what}", path.join("."));
+                let result = std::panic::catch_unwind(|| match Study::from_json(&text, "hostile.json") {
+                    Ok(study) => {
+                        let study = std::sync::Arc::new(study);
+                        // What dry runs and plans draw people from.
+                        let _ = study.population().draw(1, 0);
+                        handover::session::check_runs(study).map(|()| true).map_err(|e| e.to_string())
+                    }
+                    Err(e) => {
+                        let e = e.to_string();
+                        assert!(e.starts_with("hostile.json: invalid protocol") && e.contains("  - "), "{e}");
+                        Ok(false)
+                    }
+                });
+                match result.unwrap_or_else(|_| panic!("{field}: panicked")) {
+                    Ok(true) => accepted += 1,
+                    Ok(false) => refused += 1,
+                    Err(e) => panic!("{field}: accepted by validation but does not run: {e}"),
+                }
+            }
+        }
+    }
+    eprintln!(
+        "{} protocols with an array's length changed: {refused} refused, {accepted} accepted and run",
+        refused + accepted
+    );
+    assert!(refused > 0 && accepted > 0);
+}
+
+/// A log's protocol `text` in place of the one it embeds: the log rewritten record by record
+/// (its messages, metadata and other attachments as they were), so that only the protocol
+/// is wrong and every CRC is right.
+fn with_embedded_protocol(log: &[u8], text: &str) -> Vec<u8> {
+    let summary = mcap::Summary::read(log).unwrap().expect("a summary");
+    let profile = match mcap::read::LinearReader::new(log).unwrap().next() {
+        Some(Ok(mcap::records::Record::Header(h))) => h.profile,
+        other => panic!("no header: {other:?}"),
+    };
+    let options = mcap::WriteOptions::new().profile(profile);
+    let mut w = options.create(std::io::Cursor::new(Vec::new())).unwrap();
+    for m in mcap::MessageStream::new(log).unwrap() {
+        w.write(&m.unwrap()).unwrap();
+    }
+    for index in &summary.attachment_indexes {
+        let mut a = mcap::read::attachment(log, index).unwrap();
+        if a.name == "protocol.json" {
+            a.data = std::borrow::Cow::Owned(text.as_bytes().to_vec());
+        }
+        w.attach(&a).unwrap();
+    }
+    for index in &summary.metadata_indexes {
+        w.write_metadata(&mcap::read::metadata(log, index).unwrap()).unwrap();
+    }
+    w.finish().unwrap();
+    w.into_inner().into_inner()
+}
+
+/// A protocol no command accepts, embedded in a log: `analyze` skips the log, naming it,
+/// and analyses the rest; `resume` and `follow` refuse it naming it (exit 2). And the same
+/// protocol's prior or population as a file for `protocol with`: refused, exit 2. Cases: a
+/// prior's 8th joint (q* and w), a population's 8th, a prior's mean outside its range.
+#[test]
+fn a_protocol_no_command_accepts_is_named_wherever_it_comes_from() {
+    let root = tmpdir("embedded-protocol");
+    let base = base_log(&root);
+    let good = std::fs::read(&base).unwrap();
+    let r = run_in(&root, &["dry-run", "--protocol", "small.json", "--seed", "10", "--logs", "other"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let other = std::fs::read(handover::record::mcap_files(&root.join("other")).pop().unwrap()).unwrap();
+    let small: serde_json::Value = serde_json::from_str(&small_protocol_text()).unwrap();
+    let population = protocol_shapes().remove(1).1["population"].clone();
+    type Edit = (&'static str, fn(&mut serde_json::Value), &'static str);
+    let cases: [Edit; 4] = [
+        ("prior-q-8", |v| push_last(&mut v["learning"]["prior"]["q_star_deg"]), "learning.prior.q_star_deg"),
+        ("prior-w-8", |v| push_last(&mut v["learning"]["prior"]["w"]), "learning.prior.w"),
+        ("population-8", |v| push_last(&mut v["population"]["q_star_deg"]), "population.q_star_deg"),
+        (
+            "mean-outside",
+            |v| {
+                v["learning"]["prior"]["q_star_deg"][1] =
+                    serde_json::json!({"kind": "gaussian", "mean": 300.0, "sd": 10.0, "min": -10.0, "max": 60.0})
+            },
+            "mean 300 lies outside",
+        ),
+    ];
+    for (name, edit, words) in cases {
+        let mut v = small.clone();
+        v["population"] = population.clone();
+        edit(&mut v);
+        let (verify, resume) = try_log(&root, name, &with_embedded_protocol(&good, &v.to_string()));
+        assert_eq!((verify, resume), (1, 2), "{name}");
+        // Beside a good log (another session), the bad one is skipped by name and the good
+        // one analysed.
+        let case = root.join(format!("{name}-beside"));
+        std::fs::create_dir_all(case.join("logs/p-good")).unwrap();
+        std::fs::write(case.join("logs/p-good/good.mcap"), &other).unwrap();
+        std::fs::create_dir_all(case.join("logs/p-bad")).unwrap();
+        std::fs::write(case.join("logs/p-bad/bad.mcap"), with_embedded_protocol(&good, &v.to_string())).unwrap();
+        let r = run_in(&case, &["analyze", "logs", "--alpha-particles", "300", "--out", "results"]);
+        assert_eq!(r.code, 1, "{name}: {}", r.stderr);
+        assert!(r.stderr.contains("skipped") && r.stderr.contains("bad.mcap"), "{name}: {}", r.stderr);
+        assert!(!r.stderr.contains("good.mcap"), "{name}: {}", r.stderr);
+        assert!(case.join("results/pilot/sessions.csv").exists(), "{name}: the good log is analysed");
+        // The section as a file for `protocol with`.
+        let (field, section) = if name.starts_with("population") {
+            ("--population-file", &v["population"])
+        } else {
+            ("--prior-file", &v["learning"]["prior"])
+        };
+        std::fs::write(case.join("section.json"), section.to_string()).unwrap();
+        let r = run_in(&case, &["protocol", "with", field, "section.json", "--out", "next"]);
+        assert_eq!(r.code, 2, "{name}: protocol with\n{}", r.stderr);
+        assert!(r.stderr.contains("section.json") && r.stderr.contains(words), "{name}: {}", r.stderr);
+    }
+    std::fs::remove_dir_all(&root).unwrap();
+}
+
+fn push_last(v: &mut serde_json::Value) {
+    let a = v.as_array_mut().unwrap();
+    let last = a.last().cloned().unwrap();
+    a.push(last);
+}
