@@ -243,25 +243,25 @@ fn a_new_logs_folder_is_owner_only() {
     std::fs::remove_dir_all(&root).unwrap();
 }
 
-/// The JSON paths of every number in a value.
-fn number_paths(v: &serde_json::Value, path: &mut Vec<String>, out: &mut Vec<Vec<String>>) {
-    match v {
-        serde_json::Value::Number(_) => out.push(path.clone()),
-        serde_json::Value::Array(a) => {
-            for (i, x) in a.iter().enumerate() {
-                path.push(i.to_string());
-                number_paths(x, path, out);
-                path.pop();
-            }
-        }
-        serde_json::Value::Object(o) => {
-            for (k, x) in o {
-                path.push(k.clone());
-                number_paths(x, path, out);
-                path.pop();
-            }
-        }
-        _ => {}
+/// The JSON paths of every value in `v` that `pick` picks.
+fn paths_where(
+    v: &serde_json::Value,
+    pick: fn(&serde_json::Value) -> bool,
+    path: &mut Vec<String>,
+    out: &mut Vec<Vec<String>>,
+) {
+    if pick(v) {
+        out.push(path.clone());
+    }
+    let children: Vec<(String, &serde_json::Value)> = match v {
+        serde_json::Value::Array(a) => a.iter().enumerate().map(|(i, x)| (i.to_string(), x)).collect(),
+        serde_json::Value::Object(o) => o.iter().map(|(k, x)| (k.clone(), x)).collect(),
+        _ => Vec::new(),
+    };
+    for (key, x) in children {
+        path.push(key);
+        paths_where(x, pick, path, out);
+        path.pop();
     }
 }
 
@@ -284,7 +284,7 @@ fn refusal(v: &serde_json::Value) -> String {
 fn hostile_protocols_are_refused_with_the_field_or_run() {
     let base: serde_json::Value = serde_json::from_str(DEFAULT_PROTOCOL).unwrap();
     let mut paths = Vec::new();
-    number_paths(&base, &mut Vec::new(), &mut paths);
+    paths_where(&base, serde_json::Value::is_number, &mut Vec::new(), &mut paths);
     let hostile = [1e308, -1e308, 1e-9, 0.0, -1.0, 1e9, 3.5];
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
     let (mut refused, mut accepted) = (0, 0);
@@ -669,28 +669,6 @@ fn fifos_and_link_loops_are_refused_without_waiting() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// The JSON paths of every array in a value.
-fn array_paths(v: &serde_json::Value, path: &mut Vec<String>, out: &mut Vec<Vec<String>>) {
-    match v {
-        serde_json::Value::Array(a) => {
-            out.push(path.clone());
-            for (i, x) in a.iter().enumerate() {
-                path.push(i.to_string());
-                array_paths(x, path, out);
-                path.pop();
-            }
-        }
-        serde_json::Value::Object(o) => {
-            for (k, x) in o {
-                path.push(k.clone());
-                array_paths(x, path, out);
-                path.pop();
-            }
-        }
-        _ => {}
-    }
-}
-
 /// The default protocol in the three shapes its sections take: as shipped; with a
 /// `population` (each learned component's mean mid-range, sd a sixth of it); learning from
 /// the measured arm (`learning.measurement`).
@@ -724,7 +702,7 @@ fn every_array_of_a_protocol_lengthened_shortened_or_emptied_is_refused_or_runs(
     for (shape, base) in protocol_shapes() {
         assert!(Study::from_json(&base.to_string(), "shape.json").is_ok(), "{shape}: the base is valid");
         let mut paths = Vec::new();
-        array_paths(&base, &mut Vec::new(), &mut paths);
+        paths_where(&base, serde_json::Value::is_array, &mut Vec::new(), &mut paths);
         for path in &paths {
             type Edit = (&'static str, fn(&mut Vec<serde_json::Value>));
             let edits: [Edit; 3] = [
