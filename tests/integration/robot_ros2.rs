@@ -45,8 +45,9 @@ fn releases() -> Vec<(&'static str, String)> {
 }
 
 /// The shell functions every run has: `ready FILE` waits until FILE says ready (a node's
-/// endpoints exist), at most 30 s; `stop PID…` ends processes with SIGINT, again after 5 s
-/// (rclpy can miss one that comes as its executor starts waiting), then SIGKILL after 10 s;
+/// endpoints exist), at most 30 s; `stop PID…` ends processes with SIGINT, again after 10 s
+/// and 20 s (rclpy can miss one that comes as its executor starts waiting, and a loaded
+/// machine's Python takes seconds to shut down), then SIGKILL after 30 s;
 /// at exit, what is left in /dev/shm (but the LTTng tracer's per-user wait files) is listed
 /// in `$DIR/shm-left.txt`.
 const SHELL_FUNCTIONS: &str = r#"
@@ -54,9 +55,9 @@ ready() { for _ in $(seq 300); do grep -q ready "$1" 2>/dev/null && return 0; sl
 alive() { for p in "$@"; do kill -0 "$p" 2>/dev/null && return 0; done; return 1; }
 stop() {
   [ $# -eq 0 ] && return 0
-  for round in 1 2; do
+  for round in 1 2 3; do
     kill -INT "$@" 2>/dev/null
-    for _ in $(seq 50); do alive "$@" || break; sleep 0.1; done
+    for _ in $(seq 100); do alive "$@" || break; sleep 0.1; done
     alive "$@" || break
     echo "stop: still running after SIGINT $round: $*" >&2
   done
