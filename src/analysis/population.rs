@@ -59,6 +59,14 @@ pub enum PopulationError {
     TooFewSessions { found: usize },
     #[error("session {index}'s prior differs from the first session's; a population is fitted over one prior")]
     PriorsDiffer { index: usize },
+    #[error(
+        "session {index} assumed α = {alpha} and the first session α = {first}; a population is fitted over one α (its people are given it)"
+    )]
+    AlphasDiffer { index: usize, alpha: f64, first: f64 },
+    #[error(
+        "{found} of the sessions have a handover, expected at least 2: a spread is fitted from people who took something"
+    )]
+    TooFewHandovers { found: usize },
     #[error("the prior learns no component of λ")]
     NothingLearned,
     #[error("session {index}: {source}")]
@@ -160,20 +168,29 @@ impl PopulationFit {
     }
 
     /// The next study's prior from this fit, as a protocol's `learning.prior` section (q*
-    /// in degrees): each learned component a normal with the fitted mean and spread,
-    /// truncated to the support `written` (the sessions' prior, as their protocol wrote it)
-    /// gives it — the population as the prior, so that the robot expects people as varied
-    /// as they were. Only where the data determine the component: its mean and spread each
-    /// have an interval and the spread is above the floor. A spread without one may be far
-    /// too narrow (a few people fit near the floor), and a prior that narrow would keep the
-    /// robot from learning that joint; those components, and the ones not learned, keep
-    /// `written`'s prior.
+    /// in degrees): each learned component a normal at the fitted mean, truncated to the
+    /// support `written` (the sessions' prior, as their protocol wrote it) gives it. Its sd is
+    /// never narrower than the data resolve: the larger of the spread's 95 % interval's upper
+    /// end (the widest population the data allow) and the median over people of their
+    /// session's own posterior sd (what one person's handovers resolve: a population fitted
+    /// narrower than that is the fit's shrinkage as much as the people, and a prior that
+    /// narrow would outweigh the next person's own data). So a pilot whose people happened to
+    /// fit alike cannot make the robot sure of a joint it has barely seen. Only where the data
+    /// determine the component (its mean and spread each have an interval, the spread above
+    /// the floor) and that sd is narrower than the support (a wider normal is about flat on
+    /// it); the other components, and the ones not learned, keep `written`'s prior.
     pub fn prior_spec(&self, written: &PriorSpec) -> PriorSpec {
         let mut next = written.clone();
-        let determined = |c: &&ComponentFit| {
-            !c.sd_at_floor && [c.mean_low, c.mean_high, c.sd_low, c.sd_high].iter().all(|v| v.is_finite())
-        };
-        for c in self.components.iter().filter(determined) {
+        for (j, c) in self.components.iter().enumerate() {
+            let resolved: Vec<f64> = self.people.iter().filter_map(|p| p.session_sd.get(j).copied()).collect();
+            let resolved = if resolved.is_empty() { 0.0 } else { crate::stats::median(&resolved) };
+            let sd = c.sd_high.max(resolved);
+            let determined = !c.sd_at_floor
+                && [c.mean_low, c.mean_high, c.sd_low, c.sd_high].iter().all(|v| v.is_finite())
+                && sd < c.max - c.min;
+            if !determined {
+                continue;
+            }
             let (slot, scale) = if c.part == "q_star" {
                 (next.q_star_deg.get_mut(c.joint), 180.0 / std::f64::consts::PI)
             } else {
@@ -181,7 +198,7 @@ impl PopulationFit {
             };
             if let Some(slot) = slot {
                 let (min, max) = slot.support();
-                *slot = ComponentPrior::Gaussian { mean: c.mean * scale, sd: c.sd * scale, min, max };
+                *slot = ComponentPrior::Gaussian { mean: c.mean * scale, sd: sd * scale, min, max };
             }
         }
         next
@@ -330,6 +347,16 @@ pub fn fit_population(
     let prior = &evidence[0].prior;
     if let Some(index) = evidence.iter().position(|e| e.prior != *prior) {
         return Err(PopulationError::PriorsDiffer { index });
+    }
+    let first = evidence[0].alpha;
+    if let Some((index, e)) = evidence.iter().enumerate().find(|(_, e)| e.alpha != first) {
+        return Err(PopulationError::AlphasDiffer { index, alpha: e.alpha, first });
+    }
+    // A session without a handover leaves its person's λ where the population puts it: it
+    // says nothing of the spread, and a fit of such sessions alone collapses to the floor.
+    let with_handovers = evidence.iter().filter(|e| !e.handovers.is_empty()).count();
+    if with_handovers < 2 {
+        return Err(PopulationError::TooFewHandovers { found: with_handovers });
     }
     let free = prior.free();
     if free.is_empty() {
@@ -729,6 +756,29 @@ mod tests {
         (Population::new(Some(&spec), &study.prior, study.protocol.learning.alpha), spec)
     }
 
+    /// Sessions a population cannot be fitted over are refused before any work, naming why:
+    /// fewer than two with a handover (none at all, or one), or protocols of different α.
+    #[test]
+    fn a_fit_without_handovers_or_over_different_alphas_is_refused() {
+        let (pop, _) = population(10.0);
+        let settings = PopulationSettings::default();
+        for with_handovers in [0, 1] {
+            let mut evidence = people(&pop, 4, 3, None, 7);
+            for e in &mut evidence[with_handovers..] {
+                e.handovers.clear();
+            }
+            assert_eq!(
+                fit_population(&evidence, settings),
+                Err(PopulationError::TooFewHandovers { found: with_handovers })
+            );
+        }
+        let mut evidence = people(&pop, 4, 3, None, 7);
+        evidence[2].alpha = 20.0;
+        let e = fit_population(&evidence, settings).unwrap_err();
+        assert_eq!(e, PopulationError::AlphasDiffer { index: 2, alpha: 20.0, first: pop.alpha });
+        assert!(e.to_string().contains("α = 20"), "{e}");
+    }
+
     #[test]
     fn the_fit_and_its_interval_match_the_marginal_likelihood_by_quadrature() {
         // One learned joint, three configurations in two regions, 40 people from
@@ -854,6 +904,14 @@ mod tests {
                 component(5, 1.0, 0.2, true, false),
                 // A spread without an interval: a few people fitted near the floor.
                 component(6, -8.0, 0.1, false, false),
+                // A pilot whose people were alike by chance (seed 31022's q*1: 2.1° fitted,
+                // 11.7° true, interval [0.01°, 287°]): the data allow a population wider than
+                // the support, so the next prior stays as written, not a 2° normal.
+                ComponentFit {
+                    sd_low: 0.01f64.to_radians(),
+                    sd_high: 287f64.to_radians(),
+                    ..component(0, 20.0, 2.1, false, true)
+                },
             ],
             iterations: 1,
             identified: false,
@@ -863,15 +921,30 @@ mod tests {
             people: Vec::new(),
         };
         let next = fit.prior_spec(&written);
+        // Three people whose own sessions resolved joint 4 to 30°, 40° and 50°: the median,
+        // 40°, is wider than the spread's interval's end (24°), and is the next prior's sd.
+        let person = |sd_deg: f64| PersonEstimate {
+            pooled_mean: vec![0.0; 4],
+            pooled_sd: vec![0.0; 4],
+            session_mean: vec![0.0; 4],
+            session_sd: vec![sd_deg.to_radians(), 0.0, 0.0, 0.0],
+        };
+        let resolved = PopulationFit { people: vec![person(30.0), person(50.0), person(40.0)], ..fit.clone() };
+        match resolved.prior_spec(&written).q_star_deg[3] {
+            ComponentPrior::Gaussian { sd, .. } => assert!((sd - 40.0).abs() < 1e-9, "{sd}"),
+            ref other => panic!("joint 4: {other:?}"),
+        }
         let (min, max) = written.q_star_deg[3].support();
         match next.q_star_deg[3] {
             ComponentPrior::Gaussian { mean, sd, min: lo, max: hi } => {
-                assert!((mean - 88.0).abs() < 1e-9 && (sd - 12.0).abs() < 1e-9, "{mean} {sd}");
+                // The spread's interval's upper end (2 × 12° here), not the estimate.
+                assert!((mean - 88.0).abs() < 1e-9 && (sd - 24.0).abs() < 1e-9, "{mean} {sd}");
                 assert_eq!((lo, hi), (min, max), "the written support");
             }
             ref other => panic!("joint 4: {other:?}"),
         }
-        // At the floor, without an interval, and every component not fitted: as written.
+        // At the floor, without an interval, wider than the support, and every component not
+        // fitted: as written.
         for j in (0..7).filter(|&j| j != 3) {
             assert_eq!(next.q_star_deg[j], written.q_star_deg[j], "joint {}", j + 1);
         }

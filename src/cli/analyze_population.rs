@@ -240,13 +240,24 @@ pub fn table(report: &PopulationReport) -> String {
             if c.sd_at_floor { "  sd at the floor: not told from a narrower population" } else { "" }
         );
     }
+    // Which components the data leave without an interval ([—] above), named as the rows are.
+    let open: Vec<String> = f
+        .components
+        .iter()
+        .filter(|c| ![c.mean_low, c.mean_high, c.sd_low, c.sd_high].iter().all(|v| v.is_finite()))
+        .map(|c| if c.part == "q_star" { format!("q*{}", c.joint + 1) } else { format!("w{}", c.joint + 1) })
+        .collect();
     let _ = writeln!(
         s,
         "stochastic EM, {} iterations; random-walk acceptance per participant: min {:.2}, median {:.2}{}",
         f.iterations,
         f.min_acceptance,
         f.median_acceptance,
-        if f.identified { "" } else { "; the data do not identify the population: no intervals" }
+        match open.len() {
+            0 => String::new(),
+            n if n == f.components.len() => "; the data identify no component: no intervals".to_string(),
+            _ => format!("; the data do not identify {} ([—]): no interval there", open.join(", ")),
+        }
     );
     if let Some(p) = &report.pooling {
         let _ = writeln!(
