@@ -70,7 +70,18 @@ pub fn load_protocol(path: Option<&Path>) -> anyhow::Result<(String, handover::p
         None => (DEFAULT_PROTOCOL.to_string(), DEFAULT_PROTOCOL_NAME.to_string()),
     };
     let study = Study::from_json(&text, &name).map_err(|e| bad(e.to_string()))?;
+    warn_narrow(&study);
     Ok((text, study))
+}
+
+/// Says on standard error what in a study's prior or population is narrow enough to stop it
+/// learning a joint or to simulate people nearly alike ([`Study::narrow_warnings`]).
+///
+/// [`Study::narrow_warnings`]: handover::protocol::Study::narrow_warnings
+fn warn_narrow(study: &handover::protocol::Study) {
+    for w in study.narrow_warnings() {
+        errln!("warning: {}: {w}", study.source_name);
+    }
 }
 
 /// Whom simulated participants' λ are drawn from (`--population`): `protocol` (its
@@ -177,6 +188,7 @@ pub fn with_sections(
     let from: Vec<&str> = sections.iter().map(|s| s.from.as_str()).collect();
     let name = format!("{} with {}", study.source_name, from.join(" and "));
     let study = handover::protocol::Study::from_json(&text, &name).map_err(|e| bad(e.to_string()))?;
+    warn_narrow(&study);
     Ok((text, study))
 }
 

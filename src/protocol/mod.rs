@@ -442,6 +442,63 @@ impl Study {
         Population::from_prior(&self.prior, self.protocol.learning.alpha)
     }
 
+    /// What in the prior or the population is so narrow that the study would barely learn a
+    /// joint, or would simulate people nearly alike there: each a sentence naming the joints.
+    /// A learned component's normal prior with an sd under [`NARROW_PRIOR_SHARE`] of its
+    /// range (the robot will barely move from its mean), and a population spread under
+    /// [`NARROW_POPULATION_SHARE`] of the prior's range (what a fit gives when the data do
+    /// not determine a spread). Valid protocols, said so that nobody runs one unawares.
+    pub fn narrow_warnings(&self) -> Vec<String> {
+        let l = &self.protocol.learning;
+        let dim = l.prior.q_star_deg.len();
+        let name = |i: usize| if i < dim { format!("q*{}", i + 1) } else { format!("w{}", i - dim + 1) };
+        let unit = |i: usize| if i < dim { "°" } else { "" };
+        let written: Vec<&ComponentPrior> = l.prior.q_star_deg.iter().chain(&l.prior.w).collect();
+        let learned = |i: usize| !self.prior.components().get(i).is_none_or(ComponentPrior::is_fixed);
+        let mut out = Vec::new();
+        let narrow_priors: Vec<String> = written
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| learned(*i))
+            .filter_map(|(i, c)| match **c {
+                ComponentPrior::Gaussian { mean, sd, min, max } if sd < NARROW_PRIOR_SHARE * (max - min) => {
+                    Some(format!("{} sd {sd:.1}{u} about {mean:.1}{u} on [{min}, {max}]{u}", name(i), u = unit(i)))
+                }
+                _ => None,
+            })
+            .collect();
+        if !narrow_priors.is_empty() {
+            out.push(format!(
+                "the prior's {} under {:.0} % of its range: the robot will barely learn {} from a participant (a pilot's prior.json keeps each sd at least what the data resolve; docs/engine.md)",
+                narrow_priors.join(", "),
+                100.0 * NARROW_PRIOR_SHARE,
+                if narrow_priors.len() == 1 { "that joint" } else { "those joints" }
+            ));
+        }
+        if let Some(pop) = &self.protocol.population {
+            let spreads: Vec<&Spread> = pop.q_star_deg.iter().chain(&pop.w).collect();
+            let narrow: Vec<String> = spreads
+                .iter()
+                .zip(&written)
+                .enumerate()
+                .filter(|(i, _)| learned(*i))
+                .filter_map(|(i, (s, c))| {
+                    let (min, max) = c.support();
+                    (s.sd < NARROW_POPULATION_SHARE * (max - min))
+                        .then(|| format!("{} sd {:.2}{}", name(i), s.sd, unit(i)))
+                })
+                .collect();
+            if !narrow.is_empty() {
+                out.push(format!(
+                    "the population's {} under {:.0} % of the prior's range: the simulated people are nearly alike there (if a fit made it, its data did not determine those spreads: see population.csv's sd_at_floor and intervals)",
+                    narrow.join(", "),
+                    100.0 * NARROW_POPULATION_SHARE
+                ));
+            }
+        }
+        out
+    }
+
     /// The factor the queries' positions are scaled by for this study's arm.
     pub fn pose_scale(&self) -> f64 {
         pose_scale(&self.protocol, &self.arm).unwrap_or(1.0)
@@ -461,6 +518,13 @@ impl Study {
         &self.protocol.objects[q.object]
     }
 }
+
+/// A normal prior narrower than this share of its range is said to be narrow (a pilot whose
+/// people fit alike by chance gave 2.1° on a 70° range, 3 %).
+pub const NARROW_PRIOR_SHARE: f64 = 0.05;
+/// A population spread narrower than this share of the prior's range is said to be narrow
+/// (fits put undetermined spreads at 0.2 % of it).
+pub const NARROW_POPULATION_SHARE: f64 = 0.01;
 
 /// SHA-256 of bytes as lowercase hex.
 pub(crate) fn sha256_hex(bytes: &[u8]) -> String {
@@ -535,4 +599,55 @@ pub fn for_body(text: &str, name: &str, body: Body) -> Result<(String, Study), P
     let text = serde_json::to_string(&v).expect("serialisable");
     let study = Study::from_json(&text, &format!("{name} ({body})"))?;
     Ok((text, study))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each learned joint's normal prior at sds either side of the narrow share, and each
+    /// population spread either side of its share (7 joints × 2 × 2 = 28 protocols): a joint
+    /// is named exactly when it is under the share; fixed components are never named.
+    #[test]
+    fn narrow_priors_and_populations_are_named_joint_by_joint() {
+        let base: serde_json::Value = serde_json::from_str(DEFAULT_PROTOCOL).unwrap();
+        assert!(Study::default_study().narrow_warnings().is_empty());
+        let mut cases = 0;
+        for joint in 0..JOINTS {
+            let (min, max) = base["learning"]["prior"]["q_star_deg"][joint]
+                .as_object()
+                .map(|c| (c["min"].as_f64().unwrap(), c["max"].as_f64().unwrap()))
+                .unwrap();
+            let width = max - min;
+            for (share, named) in [(0.9, true), (1.1, false)] {
+                let mut v = base.clone();
+                v["learning"]["prior"]["q_star_deg"][joint] = serde_json::json!({
+                    "kind": "gaussian", "mean": (min + max) / 2.0, "sd": share * NARROW_PRIOR_SHARE * width,
+                    "min": min, "max": max,
+                });
+                let w = Study::from_json(&v.to_string(), "p").unwrap().narrow_warnings();
+                let said = w.iter().any(|w| w.contains(&format!("prior's q*{} sd", joint + 1)));
+                assert_eq!(said, named, "prior q*{} at {share} × the share: {w:?}", joint + 1);
+                let mut v = base.clone();
+                let spreads: Vec<serde_json::Value> = (0..JOINTS)
+                    .map(|j| {
+                        let c = &base["learning"]["prior"]["q_star_deg"][j];
+                        let (lo, hi) = (c["min"].as_f64().unwrap(), c["max"].as_f64().unwrap());
+                        let sd = if j == joint { share * NARROW_POPULATION_SHARE * (hi - lo) } else { (hi - lo) / 6.0 };
+                        serde_json::json!({"mean": (lo + hi) / 2.0, "sd": sd})
+                    })
+                    .collect();
+                let w_spreads = vec![serde_json::json!({"mean": 1.0, "sd": 0.0}); JOINTS];
+                v["population"] = serde_json::json!({"q_star_deg": spreads, "w": w_spreads});
+                let study = Study::from_json(&v.to_string(), "p").unwrap();
+                let w = study.narrow_warnings();
+                let said = w.iter().any(|w| w.contains(&format!("population's q*{} sd", joint + 1)));
+                assert_eq!(said, named, "population q*{} at {share} × the share: {w:?}", joint + 1);
+                // w is not learned by the default protocol: its zero spreads are never named.
+                assert!(!w.iter().any(|w| w.contains(" w1 ")), "{w:?}");
+                cases += 2;
+            }
+        }
+        assert_eq!(cases, 28);
+    }
 }

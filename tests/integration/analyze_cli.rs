@@ -689,5 +689,34 @@ fn a_pilot_whose_people_fit_alike_does_not_freeze_a_joint() {
     }
     eprintln!("{kept} joints keep the written prior, {normals} are normals; {narrow} fitted under 1°, none frozen");
     assert!(narrow >= 1 && normals >= narrow, "seed 3 fits a spread under 1° with an interval: {csv}");
+    // Those spreads are said wherever the population is used; the prior made from them is
+    // not narrow, and nothing is said of it.
+    let population = out.join("pilot/population.json");
+    let (code, _, stderr) = handover(&[
+        "plan",
+        "--protocol",
+        file.to_str().unwrap(),
+        "--population",
+        population.to_str().unwrap(),
+        "--sizes",
+        "2",
+        "--studies",
+        "1",
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stderr.contains("warning:") && stderr.contains("the population's q*1 sd 0.25°"), "{stderr}");
+    let next = dir.join("next");
+    let prior_file = out.join("pilot/prior.json");
+    let (code, _, stderr) = handover(&[
+        "protocol",
+        "with",
+        file.to_str().unwrap(),
+        "--prior-file",
+        prior_file.to_str().unwrap(),
+        "--out",
+        next.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(!stderr.contains("warning:"), "{stderr}");
     let _ = std::fs::remove_dir_all(&dir);
 }
