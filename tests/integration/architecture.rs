@@ -79,3 +79,35 @@ fn every_module_imports_only_what_its_row_allows() {
     problems.dedup();
     assert!(problems.is_empty(), "imports docs/architecture.md does not allow:\n{}", problems.join("\n"));
 }
+
+/// A test that lacks a prerequisite goes through one mechanism, `support::missing` (a failure
+/// under CI, a skip elsewhere): no test prints its own "skipped", and every file that reads a
+/// prerequisite's variable (`HANDOVER_PYTHON`, `HANDOVER_RSCRIPT`, `HANDOVER_NODE_MODULES`,
+/// `HANDOVER_ROS_*`) with `std::env::var` says `missing(` at least as often as it reads one.
+#[test]
+fn a_missing_prerequisite_is_said_one_way_that_fails_under_ci() {
+    let dir = root().join("tests/integration");
+    let mut problems = Vec::new();
+    let mut files = 0;
+    for file in rust_files(&dir) {
+        let name = file.file_name().unwrap().to_string_lossy().into_owned();
+        let text = std::fs::read_to_string(&file).unwrap();
+        files += 1;
+        if name == "support.rs" || name == "architecture.rs" {
+            continue;
+        }
+        for (n, line) in text.lines().enumerate() {
+            let l = line.to_lowercase();
+            if (l.contains("eprintln!(\"skip") || l.contains("println!(\"skip")) && !l.trim_start().starts_with("//") {
+                problems.push(format!("{name}:{}: prints its own skip: {}", n + 1, line.trim()));
+            }
+        }
+        let reads = text.matches("env::var(\"HANDOVER_").count();
+        let said = text.matches("missing(").count();
+        if reads > said {
+            problems.push(format!("{name}: reads {reads} prerequisite variable(s), says missing( {said} time(s)"));
+        }
+    }
+    assert!(files > 20, "the suite's files were read: {files}");
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}

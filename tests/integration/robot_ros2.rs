@@ -29,7 +29,7 @@ fn releases() -> Vec<(&'static str, String)> {
         .filter_map(|(name, var)| std::env::var(var).ok().map(|python| (name, python)))
         .collect();
     if found.is_empty() {
-        eprintln!("skipped: neither HANDOVER_ROS_KILTED nor HANDOVER_ROS_JAZZY is set (.ci/run sets both)");
+        crate::support::missing("a ROS 2 release: neither HANDOVER_ROS_KILTED nor HANDOVER_ROS_JAZZY is set");
         return found;
     }
     let works = |cmd: &mut Command| cmd.output().is_ok_and(|o| o.status.success());
