@@ -112,7 +112,13 @@ fn timing(seconds: f64, threads: usize) -> String {
 
 /// Learn how a person likes to take objects from a robot, and run the study that measures it.
 #[derive(Debug, Parser)]
-#[command(name = "handover", version = handover::record::VERSION, about, long_about = None)]
+#[command(
+    name = "handover",
+    version = handover::record::VERSION,
+    about,
+    long_about = None,
+    after_help = "Without a command, handover opens the operator console (as `handover run`) on the embedded default protocol."
+)]
 pub struct Cli {
     /// Without a command, the operator console opens on the embedded default protocol.
     #[command(subcommand)]
@@ -132,11 +138,11 @@ enum Command {
     /// Writes: a table, JSON or CSV on stdout (docs/outputs.md: feasible.csv); with --plot, one SVG
     /// per query into that folder.
     Feasible(feasible::FeasibleArgs),
-    /// Validate a protocol file.
+    /// Check a protocol file, or make one with another prior or population.
     ///
-    /// Writes: the problems or a summary on stdout; no file.
+    /// Writes: check, the problems or a summary on stdout and no file; with, OUT/protocol.json.
     Protocol(protocol::ProtocolArgs),
-    /// Create pseudonymous participants.
+    /// Create, show and withdraw pseudonymous participants.
     ///
     /// Writes: participant records PARTICIPANTS/<id>.json (new, withdraw); withdraw
     /// --delete-data deletes that participant's logs and record.

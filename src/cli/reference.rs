@@ -59,7 +59,7 @@ fn vocabulary(out: &mut String) {
         let value = if c.value.is_empty() { String::new() } else { format!(" {}", c.value) };
         let _ = writeln!(out, "| `--{}{value}` | {} | {} |", c.flag, cell(c.meaning), cell(&default));
     }
-    let _ = writeln!(out, "\n### Renamed in 0.2.0\n\nThe old spellings work, with a warning, until 0.3.0.\n");
+    let _ = writeln!(out, "\n### Renamed in 0.2.0\n\nThe old spellings work, with a warning, until 0.4.0.\n");
     let _ = writeln!(out, "| old | new |\n|---|---|");
     for r in RENAMED {
         let command = if r.command.is_empty() { String::new() } else { format!("{} ", r.command) };

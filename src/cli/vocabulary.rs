@@ -1,5 +1,5 @@
 //! The command line's vocabulary: what each long flag means and its default, in one table, and
-//! the spellings renamed in 0.2.0, which still work (with a warning) until 0.3.0.
+//! the spellings renamed in 0.2.0, which still work (with a warning) until 0.4.0.
 //!
 //! A flag means one thing in every command that takes it. A command that sweeps a setting
 //! takes a comma-separated list under the same flag (`research front --learn q-star,weights`),
@@ -233,7 +233,7 @@ pub fn renamed_in(args: &[OsString]) -> Vec<String> {
     // A moved command: warned about, and its flags looked up under its new name.
     if let Some(moved) = RENAMED.iter().find(|r| r.command.is_empty() && path.first() == Some(&r.old)) {
         warnings
-            .push(format!("`handover {}` is now `handover {}`; the old name works until 0.3.0", moved.old, moved.new));
+            .push(format!("`handover {}` is now `handover {}`; the old name works until 0.4.0", moved.old, moved.new));
         path = moved.new.split(' ').collect();
     }
     let flags = words.iter().take_while(|w| *w != "--").filter(|w| w.starts_with("--"));
@@ -243,7 +243,7 @@ pub fn renamed_in(args: &[OsString]) -> Vec<String> {
             let command: Vec<&str> = r.command.split(' ').collect();
             if named && path.starts_with(&command) {
                 warnings.push(format!(
-                    "`handover {} {}` is now `{}`; the old spelling works until 0.3.0",
+                    "`handover {} {}` is now `{}`; the old spelling works until 0.4.0",
                     r.command, r.old, r.new
                 ));
             }

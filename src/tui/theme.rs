@@ -1,4 +1,5 @@
-//! Colours, styles and the console's fixed strings, in one place.
+//! Colours, styles, the terminal's least size and the instruction texts every screen shares
+//! (status-line messages are written where their event is handled).
 
 use ratatui::style::{Color, Modifier, Style};
 
