@@ -1,5 +1,7 @@
 //! The import rules of `docs/architecture.md` are the code's: every `crate::` path a module's
 //! non-test code names is a module its row allows, and only `tui` names ratatui or crossterm.
+//! The code is parsed, not cut at its first test module: items compiled only for tests are
+//! left out wherever they stand, and the rest is read to its last token.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -36,13 +38,93 @@ fn rust_files(p: &Path) -> Vec<PathBuf> {
     out
 }
 
-/// The code of a file without its test module (and test files are skipped by the caller).
-fn non_test_code(path: &Path) -> String {
-    let text = std::fs::read_to_string(path).unwrap();
-    match text.find("#[cfg(test)]\nmod tests") {
-        Some(i) => text[..i].to_string(),
-        None => text,
+/// Whether an item is compiled only for tests (`#[cfg(test)]`).
+fn is_test_only(attrs: &[syn::Attribute]) -> bool {
+    attrs
+        .iter()
+        .any(|a| a.path().is_ident("cfg") && a.parse_args::<syn::Meta>().is_ok_and(|m| m.path().is_ident("test")))
+}
+
+/// A file's items without those compiled only for tests, at any depth of inline modules.
+fn strip_tests(items: &mut Vec<syn::Item>) {
+    items.retain(|item| {
+        let attrs = match item {
+            syn::Item::Mod(m) => &m.attrs,
+            syn::Item::Fn(f) => &f.attrs,
+            syn::Item::Use(u) => &u.attrs,
+            syn::Item::Impl(i) => &i.attrs,
+            syn::Item::Struct(s) => &s.attrs,
+            syn::Item::Enum(e) => &e.attrs,
+            syn::Item::Const(c) => &c.attrs,
+            syn::Item::Static(s) => &s.attrs,
+            syn::Item::Trait(t) => &t.attrs,
+            syn::Item::Type(t) => &t.attrs,
+            syn::Item::Macro(m) => &m.attrs,
+            _ => return true,
+        };
+        !is_test_only(attrs)
+    });
+    for item in items.iter_mut() {
+        if let syn::Item::Mod(syn::ItemMod { content: Some((_, inner)), .. }) = item {
+            strip_tests(inner);
+        }
     }
+}
+
+/// The words of a file's non-test code, as the compiler reads them: parsed (syn), the items
+/// compiled only for tests removed wherever they are, and the rest flattened to its tokens'
+/// texts (macro bodies included; comments, doc comments and strings are not words).
+fn non_test_words(path: &Path) -> Vec<String> {
+    fn flatten(tokens: proc_macro2::TokenStream, out: &mut Vec<String>) {
+        for t in tokens {
+            match t {
+                proc_macro2::TokenTree::Group(g) => flatten(g.stream(), out),
+                proc_macro2::TokenTree::Ident(i) => out.push(i.to_string()),
+                proc_macro2::TokenTree::Punct(p) => out.push(p.as_char().to_string()),
+                proc_macro2::TokenTree::Literal(_) => out.push(String::new()),
+            }
+        }
+    }
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut file = syn::parse_file(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    strip_tests(&mut file.items);
+    let mut words = Vec::new();
+    flatten(quote::ToTokens::to_token_stream(&file), &mut words);
+    words
+}
+
+/// The crate modules `words` name (`crate :: name`), and whether they name ratatui or crossterm.
+fn named_modules(words: &[String]) -> (BTreeSet<String>, bool) {
+    let modules =
+        words.windows(4).filter(|w| w[0] == "crate" && w[1] == ":" && w[2] == ":").map(|w| w[3].clone()).collect();
+    (modules, words.iter().any(|w| w == "ratatui" || w == "crossterm"))
+}
+
+/// A test of the test: a forbidden import is found wherever it stands in non-test code
+/// (before a test module, after one, inside a nested module, in a macro's body), and not in
+/// test code, comments or strings.
+#[test]
+fn the_import_reader_sees_all_non_test_code_and_only_it() {
+    let dir = crate::support::tmpdir("architecture");
+    let cases = [
+        ("use crate::tui::App;\n#[cfg(test)]\nmod tests {}\n", true),
+        ("#[cfg(test)]\nmod tests { use crate::record::x; }\nuse crate::tui::App;\n", true),
+        ("mod inner { fn f() { let _ = crate::tui::run(); } }\n", true),
+        ("fn f() { println!(\"{}\", crate::tui::NAME); }\n", true),
+        ("#[cfg(test)]\nmod tests { use crate::tui::App; }\n", false),
+        ("#[cfg(test)]\nfn helper() { crate::tui::run(); }\n", false),
+        ("/// See crate::tui::App.\nfn f() {}\n// crate::tui\nconst S: &str = \"crate::tui\";\n", false),
+    ];
+    for (k, (code, found)) in cases.iter().enumerate() {
+        let file = dir.join(format!("case{k}.rs"));
+        std::fs::write(&file, code).unwrap();
+        let (modules, _) = named_modules(&non_test_words(&file));
+        assert_eq!(modules.contains("tui"), *found, "case {k}: {code}");
+    }
+    let file = dir.join("ratatui.rs");
+    std::fs::write(&file, "fn f() { let _ = ratatui::style::Color::Red; }\n").unwrap();
+    assert!(named_modules(&non_test_words(&file)).1);
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -61,16 +143,14 @@ fn every_module_imports_only_what_its_row_allows() {
         let path = if dir.is_dir() { dir } else { root().join("src").join(format!("{module}.rs")) };
         assert!(path.exists(), "{module}: no {}", path.display());
         for file in rust_files(&path).into_iter().filter(|f| !f.ends_with("tests.rs")) {
-            let code = non_test_code(&file);
-            for (i, _) in code.match_indices("crate::") {
-                let name: String = code[i + 7..].chars().take_while(|c| c.is_ascii_lowercase() || *c == '_').collect();
+            let (named, terminal) = named_modules(&non_test_words(&file));
+            for name in named {
                 // Items of the crate root (`crate::SeededRng`, `crate::derive_seed`) are shared.
-                let is_module = modules.contains(&name);
-                if is_module && name != *module && !allowed.contains(&name) {
+                if modules.contains(&name) && name != *module && !allowed.contains(&name) {
                     problems.push(format!("{}: imports {name}", file.strip_prefix(root()).unwrap().display()));
                 }
             }
-            if module != "tui" && (code.contains("ratatui") || code.contains("crossterm")) {
+            if module != "tui" && terminal {
                 problems.push(format!("{}: names ratatui or crossterm", file.display()));
             }
         }
