@@ -1258,9 +1258,8 @@ fn shared_area(a: PixelRect, b: PixelRect) -> i64 {
 }
 
 /// Top-left corners for labels of `sizes` (width, height) next to `anchors`, placed one after
-/// another: each at the first of 26 spots around its point, nearest first, that covers no box
-/// of `marks`, no label placed before it, and stays `inside`; where none does, the spot that
-/// covers least.
+/// another: each at the first of 26 spots around its point, nearest first, that covers least
+/// of `marks` and of the labels placed before it (nothing, where a spot can) inside `inside`.
 fn place_labels(
     anchors: &[(i32, i32)],
     sizes: &[(i32, i32)],
@@ -1288,11 +1287,8 @@ fn place_labels(
             let covered: i64 = marks.iter().chain(&taken).map(|&m| shared_area(b, m)).sum();
             outside * i64::from(w * h) + covered
         };
-        let best = spots
-            .iter()
-            .copied()
-            .find(|&c| cost(c) == 0)
-            .unwrap_or_else(|| spots.iter().copied().min_by_key(|&c| cost(c)).expect("26 spots"));
+        // The first spot of least cost: the first that covers nothing, where one does.
+        let best = spots.iter().copied().min_by_key(|&c| cost(c)).unwrap_or((x + 5, y - h / 2));
         taken.push((best.0, best.1, best.0 + w, best.1 + h));
         corners.push(best);
     }

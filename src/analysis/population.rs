@@ -106,6 +106,13 @@ pub struct ComponentFit {
     pub sd_at_floor: bool,
 }
 
+impl ComponentFit {
+    /// `q*4`, `w2`: the component as tables and messages name it.
+    pub fn name(&self) -> String {
+        if self.part == "q_star" { format!("q*{}", self.joint + 1) } else { format!("w{}", self.joint + 1) }
+    }
+}
+
 /// A 0-based index written 1-based.
 fn one_based<S: serde::Serializer>(index: &usize, s: S) -> Result<S::Ok, S::Error> {
     s.serialize_u64(*index as u64 + 1)

@@ -147,10 +147,11 @@ pub fn write(dir: &Path, report: &PopulationReport, group: &[&Analysed]) -> Resu
     handover::private_files::write_output(&dir.join("prior.json"), text.as_bytes())?;
     let (mut fitted, mut kept) = (Vec::new(), Vec::new());
     for c in &report.fit.components {
-        let (name, next, old) = if c.part == "q_star" {
-            (format!("q*{}", c.joint + 1), &prior.q_star_deg, &written.learning.prior.q_star_deg)
+        let name = c.name();
+        let (next, old) = if c.part == "q_star" {
+            (&prior.q_star_deg, &written.learning.prior.q_star_deg)
         } else {
-            (format!("w{}", c.joint + 1), &prior.w, &written.learning.prior.w)
+            (&prior.w, &written.learning.prior.w)
         };
         if next.get(c.joint) == old.get(c.joint) { kept.push(name) } else { fitted.push(name) }
     }
@@ -222,8 +223,7 @@ pub fn table(report: &PopulationReport) -> String {
     let _ = writeln!(s, "{:<8} {:>24} {:>24} {:>18}", "", "mean [95 % CI]", "sd [95 % CI]", "support");
     for c in &f.components {
         let (_, scale) = unit_of(c.part);
-        let (name, unit) =
-            if c.part == "q_star" { (format!("q*{}", c.joint + 1), "°") } else { (format!("w{}", c.joint + 1), "") };
+        let (name, unit) = (c.name(), if c.part == "q_star" { "°" } else { "" });
         let cell = |v: f64, lo: f64, hi: f64| {
             if lo.is_finite() && hi.is_finite() {
                 format!("{:.1}{unit} [{:.1}, {:.1}]", v * scale, lo * scale, hi * scale)
@@ -245,7 +245,7 @@ pub fn table(report: &PopulationReport) -> String {
         .components
         .iter()
         .filter(|c| ![c.mean_low, c.mean_high, c.sd_low, c.sd_high].iter().all(|v| v.is_finite()))
-        .map(|c| if c.part == "q_star" { format!("q*{}", c.joint + 1) } else { format!("w{}", c.joint + 1) })
+        .map(|c| c.name())
         .collect();
     let _ = writeln!(
         s,

@@ -187,9 +187,13 @@ pub fn with_sections(
     let text = serde_json::to_string_pretty(&v)? + "\n";
     let from: Vec<&str> = sections.iter().map(|s| s.from.as_str()).collect();
     let name = format!("{} with {}", study.source_name, from.join(" and "));
-    let study = handover::protocol::Study::from_json(&text, &name).map_err(|e| bad(e.to_string()))?;
-    warn_narrow(&study);
-    Ok((text, study))
+    let next = handover::protocol::Study::from_json(&text, &name).map_err(|e| bad(e.to_string()))?;
+    // What the protocol had itself was said when it was read: only what the sections bring.
+    let before = study.narrow_warnings();
+    for w in next.narrow_warnings().into_iter().filter(|w| !before.contains(w)) {
+        errln!("warning: {}: {w}", next.source_name);
+    }
+    Ok((text, next))
 }
 
 /// A hand on the command line: `left` or `right`.

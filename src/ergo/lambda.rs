@@ -22,6 +22,12 @@ impl Lambda {
         v
     }
 
+    /// The name of component `c` of [q*, w] with `dim` joints, 1-based as every screen, table
+    /// and message numbers joints: `q*1` … `q*D`, `w1` … `wD`.
+    pub fn component_name(c: usize, dim: usize) -> String {
+        if c < dim { format!("q*{}", c + 1) } else { format!("w{}", c - dim + 1) }
+    }
+
     /// Splits a vector [q*, w] of length 2D.
     pub fn from_slice(v: &[f64]) -> Self {
         let d = v.len() / 2;

@@ -451,7 +451,7 @@ impl Study {
     pub fn narrow_warnings(&self) -> Vec<String> {
         let l = &self.protocol.learning;
         let dim = l.prior.q_star_deg.len();
-        let name = |i: usize| if i < dim { format!("q*{}", i + 1) } else { format!("w{}", i - dim + 1) };
+        let name = |i: usize| Lambda::component_name(i, dim);
         let unit = |i: usize| if i < dim { "°" } else { "" };
         let written: Vec<&ComponentPrior> = l.prior.q_star_deg.iter().chain(&l.prior.w).collect();
         let learned = |i: usize| !self.prior.components().get(i).is_none_or(ComponentPrior::is_fixed);

@@ -585,6 +585,13 @@ fn a_population_fitted_from_pilots_plans_the_next_study() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A table's rows by column name (a table of numbers and plain words: no quoted commas).
+fn csv_rows(text: &str) -> Vec<std::collections::HashMap<String, String>> {
+    let mut lines = text.lines();
+    let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+    lines.map(|l| header.iter().cloned().zip(l.split(',').map(String::from)).collect()).collect()
+}
+
 /// prior.json checked against the rule, recomputed from population.csv and pooled.csv (`csv`,
 /// `pooled`): a normal per learned joint whose mean and spread have intervals (and the spread
 /// is above the floor) at the fitted mean, its sd the larger of the spread's upper end and
@@ -592,14 +599,9 @@ fn a_population_fitted_from_pilots_plans_the_next_study() {
 /// written prior elsewhere, named in `analyzed` (the command's standard error). Returns how
 /// many joints kept the written prior and how many are normals.
 fn check_next_prior(csv: &str, pooled: &str, prior: &serde_json::Value, analyzed: &str) -> (usize, usize) {
-    let rows = |text: &str| -> Vec<std::collections::HashMap<String, String>> {
-        let mut lines = text.lines();
-        let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
-        lines.map(|l| header.iter().cloned().zip(l.split(',').map(String::from)).collect()).collect()
-    };
-    let people = rows(pooled);
+    let people = csv_rows(pooled);
     let mut kinds = (0, 0);
-    for row in rows(csv) {
+    for row in csv_rows(csv) {
         let joint: usize = row["joint"].parse().unwrap();
         let num = |k: &str| row[k].parse::<f64>().unwrap();
         let mut session_sds: Vec<f64> = people
@@ -675,10 +677,7 @@ fn a_pilot_whose_people_fit_alike_does_not_freeze_a_joint() {
     // Joints fitted under a degree with an interval (the hazard): each a normal of several
     // degrees in the next prior.
     let mut narrow = 0;
-    let mut lines = csv.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    for line in lines {
-        let row: std::collections::HashMap<&str, &str> = header.iter().copied().zip(line.split(',')).collect();
+    for row in csv_rows(&csv) {
         let joint: usize = row["joint"].parse().unwrap();
         let fitted: f64 = row["sd"].parse().unwrap();
         if fitted < 1.0 && !row["sd_high"].is_empty() && row["sd_at_floor"] == "FALSE" {
